@@ -1,0 +1,1 @@
+"""dressmeup.capture"""

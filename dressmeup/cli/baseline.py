@@ -1,0 +1,9 @@
+"""Subcommands of the baseline stage (owned by that stage; see docs/cli.md)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Register this stage's subcommands (none yet)."""

@@ -1,0 +1,35 @@
+"""Test-wide set-up: nothing writes outside the project's temporary folders.
+
+HOME and the XDG cache point into a per-run temporary folder; the toolkit's own cache
+(``DRESSMEUP_CACHE``: body-model builds, operators) points at ``<repo>/.cache/test-cache`` so
+that the slow first build of the default body model is done once and reused by later runs
+(CI included). Progress bars are off.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED_MESHES = REPO.parent / "shared" / "data" / "meshes"
+
+_TMP_HOME = Path(tempfile.mkdtemp(prefix="dressmeup-tests-home-"))
+os.environ["HOME"] = str(_TMP_HOME)
+os.environ["XDG_CACHE_HOME"] = str(_TMP_HOME / ".cache")
+os.environ["MPLCONFIGDIR"] = str(_TMP_HOME / "mpl")
+os.environ["MPLBACKEND"] = "Agg"
+os.environ.setdefault("DRESSMEUP_CACHE", str(REPO / ".cache" / "test-cache"))
+os.environ.setdefault("WARP_CACHE_PATH", str(REPO / ".cache" / "warp"))
+os.environ["DRESSMEUP_NO_PROGRESS"] = "1"
+
+
+@pytest.fixture(scope="session")
+def shared_meshes() -> Path:
+    """Folder of the real test meshes in ../shared/data/meshes; skips when it is absent."""
+    if not SHARED_MESHES.is_dir():
+        pytest.skip("../shared/data/meshes is absent")
+    return SHARED_MESHES
