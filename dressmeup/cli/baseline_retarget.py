@@ -1,0 +1,9 @@
+"""``dressmeup baseline retarget ...`` (owned by the retarget methods)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def register(tasks: argparse._SubParsersAction) -> None:
+    """Register this task's baseline sub-subcommands (none yet)."""
