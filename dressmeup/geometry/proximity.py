@@ -1,0 +1,154 @@
+"""Closest points on a triangle surface.
+
+open3d's ``RaycastingScene`` (a BVH in float32) finds the closest face of every query
+point; the closest point and the distance are then recomputed exactly in float64 against
+that face, so distances are float64 as SPEC.md requires. The coordinates are centred before
+the float32 conversion so that meshes far from the origin keep their precision.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dressmeup.geometry.mesh import as_arrays, as_points
+
+__all__ = ["closest_points", "closest_point_on_triangles"]
+
+_CHUNK = 1_000_000
+
+
+def closest_point_on_triangles(
+    p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray
+) -> np.ndarray:
+    """Exact closest point on triangle (a, b, c) to p, row by row, in float64.
+
+    Vectorised form of the Voronoi-region test of Ericson, *Real-Time Collision Detection*
+    (2005), section 5.1.5. Degenerate triangles (segments, points) are handled: the result is
+    then the closest point on the degenerate set.
+
+    Parameters
+    ----------
+    p, a, b, c : (q, 3) float arrays
+
+    Returns
+    -------
+    (q, 3) float64 ndarray
+    """
+    p, a, b, c = (np.asarray(x, dtype=np.float64) for x in (p, a, b, c))
+    ab = b - a
+    ac = c - a
+    ap = p - a
+    d1 = np.einsum("ij,ij->i", ab, ap)
+    d2 = np.einsum("ij,ij->i", ac, ap)
+    bp = p - b
+    d3 = np.einsum("ij,ij->i", ab, bp)
+    d4 = np.einsum("ij,ij->i", ac, bp)
+    cp = p - c
+    d5 = np.einsum("ij,ij->i", ab, cp)
+    d6 = np.einsum("ij,ij->i", ac, cp)
+
+    va = d3 * d6 - d5 * d4
+    vb = d5 * d2 - d1 * d6
+    vc = d1 * d4 - d3 * d2
+
+    # interior (default)
+    denom = va + vb + vc
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = vb / denom
+        w = vc / denom
+    out = a + ab * v[:, None] + ac * w[:, None]
+    done = np.zeros(p.shape[0], dtype=bool)
+
+    def take(mask: np.ndarray, value: np.ndarray) -> None:
+        m = mask & ~done
+        out[m] = value[m]
+        done[m] = True
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # vertex regions
+        take((d1 <= 0) & (d2 <= 0), a)
+        take((d3 >= 0) & (d4 <= d3), b)
+        take((d6 >= 0) & (d5 <= d6), c)
+        # edge regions
+        t_ab = d1 / (d1 - d3)
+        take((vc <= 0) & (d1 >= 0) & (d3 <= 0), a + ab * t_ab[:, None])
+        t_ac = d2 / (d2 - d6)
+        take((vb <= 0) & (d2 >= 0) & (d6 <= 0), a + ac * t_ac[:, None])
+        t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        take((va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0), b + (c - b) * t_bc[:, None])
+
+    bad = ~done & ~np.all(np.isfinite(out), axis=1)
+    if np.any(bad):
+        # degenerate triangle not caught above: best of the three edge segments
+        out[bad] = _closest_on_degenerate(p[bad], a[bad], b[bad], c[bad])
+    return out
+
+
+def _closest_on_segment(p: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
+    d = s1 - s0
+    dd = np.einsum("ij,ij->i", d, d)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(dd > 0, np.einsum("ij,ij->i", p - s0, d) / dd, 0.0)
+    t = np.clip(t, 0.0, 1.0)
+    return s0 + d * t[:, None]
+
+
+def _closest_on_degenerate(
+    p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray
+) -> np.ndarray:
+    cands = np.stack(
+        [_closest_on_segment(p, a, b), _closest_on_segment(p, b, c), _closest_on_segment(p, c, a)]
+    )
+    d = np.linalg.norm(cands - p[None], axis=2)
+    k = np.argmin(d, axis=0)
+    return cands[k, np.arange(p.shape[0])]
+
+
+def closest_points(
+    V: np.ndarray, F: np.ndarray, query: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Closest points on a triangle surface to query points.
+
+    Parameters
+    ----------
+    V : (n, 3) float array
+        Surface vertices.
+    F : (m, 3) int array
+        Surface triangles.
+    query : (q, 3) float array
+        Query points.
+
+    Returns
+    -------
+    dist : (q,) float64 ndarray
+        Euclidean distance to the closest point (point-to-triangle, exact in float64 for the
+        face the BVH picked).
+    points : (q, 3) float64 ndarray
+        The closest points on the surface.
+    face_ids : (q,) int64 ndarray
+        Index of the face that holds each closest point.
+
+    Raises
+    ------
+    ValueError
+        Bad mesh or query arrays.
+    """
+    import open3d as o3d
+
+    V, F = as_arrays(V, F, name="surface")
+    Q = as_points(query, name="query")
+    center = V.mean(axis=0)
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(
+        o3d.core.Tensor(np.ascontiguousarray(V - center, dtype=np.float32)),
+        o3d.core.Tensor(np.ascontiguousarray(F, dtype=np.uint32)),
+    )
+    face_ids = np.empty(Q.shape[0], dtype=np.int64)
+    for s in range(0, Q.shape[0], _CHUNK):
+        q32 = o3d.core.Tensor(np.ascontiguousarray(Q[s : s + _CHUNK] - center, dtype=np.float32))
+        ans = scene.compute_closest_points(q32)
+        face_ids[s : s + _CHUNK] = ans["primitive_ids"].numpy().astype(np.int64)
+    tri = F[face_ids]
+    pts = closest_point_on_triangles(Q, V[tri[:, 0]], V[tri[:, 1]], V[tri[:, 2]])
+    dist = np.linalg.norm(Q - pts, axis=1)
+    return dist, pts, face_ids
