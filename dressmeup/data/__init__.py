@@ -1,1 +1,23 @@
-"""dressmeup.data"""
+"""dressmeup.data: the dataset layout, Parquet manifest, Dataset API, adapters, synthetic data.
+
+>>> from dressmeup.data import Dataset                  # doctest: +SKIP
+>>> ds = Dataset("path/to/dataset")                      # doctest: +SKIP
+>>> pairs = ds.retarget_pairs("test")                    # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from dressmeup.data.dataset import Dataset, GarmentMesh, RetargetPair, Sample, TorchDataset
+from dressmeup.data.splits import split_by_garment
+from dressmeup.data.validate import ValidationReport, validate_dataset
+from dressmeup.data.writer import DatasetWriter
+
+__all__ = ["Dataset", "DatasetWriter", "GarmentMesh", "RetargetPair", "Sample", "TorchDataset",
+           "ValidationReport", "generate_dataset", "split_by_garment", "validate_dataset"]
+
+
+def generate_dataset(*args, **kwargs):
+    """Build the synthetic dataset (see :func:`dressmeup.data.synth.generate_dataset`)."""
+    from dressmeup.data.synth import generate_dataset as _gen
+
+    return _gen(*args, **kwargs)

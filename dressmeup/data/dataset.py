@@ -1,0 +1,300 @@
+"""The `Dataset` API: load garments, bodies and splits in three lines.
+
+>>> from dressmeup.data import Dataset                         # doctest: +SKIP
+>>> ds = Dataset("my-dataset").filter(split="test")            # doctest: +SKIP
+>>> for pair in ds.retarget_pairs("test"):                      # doctest: +SKIP
+...     g = pair.source.garment(); body = pair.target.body()
+
+Samples load lazily: a :class:`Sample` only holds its manifest row until ``garment()``,
+``body()`` or ``scan()`` is called. Readers of other layouts (:mod:`dressmeup.data.adapters`)
+build the same :class:`Sample` objects with their own loaders.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dressmeup.data import layout
+from dressmeup.data.manifest import read_manifest
+from dressmeup.errors import InputError
+
+ID_FIELDS = ("sample_id", "subject_id", "garment_id", "pose_id", "category", "garment_type",
+             "split")
+
+
+@dataclass
+class GarmentMesh:
+    """A garment mesh.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float64, metres.
+    faces : (m, 3) int64.
+    uv : (k, 2) float64 or None; per corner when ``uv_faces`` is given, else per vertex.
+    uv_faces : (m, 3) int64 or None.
+    texture_path : path of the texture image or None.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    uv: np.ndarray | None = None
+    uv_faces: np.ndarray | None = None
+    texture_path: Path | None = None
+
+
+class Sample:
+    """One garment worn in one pose: ids, category fields and lazy loaders.
+
+    Parameters
+    ----------
+    row : manifest row (at least the :data:`ID_FIELDS`).
+    root : dataset root the row's paths are relative to (None for adapter samples).
+    loaders : optional ``{"garment": f, "body": f, "scan": f}`` overriding file loading
+        (adapters); each ``f`` takes no argument.
+    """
+
+    def __init__(self, row: dict[str, Any], root: str | os.PathLike | None = None,
+                 loaders: dict[str, Callable[[], Any]] | None = None) -> None:
+        self.row = dict(row)
+        self.root = None if root is None else Path(root)
+        self._loaders = dict(loaders or {})
+        for f in ID_FIELDS:
+            if f not in self.row:
+                raise InputError(f"sample row lacks field {f!r}: {self.row}")
+
+    sample_id = property(lambda self: self.row["sample_id"])
+    subject_id = property(lambda self: self.row["subject_id"])
+    garment_id = property(lambda self: self.row["garment_id"])
+    pose_id = property(lambda self: self.row["pose_id"])
+    category = property(lambda self: self.row["category"])
+    garment_type = property(lambda self: self.row["garment_type"])
+    split = property(lambda self: self.row["split"])
+
+    def __repr__(self) -> str:
+        return (f"Sample({self.sample_id!r}, garment={self.garment_id!r}, pose={self.pose_id!r}, "
+                f"{self.category}/{self.garment_type}, split={self.split!r})")
+
+    def path(self, field: str) -> Path | None:
+        """Absolute path of ``<field>_path`` (``garment``, ``texture``, ``scan``, ``body``)."""
+        rel = self.row.get(f"{field}_path")
+        if rel is None or (isinstance(rel, float) and np.isnan(rel)):
+            return None
+        if self.root is None:
+            return Path(rel)
+        return layout.resolve_inside(self.root, rel, f"{self.sample_id}.{field}_path")
+
+    def garment(self) -> GarmentMesh:
+        """Load the garment mesh (vertices in metres, UVs and texture when present)."""
+        if "garment" in self._loaders:
+            return self._loaders["garment"]()
+        from dressmeup.io.mesh import load_mesh
+
+        p = self.path("garment")
+        if p is None:
+            raise InputError(f"sample {self.sample_id}: no garment file")
+        m = load_mesh(p)
+        return GarmentMesh(m.vertices, m.faces, m.uv, m.uv_faces, m.texture_path)
+
+    def body(self) -> Any:
+        """Load the registered body parameters (:class:`dressmeup.body.BodyParams`) or None."""
+        if "body" in self._loaders:
+            return self._loaders["body"]()
+        p = self.path("body")
+        if p is None:
+            return None
+        from dressmeup.body.params import BodyParams
+
+        return BodyParams.load(p)
+
+    def scan(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Load the clothed scan as ``(V (n,3) float64, F (m,3) int64)``, or None."""
+        if "scan" in self._loaders:
+            return self._loaders["scan"]()
+        p = self.path("scan")
+        if p is None:
+            return None
+        from dressmeup.io.mesh import load_mesh
+
+        m = load_mesh(p)
+        return m.vertices, m.faces
+
+
+@dataclass(frozen=True)
+class RetargetPair:
+    """A retargeting task: move ``source``'s garment onto ``target``'s body (same garment).
+
+    Attributes
+    ----------
+    pair_id : ``f"{source.sample_id}__to__{target.sample_id}"``.
+    source, target : samples of the same garment in two different poses; ``target.garment()``
+        is the ground truth.
+    """
+
+    pair_id: str
+    source: Sample
+    target: Sample
+
+
+def make_pairs(samples: Sequence[Sample]) -> list[RetargetPair]:
+    """Every ordered pair of poses of each garment (SPEC.md section 4), sorted by pair id.
+
+    Pairs never cross splits: a garment whose samples disagree on the split is an error.
+    """
+    by_garment: dict[str, list[Sample]] = {}
+    for s in samples:
+        by_garment.setdefault(s.garment_id, []).append(s)
+    pairs = []
+    for g, group in by_garment.items():
+        if len({s.split for s in group}) > 1:
+            raise InputError(f"garment {g!r} has samples in several splits "
+                             f"{sorted({s.split for s in group})}; splits go by garment")
+        group = sorted(group, key=lambda s: s.pose_id)
+        for a in group:
+            for b in group:
+                if a.pose_id != b.pose_id:
+                    pairs.append(RetargetPair(f"{a.sample_id}__to__{b.sample_id}", a, b))
+    return sorted(pairs, key=lambda p: p.pair_id)
+
+
+class Dataset:
+    """A DressMeUp-style dataset on disk (SPEC.md section 3).
+
+    Parameters
+    ----------
+    root : dataset folder holding ``dataset.json`` and ``manifest.parquet``.
+
+    Raises
+    ------
+    FileNotFoundError
+        When ``root`` has no manifest.
+    InputError
+        When the manifest is damaged or of an unsupported version.
+    """
+
+    def __init__(self, root: str | os.PathLike, _table: Any = None) -> None:
+        self.root = Path(root)
+        if _table is None:
+            mpath = self.root / layout.MANIFEST
+            if not mpath.is_file():
+                raise FileNotFoundError(f"{mpath} not found: {self.root} is not a dressmeup "
+                                        "dataset (run 'dressmeup synth' to make one)")
+            _table = read_manifest(mpath).to_pandas()
+        self._df = _table.reset_index(drop=True)
+
+    @property
+    def info(self) -> dict[str, Any]:
+        """The contents of ``dataset.json`` (empty when absent)."""
+        p = self.root / layout.DATASET_JSON
+        return json.loads(p.read_text()) if p.is_file() else {}
+
+    @property
+    def manifest(self):
+        """The manifest rows of this (possibly filtered) view as a ``pandas.DataFrame`` copy."""
+        return self._df.copy()
+
+    def __len__(self) -> int:
+        return len(self._df)
+
+    def __getitem__(self, index: int | str) -> Sample:
+        """A sample by position or by ``sample_id``."""
+        if isinstance(index, str):
+            hit = np.flatnonzero(self._df["sample_id"].to_numpy() == index)
+            if len(hit) == 0:
+                raise KeyError(f"no sample {index!r} in {self.root}")
+            index = int(hit[0])
+        if not -len(self) <= index < len(self):
+            raise IndexError(f"sample index {index} out of range for {len(self)} samples")
+        return Sample(self._df.iloc[index].to_dict(), self.root)
+
+    def __iter__(self) -> Iterator[Sample]:
+        for i in range(len(self)):
+            yield self[i]
+
+    def __repr__(self) -> str:
+        return f"Dataset({str(self.root)!r}, {len(self)} samples)"
+
+    def filter(self, split: str | Sequence[str] | None = None,
+               category: str | Sequence[str] | None = None,
+               subject: str | Sequence[str] | None = None,
+               garment: str | Sequence[str] | None = None,
+               pose: str | Sequence[str] | None = None,
+               garment_type: str | Sequence[str] | None = None) -> Dataset:
+        """A view with only the matching samples (each argument: one value or a list)."""
+        df = self._df
+        for col, val in (("split", split), ("category", category), ("subject_id", subject),
+                         ("garment_id", garment), ("pose_id", pose),
+                         ("garment_type", garment_type)):
+            if val is None:
+                continue
+            vals = [val] if isinstance(val, str) else list(val)
+            df = df[df[col].isin(vals)]
+        return Dataset(self.root, _table=df)
+
+    def samples(self) -> list[Sample]:
+        """All samples of this view."""
+        return list(self)
+
+    def retarget_pairs(self, split: str | None = None) -> list[RetargetPair]:
+        """Every ordered pair of poses of each garment in ``split`` (all splits when None).
+
+        Returns
+        -------
+        list of :class:`RetargetPair` sorted by ``pair_id``; 5 poses of a garment give 20 pairs.
+        """
+        view = self if split is None else self.filter(split=split)
+        return make_pairs(view.samples())
+
+    def torch(self, load_body: bool = True, load_scan: bool = False) -> TorchDataset:
+        """A ``torch.utils.data.Dataset`` over this view (see :class:`TorchDataset`)."""
+        return TorchDataset(self, load_body=load_body, load_scan=load_scan)
+
+
+class TorchDataset:
+    """A map-style torch dataset over a :class:`Dataset`.
+
+    Items are dicts: ``sample_id``, ``garment_id``, ``pose_id``, ``category``,
+    ``vertices (n, 3) float32 tensor``, ``faces (m, 3) int64 tensor`` and, with
+    ``load_body``, ``body_shape``, ``body_pose (j, 3)``, ``body_transl (3,)``,
+    ``body_scale`` tensors; with ``load_scan``, ``scan_vertices`` and ``scan_faces``.
+    Garments differ in vertex count, so batch with ``batch_size=1`` or a custom collate.
+    """
+
+    def __init__(self, dataset: Dataset, load_body: bool = True, load_scan: bool = False) -> None:
+        import torch.utils.data  # noqa: F401 - fail early when torch is missing
+
+        self.dataset = dataset
+        self.load_body = load_body
+        self.load_scan = load_scan
+
+    def __len__(self) -> int:
+        return len(self.dataset)
+
+    def __getitem__(self, index: int) -> dict[str, Any]:
+        import torch
+
+        s = self.dataset[index]
+        g = s.garment()
+        item: dict[str, Any] = {k: s.row[k] for k in ("sample_id", "garment_id", "pose_id",
+                                                        "category")}
+        item["vertices"] = torch.as_tensor(g.vertices, dtype=torch.float32)
+        item["faces"] = torch.as_tensor(g.faces, dtype=torch.int64)
+        if self.load_body:
+            b = s.body()
+            if b is not None:
+                item["body_shape"] = torch.as_tensor(b.shape, dtype=torch.float32)
+                item["body_pose"] = torch.as_tensor(b.pose, dtype=torch.float32)
+                item["body_transl"] = torch.as_tensor(b.transl, dtype=torch.float32)
+                item["body_scale"] = torch.tensor(float(b.scale))
+        if self.load_scan:
+            sc = s.scan()
+            if sc is not None:
+                item["scan_vertices"] = torch.as_tensor(sc[0], dtype=torch.float32)
+                item["scan_faces"] = torch.as_tensor(sc[1], dtype=torch.int64)
+        return item

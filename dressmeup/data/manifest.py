@@ -1,0 +1,110 @@
+"""The Parquet manifest: one row per sample, a versioned schema (docs/dataset-format.md).
+
+The schema version is stored in the Parquet key-value metadata under
+``dressmeup.manifest_version``; readers refuse newer major versions with a clear message.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_path
+
+MANIFEST_VERSION = "1.0"
+VERSION_KEY = b"dressmeup.manifest_version"
+
+#: The columns of manifest version 1.0, in order: (name, arrow type, nullable, description).
+COLUMNS: list[tuple[str, pa.DataType, bool, str]] = [
+    ("sample_id", pa.string(), False, "unique id, letters/digits/-/_ (e.g. S01-G03-P2)"),
+    ("subject_id", pa.string(), False, "the person wearing the garment"),
+    ("garment_id", pa.string(), False, "the physical garment (unique in the dataset)"),
+    ("pose_id", pa.string(), False, "the pose of this capture (unique per garment)"),
+    ("category", pa.string(), False, "topwear, bottomwear, dress, ..."),
+    ("garment_type", pa.string(), False, "t-shirt, long-sleeve, shorts, trousers, skirt, ..."),
+    ("split", pa.string(), False, "train, val or test (split by garment)"),
+    ("garment_path", pa.string(), False, "relative path of the garment mesh"),
+    ("texture_path", pa.string(), True, "relative path of the garment texture (PNG) or null"),
+    ("scan_path", pa.string(), True, "relative path of the clothed scan mesh or null"),
+    ("body_path", pa.string(), True, "relative path of the body parameters (.npz) or null"),
+    ("garment_vertices", pa.int64(), False, "vertex count of the garment mesh"),
+    ("garment_faces", pa.int64(), False, "triangle count of the garment mesh"),
+    ("scan_vertices", pa.int64(), True, "vertex count of the scan, null without scan"),
+    ("scan_faces", pa.int64(), True, "triangle count of the scan, null without scan"),
+    ("garment_sha256", pa.string(), False, "sha256 (hex) of the garment file"),
+    ("texture_sha256", pa.string(), True, "sha256 of the texture file or null"),
+    ("scan_sha256", pa.string(), True, "sha256 of the scan file or null"),
+    ("body_sha256", pa.string(), True, "sha256 of the body file or null"),
+    ("topology_shared", pa.bool_(), False,
+     "true when all poses of this garment share vertex count and faces (ED is defined)"),
+]
+
+PATH_COLUMNS = ("garment_path", "texture_path", "scan_path", "body_path")
+HASH_OF = {"garment_path": "garment_sha256", "texture_path": "texture_sha256",
+           "scan_path": "scan_sha256", "body_path": "body_sha256"}
+
+
+def schema() -> pa.Schema:
+    """The Arrow schema of the current manifest version (with the version in its metadata)."""
+    fields = [pa.field(n, t, nullable=nl, metadata={b"description": d.encode()})
+              for n, t, nl, d in COLUMNS]
+    return pa.schema(fields, metadata={VERSION_KEY: MANIFEST_VERSION.encode()})
+
+
+def rows_to_table(rows: list[dict[str, Any]]) -> pa.Table:
+    """Build a manifest table from row dicts (missing nullable fields become null).
+
+    Raises
+    ------
+    InputError
+        When a non-nullable field is missing from a row.
+    """
+    sch = schema()
+    cols: dict[str, list] = {n: [] for n, *_ in COLUMNS}
+    for i, row in enumerate(rows):
+        for n, _t, nullable, _d in COLUMNS:
+            v = row.get(n)
+            if v is None and not nullable:
+                raise InputError(f"manifest row {i} ({row.get('sample_id')!r}): field {n!r} is required")
+            cols[n].append(v)
+    return pa.table(cols, schema=sch)
+
+
+def write_manifest(path: str | os.PathLike, rows: list[dict[str, Any]]) -> None:
+    """Write the manifest rows to ``path`` atomically (temp file + rename)."""
+    table = rows_to_table(rows)
+    with atomic_path(path) as tmp:
+        pq.write_table(table, tmp)
+
+
+def read_manifest(path: str | os.PathLike) -> pa.Table:
+    """Read a manifest and check its schema version.
+
+    Raises
+    ------
+    InputError
+        When the file is unreadable (e.g. truncated), of a newer major version, or lacks
+        required columns.
+    """
+    path = Path(path)
+    try:
+        table = pq.read_table(path)
+    except FileNotFoundError:
+        raise
+    except Exception as exc:  # pyarrow raises ArrowInvalid / OSError on damaged files
+        raise InputError(f"{path}: cannot read the Parquet manifest ({exc}); "
+                         "the file is damaged or truncated: rebuild it") from exc
+    meta = table.schema.metadata or {}
+    version = meta.get(VERSION_KEY, b"").decode() or "unknown"
+    if version != "unknown" and version.split(".")[0] != MANIFEST_VERSION.split(".")[0]:
+        raise InputError(f"{path}: manifest version {version} is not supported by this toolkit "
+                         f"(reads {MANIFEST_VERSION}); upgrade dressmeup")
+    missing = [n for n, _t, nl, _d in COLUMNS if not nl and n not in table.column_names]
+    if missing:
+        raise InputError(f"{path}: manifest lacks required columns {missing}")
+    return table
