@@ -1,1 +1,39 @@
-"""dressmeup.bench"""
+"""dressmeup.bench: benchmark editions, submissions and their validation, scoring, results
+and leaderboards (SPEC.md section 4; docs/benchmark.md).
+
+>>> from dressmeup.bench import load_edition, write_submission, score_submission  # doctest: +SKIP
+>>> ed = load_edition("synth-retarget-v1")                                        # doctest: +SKIP
+>>> write_submission("subs/mine", preds, edition=ed, method="Mine")               # doctest: +SKIP
+>>> score_submission("subs/mine", ed, "data/synth", "results/mine")               # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from dressmeup.bench.edition import Edition, list_editions, load_edition
+from dressmeup.bench.executor import Executor, LocalExecutor
+from dressmeup.bench.leaderboard import build_leaderboard, write_leaderboard
+from dressmeup.bench.results import Result, load_result
+from dressmeup.bench.score import InvalidSubmissionError, ScoreResult, score_submission
+from dressmeup.bench.submission import SubmissionInfo, submission_hash, write_submission
+from dressmeup.bench.validate import Problem, ValidationReport, validate_submission
+
+__all__ = [
+    "Edition",
+    "Executor",
+    "InvalidSubmissionError",
+    "LocalExecutor",
+    "Problem",
+    "Result",
+    "ScoreResult",
+    "SubmissionInfo",
+    "ValidationReport",
+    "build_leaderboard",
+    "list_editions",
+    "load_edition",
+    "load_result",
+    "score_submission",
+    "submission_hash",
+    "validate_submission",
+    "write_leaderboard",
+    "write_submission",
+]

@@ -1,0 +1,318 @@
+"""Benchmark editions: versioned, hashable configs that freeze a benchmark protocol.
+
+An edition is a JSON file (schema ``dressmeup-edition/1``) naming a task, the dataset it is
+scored on (a generated dataset pinned by generator, generator version, parameters and seed; a
+real one by the sha256 of its manifest), the split, the metrics and their options (surface
+sample counts and seed, size limit of a submission file, ...). Reference editions ship in
+``dressmeup/bench/editions/`` and are found by name; any other edition is given as a path.
+
+The edition hash is the sha256 of the edition's canonical JSON (keys sorted, no spaces,
+defaults filled in, ``description`` left out so that rewording the text does not change the
+protocol). Every result records it, and leaderboards refuse to mix hashes.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import os
+import re
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from dressmeup.errors import InputError
+
+SCHEMA = "dressmeup-edition/1"
+TASKS = ("retarget", "uvparam", "fusion", "registration", "correspondence")
+_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+_REQUIRED = ("name", "version", "task", "dataset", "split", "metrics")
+
+
+@dataclass(frozen=True)
+class DatasetPin:
+    """What data an edition is scored on.
+
+    Attributes
+    ----------
+    kind : ``"generated"`` (pinned by generator, its version, parameters and seed) or
+        ``"real"`` (pinned by the sha256 of the dataset's manifest file).
+    generator : generator name, e.g. ``"dressmeup-synth"`` (generated only).
+    generator_version : generator version string (generated only).
+    params : generator parameters (generated only).
+    seed : generator seed (generated only).
+    manifest_sha256 : sha256 hex digest of the manifest file (real only).
+    name : optional human name of the dataset.
+    """
+
+    kind: str
+    generator: str | None = None
+    generator_version: str | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    seed: int | None = None
+    manifest_sha256: str | None = None
+    name: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Serialise (only the fields that apply to ``kind``)."""
+        if self.kind == "generated":
+            d: dict[str, Any] = {"kind": "generated", "generator": self.generator,
+                                 "generator_version": self.generator_version,
+                                 "params": copy.deepcopy(self.params), "seed": self.seed}
+        else:
+            d = {"kind": "real", "manifest_sha256": self.manifest_sha256}
+        if self.name:
+            d["name"] = self.name
+        return d
+
+
+@dataclass(frozen=True)
+class Edition:
+    """A loaded, validated benchmark edition (see the module docstring).
+
+    Attributes
+    ----------
+    name : edition name (``synth-retarget-v1``).
+    version : integer version of the edition (bumped on any protocol change).
+    task : one of :data:`TASKS`.
+    dataset : the dataset pin.
+    split : the manifest split scored (``test``).
+    metrics : metric names, in table order (a subset of the task's metrics).
+    options : metric options, task defaults filled in.
+    primary_metric : the metric leaderboards sort by.
+    per_category : metrics shown per category in leaderboards.
+    description : free text (not hashed).
+    source : where it was loaded from (not hashed).
+    """
+
+    name: str
+    version: int
+    task: str
+    dataset: DatasetPin
+    split: str
+    metrics: tuple[str, ...]
+    options: dict[str, Any]
+    primary_metric: str
+    per_category: tuple[str, ...] = ()
+    description: str = ""
+    source: str = ""
+
+    def to_dict(self, include_description: bool = True) -> dict[str, Any]:
+        """Serialise to the JSON structure of the edition file (defaults filled in)."""
+        d: dict[str, Any] = {
+            "schema": SCHEMA,
+            "name": self.name,
+            "version": self.version,
+            "task": self.task,
+            "dataset": self.dataset.to_dict(),
+            "split": self.split,
+            "metrics": list(self.metrics),
+            "options": copy.deepcopy(self.options),
+            "primary_metric": self.primary_metric,
+            "per_category": list(self.per_category),
+        }
+        if include_description:
+            d["description"] = self.description
+        return d
+
+    def canonical_json(self) -> str:
+        """The canonical JSON that is hashed (sorted keys, compact, no description)."""
+        return json.dumps(self.to_dict(include_description=False), sort_keys=True,
+                          separators=(",", ":"), ensure_ascii=True, allow_nan=False)
+
+    @property
+    def hash(self) -> str:
+        """sha256 hex digest of :meth:`canonical_json`."""
+        return hashlib.sha256(self.canonical_json().encode("ascii")).hexdigest()
+
+    @property
+    def size_limit_bytes(self) -> int:
+        """Per-file size limit of a submission, in bytes."""
+        return int(float(self.options.get("size_limit_mb", 256)) * 1024 * 1024)
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Write the edition as pretty JSON (atomically)."""
+        from dressmeup.io.atomic import atomic_write_text
+
+        atomic_write_text(path, json.dumps(self.to_dict(), indent=2, sort_keys=False) + "\n")
+
+
+def list_editions() -> list[str]:
+    """Names of the reference editions shipped inside the package, sorted."""
+    folder = resources.files("dressmeup.bench") / "editions"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".json"))
+
+
+def load_edition(name_or_path: str | os.PathLike | Edition) -> Edition:
+    """Load an edition by shipped name (``synth-retarget-v1``) or from a JSON file path.
+
+    Parameters
+    ----------
+    name_or_path : a shipped edition name, a path to an edition JSON file, or an
+        :class:`Edition` (returned as is).
+
+    Returns
+    -------
+    Edition, validated, with the task's default options filled in.
+
+    Raises
+    ------
+    InputError
+        Unknown name (the message lists the shipped editions), unreadable file, invalid JSON
+        or any invalid field (every problem is listed).
+    """
+    if isinstance(name_or_path, Edition):
+        return name_or_path
+    text_path = str(name_or_path)
+    path = Path(text_path)
+    if path.suffix == ".json" or path.exists() or os.sep in text_path:
+        if not path.is_file():
+            raise InputError(f"edition file {path} does not exist")
+        source = str(path)
+        try:
+            raw = path.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise InputError(f"edition file {path} cannot be read: {exc}") from exc
+    else:
+        res = resources.files("dressmeup.bench") / "editions" / f"{text_path}.json"
+        if not res.is_file():
+            raise InputError(f"unknown edition {text_path!r}: shipped editions are "
+                             f"{', '.join(list_editions())}; or give a path to an edition "
+                             "JSON file")
+        source = f"dressmeup:{text_path}"
+        raw = res.read_text(encoding="utf-8")
+    try:
+        data = json.loads(raw)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"edition {source}: invalid JSON ({exc})") from exc
+    return edition_from_dict(data, source=source)
+
+
+def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
+    """Validate an edition dict and build an :class:`Edition` (defaults filled in).
+
+    Raises
+    ------
+    InputError
+        Listing every invalid or missing field of the edition.
+    """
+    from dressmeup.bench.tasks import get_task
+
+    problems: list[str] = []
+    if not isinstance(data, dict):
+        raise InputError(f"edition {source}: expected a JSON object, got {type(data).__name__}")
+    schema = data.get("schema", SCHEMA)
+    if schema != SCHEMA:
+        problems.append(f"schema is {schema!r}, this toolkit reads {SCHEMA!r}")
+    for key in _REQUIRED:
+        if key not in data:
+            problems.append(f"missing field {key!r}")
+    known = set(_REQUIRED) | {"schema", "options", "primary_metric", "per_category",
+                              "description"}
+    for key in sorted(set(data) - known):
+        problems.append(f"unknown field {key!r}")
+    name = data.get("name", "")
+    if "name" in data and (not isinstance(name, str) or not _NAME_RE.match(name)):
+        problems.append(f"name must use letters, digits, '.', '-', '_', got {name!r}")
+    version = data.get("version", 0)
+    if "version" in data and (not isinstance(version, int) or isinstance(version, bool)
+                              or version < 1):
+        problems.append(f"version must be an integer >= 1, got {version!r}")
+    task_name = data.get("task")
+    task = None
+    if "task" in data:
+        if task_name not in TASKS:
+            problems.append(f"task must be one of {', '.join(TASKS)}, got {task_name!r}")
+        else:
+            task = get_task(task_name)
+    pin = None
+    if "dataset" in data:
+        pin, pin_problems = _parse_pin(data["dataset"])
+        problems += pin_problems
+    split = data.get("split", "")
+    if "split" in data and (not isinstance(split, str) or not split):
+        problems.append(f"split must be a non-empty string, got {split!r}")
+    metrics = data.get("metrics", [])
+    options = dict(task.default_options) if task else {}
+    user_options = data.get("options", {})
+    if not isinstance(user_options, dict):
+        problems.append(f"options must be an object, got {type(user_options).__name__}")
+        user_options = {}
+    if task is not None:
+        known_metrics = [m.name for m in task.metrics]
+        if not isinstance(metrics, list) or not metrics:
+            problems.append("metrics must be a non-empty list")
+            metrics = []
+        for m in metrics:
+            if m not in known_metrics:
+                problems.append(f"metric {m!r} is not a {task_name} metric "
+                                f"({', '.join(known_metrics)})")
+        for key in sorted(set(user_options) - set(task.default_options)):
+            problems.append(f"unknown option {key!r} for task {task_name} "
+                            f"(known: {', '.join(sorted(task.default_options))})")
+        for key, value in user_options.items():
+            if key in task.default_options:
+                default = task.default_options[key]
+                if isinstance(default, (int, float)) and not isinstance(default, bool):
+                    if not isinstance(value, (int, float)) or isinstance(value, bool) \
+                            or value < 0:
+                        problems.append(f"option {key!r} must be a number >= 0, got {value!r}")
+                        continue
+                options[key] = value
+    primary = data.get("primary_metric", metrics[0] if metrics else "")
+    if metrics and primary not in metrics:
+        problems.append(f"primary_metric {primary!r} is not in metrics {metrics}")
+    per_category = data.get("per_category", [primary] if primary else [])
+    if not isinstance(per_category, list) or any(m not in metrics for m in per_category):
+        problems.append(f"per_category must list metrics of the edition, got {per_category!r}")
+        per_category = []
+    if problems:
+        raise InputError(f"edition {source} is invalid:\n  - " + "\n  - ".join(problems))
+    return Edition(name=name, version=int(version), task=task_name, dataset=pin,
+                   split=split, metrics=tuple(metrics), options=options,
+                   primary_metric=primary, per_category=tuple(per_category),
+                   description=str(data.get("description", "")), source=source)
+
+
+def _parse_pin(d: Any) -> tuple[DatasetPin | None, list[str]]:
+    problems: list[str] = []
+    if not isinstance(d, dict):
+        return None, [f"dataset must be an object, got {type(d).__name__}"]
+    kind = d.get("kind")
+    name = d.get("name")
+    if kind == "generated":
+        for key in ("generator", "generator_version", "params", "seed"):
+            if key not in d:
+                problems.append(f"dataset.{key} is required for a generated dataset")
+        if "params" in d and not isinstance(d["params"], dict):
+            problems.append("dataset.params must be an object")
+        if "seed" in d and (not isinstance(d["seed"], int) or isinstance(d["seed"], bool)):
+            problems.append(f"dataset.seed must be an integer, got {d['seed']!r}")
+        extra = set(d) - {"kind", "generator", "generator_version", "params", "seed", "name"}
+        problems += [f"unknown field dataset.{k}" for k in sorted(extra)]
+        if problems:
+            return None, problems
+        return DatasetPin(kind="generated", generator=str(d["generator"]),
+                          generator_version=str(d["generator_version"]),
+                          params=dict(d["params"]), seed=int(d["seed"]), name=name), []
+    if kind == "real":
+        sha = d.get("manifest_sha256")
+        if not isinstance(sha, str) or not re.fullmatch(r"[0-9a-f]{64}", sha):
+            problems.append(f"dataset.manifest_sha256 must be a sha256 hex digest, got {sha!r}")
+        extra = set(d) - {"kind", "manifest_sha256", "name"}
+        problems += [f"unknown field dataset.{k}" for k in sorted(extra)]
+        if problems:
+            return None, problems
+        return DatasetPin(kind="real", manifest_sha256=sha, name=name), []
+    return None, [f"dataset.kind must be 'generated' or 'real', got {kind!r}"]
+
+
+def file_sha256(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
+    """sha256 hex digest of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while block := fh.read(chunk):
+            h.update(block)
+    return h.hexdigest()

@@ -1,0 +1,172 @@
+"""Result folders: per-sample Parquet + summary JSON with provenance.
+
+::
+
+    RESULTS/
+      per_sample.parquet   one row per item: sample_id, category, each metric (SI units:
+                           metres, m² for squared Chamfer, ratios in [0, 1]), status
+                           ("ok" / "error"), error, note, seconds, task-specific ids
+      summary.json         means/std per metric and per category, counts, the method
+                           (submission.json), edition name/version/hash and its full config,
+                           dataset manifest hash, submission hash, toolkit version, time, host
+      edition.json         the edition config used (for re-scoring)
+
+``summary.json`` is written last: a folder without it is an interrupted run. Scoring refuses
+a folder that already holds anything, so a result is never overwritten.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from dressmeup.errors import InputError
+
+RESULT_SCHEMA = "dressmeup-result/1"
+PER_SAMPLE = "per_sample.parquet"
+SUMMARY = "summary.json"
+EDITION_JSON = "edition.json"
+
+
+@dataclass
+class Result:
+    """A loaded result folder.
+
+    Attributes
+    ----------
+    path : the folder.
+    summary : the parsed ``summary.json``.
+    table : the per-sample table (pandas), or None when not loaded.
+    """
+
+    path: Path
+    summary: dict[str, Any]
+    table: pd.DataFrame | None = None
+
+    @property
+    def method(self) -> str:
+        """Method name from the submission metadata."""
+        return str(self.summary.get("method", {}).get("method", self.path.name))
+
+    @property
+    def edition_hash(self) -> str:
+        """Hash of the edition the result was scored with."""
+        return self.summary["edition"]["hash"]
+
+    @property
+    def manifest_hash(self) -> str | None:
+        """sha256 of the dataset manifest the result was scored on."""
+        return self.summary.get("dataset", {}).get("manifest_sha256")
+
+
+def check_out_dir(out: str | os.PathLike) -> Path:
+    """Refuse an output folder that already holds anything (results are never overwritten).
+
+    Raises
+    ------
+    InputError
+        When ``out`` exists and is a non-empty folder or a file.
+    """
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise InputError(f"results folder {out} already exists and is not empty: scoring "
+                         "never overwrites results; choose a new --out folder")
+    return out
+
+
+def stats(values: np.ndarray) -> dict[str, Any]:
+    """``{"mean", "std", "n"}`` over the finite values (population std; None when n = 0)."""
+    v = np.asarray(values, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return {"mean": None, "std": None, "n": 0}
+    return {"mean": float(v.mean()), "std": float(v.std()), "n": int(v.size)}
+
+
+def summarise(table: pd.DataFrame, metrics: list[str], extra: list[str]) -> dict[str, Any]:
+    """Means and per-category means of ``metrics`` (and ``extra`` columns) over OK rows."""
+    ok = table[table["status"] == "ok"] if len(table) else table
+    out: dict[str, Any] = {
+        "counts": {"items": int(len(table)), "ok": int(len(ok)),
+                   "failed": int(len(table) - len(ok))},
+        "metrics": {m: stats(ok[m].to_numpy()) if m in ok else stats(np.array([]))
+                    for m in metrics},
+        "extra": {c: stats(ok[c].to_numpy()) for c in extra if c in ok},
+        "per_category": {},
+    }
+    for cat in sorted(table["category"].unique()) if len(table) else []:
+        sub_all = table[table["category"] == cat]
+        sub = ok[ok["category"] == cat]
+        out["per_category"][str(cat)] = {
+            "items": int(len(sub_all)), "failed": int(len(sub_all) - len(sub)),
+            "metrics": {m: stats(sub[m].to_numpy()) if m in sub else stats(np.array([]))
+                        for m in metrics},
+        }
+    return out
+
+
+def _json_clean(obj: Any) -> Any:
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {str(k): _json_clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_clean(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return _json_clean(obj.item())
+    return obj
+
+
+def write_result(out: str | os.PathLike, table: pd.DataFrame, summary: dict[str, Any],
+                 edition_dict: dict[str, Any]) -> Path:
+    """Write a result folder (Parquet, edition, then summary last; all atomic).
+
+    Raises
+    ------
+    InputError
+        When ``out`` already holds anything.
+    """
+    from dressmeup.io.atomic import atomic_path, atomic_write_text
+
+    out = check_out_dir(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out / PER_SAMPLE) as tmp:
+        table.to_parquet(tmp, index=False)
+    atomic_write_text(out / EDITION_JSON, json.dumps(edition_dict, indent=2) + "\n")
+    atomic_write_text(out / SUMMARY, json.dumps(_json_clean(summary), indent=2,
+                                                allow_nan=False) + "\n")
+    return out
+
+
+def load_result(path: str | os.PathLike, table: bool = True) -> Result:
+    """Load a result folder (or its ``summary.json``).
+
+    Raises
+    ------
+    InputError
+        Not a result folder, an interrupted run (no summary), or an unreadable summary.
+    """
+    path = Path(path)
+    folder = path.parent if path.name == SUMMARY else path
+    summary_path = folder / SUMMARY
+    if not summary_path.is_file():
+        hint = (" (interrupted run: per_sample.parquet without summary.json)"
+                if (folder / PER_SAMPLE).is_file() else "")
+        raise InputError(f"{folder} is not a result folder: {SUMMARY} not found{hint}")
+    try:
+        summary = json.loads(summary_path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise InputError(f"{summary_path} cannot be read: {exc}") from exc
+    if summary.get("schema") != RESULT_SCHEMA:
+        raise InputError(f"{summary_path}: schema {summary.get('schema')!r} is not "
+                         f"{RESULT_SCHEMA!r}")
+    df = pd.read_parquet(folder / PER_SAMPLE) if table and (folder / PER_SAMPLE).is_file() \
+        else None
+    return Result(path=folder, summary=summary, table=df)

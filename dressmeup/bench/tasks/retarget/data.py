@@ -1,0 +1,129 @@
+"""Retargeting task: the pairs of an edition and the files a submission holds.
+
+A pair ``<source_id>__to__<target_id>`` asks for the source garment moved onto the target
+body; the ground truth is the same garment captured in the target pose. A prediction keeps
+the source garment's topology: ``<pair_id>.npz`` with ``vertices (n, 3)`` float (or a
+``.ply`` / ``.obj`` with the source's faces).
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dressmeup.bench.tasks.base import Item
+from dressmeup.bench.tasks.common import (
+    array_problems,
+    check_pin,
+    faces_problems,
+    load_npz_arrays,
+)
+from dressmeup.errors import InputError
+
+FILE_SUFFIXES = (".npz", ".ply", ".obj")
+
+
+def dataset_problems(edition: Any, data_root: Path) -> tuple[dict[str, Any], list[str]]:
+    """Check the dataset root against the edition pin (see :func:`check_pin`)."""
+    return check_pin(edition, data_root)
+
+
+@functools.lru_cache(maxsize=4)
+def open_dataset(root: str):
+    """A :class:`dressmeup.data.Dataset` for ``root`` (cached per process)."""
+    from dressmeup.data import Dataset
+
+    return Dataset(root)
+
+
+def items(edition: Any, data_root: Path) -> list[Item]:
+    """One :class:`Item` per retargeting pair of the edition's split, sorted by pair id.
+
+    ``expect["n_vertices"]`` is the source garment's vertex count (from the manifest);
+    ``meta`` carries source/target/garment ids.
+    """
+    ds = open_dataset(str(Path(data_root).resolve()))
+    manifest = ds.manifest.set_index("sample_id")
+    pairs = ds.retarget_pairs(edition.split)
+    if not pairs:
+        raise InputError(f"dataset {data_root} has no retargeting pairs in split "
+                         f"{edition.split!r} (edition {edition.name})")
+    out = []
+    for pair in pairs:
+        src, tgt = pair.source.sample_id, pair.target.sample_id
+        row = manifest.loc[src]
+        out.append(Item(
+            item_id=pair.pair_id,
+            category=str(row["category"]),
+            expect={"n_vertices": int(row["garment_vertices"])},
+            meta={"source_id": src, "target_id": tgt, "garment_id": str(row["garment_id"]),
+                  "data_root": str(Path(data_root).resolve())},
+        ))
+    out.sort(key=lambda it: it.item_id)
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def source_faces(root: str, sample_id: str) -> np.ndarray:
+    """Faces ``(m, 3) int64`` of a sample's garment (cached)."""
+    ds = open_dataset(root)
+    sample = _sample(ds, sample_id)
+    return np.asarray(sample.garment().faces, dtype=np.int64)
+
+
+def _sample(ds, sample_id: str):
+    try:
+        return ds[sample_id]
+    except KeyError:
+        raise InputError(f"sample {sample_id!r} not found in dataset {ds.root}") from None
+
+
+def read_prediction(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
+    """Read a prediction file: ``(vertices (n, 3) float64, faces (m, 3) int64 or None)``.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, missing ``vertices`` array.
+    """
+    if path.suffix.lower() == ".npz":
+        arrays = load_npz_arrays(path, ("vertices", "faces"))
+        if "vertices" not in arrays:
+            raise InputError(f"{path.name}: no 'vertices' array (found keys: "
+                             f"{', '.join(_npz_keys(path)) or 'none'})")
+        return arrays["vertices"], arrays.get("faces")
+    from dressmeup.io.mesh import load_mesh
+
+    mesh = load_mesh(path)
+    return mesh.vertices, mesh.faces
+
+
+def _npz_keys(path: Path) -> list[str]:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return list(z.files)
+    except Exception:  # noqa: BLE001 - only used to enrich an error message
+        return []
+
+
+def check_file(path: Path, item: Item, edition: Any) -> list[str]:
+    """Problems of one prediction file (empty list when it is valid)."""
+    try:
+        V, F = read_prediction(path)
+    except (InputError, FileNotFoundError, OSError, ValueError) as exc:
+        return [f"unreadable: {exc}"]
+    n = item.expect["n_vertices"]
+    problems = array_problems("vertices", V, 3, n)
+    if F is not None:
+        fp = faces_problems("faces", F, V.shape[0] if V.ndim == 2 else 0)
+        if fp:
+            problems += fp
+        else:
+            src_F = source_faces(item.meta["data_root"], item.meta["source_id"])
+            if F.shape != src_F.shape or not np.array_equal(F, src_F):
+                problems.append("faces differ from the source garment's faces (a prediction "
+                                "keeps the source topology; store only 'vertices')")
+    return problems

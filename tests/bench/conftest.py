@@ -1,0 +1,113 @@
+"""Fixtures of the bench tests: a tiny dataset built with the real DatasetWriter and the
+procedural body model, an edition pinned to it, and ready-made submissions."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+FIXTURE_GENERATOR = {"name": "bench-test-fixture", "version": "1",
+                     "params": {"garments": 3, "poses": 3}, "seed": 0}
+
+
+def tube(radius: float, y0: float, y1: float, nu: int, nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """An open cylinder around the y axis: (nu * nv, 3) vertices and faces, outward normals."""
+    u = np.linspace(0, 2 * np.pi, nu, endpoint=False)
+    v = np.linspace(y0, y1, nv)
+    uu, vv = np.meshgrid(u, v)
+    V = np.stack([radius * np.cos(uu), vv, radius * np.sin(uu)], -1).reshape(-1, 3)
+    F = []
+    for j in range(nv - 1):
+        for i in range(nu):
+            a, b = j * nu + i, j * nu + (i + 1) % nu
+            c, d = a + nu, b + nu
+            F += [[a, c, b], [b, c, d]]
+    return V, np.asarray(F, dtype=np.int64)
+
+
+def pose_garment(V: np.ndarray, pose: int, seed: int) -> np.ndarray:
+    """A smooth, seeded deformation standing in for the garment in pose ``pose``."""
+    rng = np.random.default_rng(seed * 10 + pose)
+    amp = 0.01 * pose
+    phase = rng.uniform(0, 2 * np.pi, 3)
+    W = V.copy()
+    W[:, 0] += amp * np.sin(3 * V[:, 1] + phase[0])
+    W[:, 2] += amp * np.cos(2 * V[:, 1] + phase[1])
+    W[:, 1] += 0.5 * amp * np.sin(2 * np.arctan2(V[:, 2], V[:, 0]) + phase[2])
+    return W
+
+
+def build_fixture_dataset(root: Path) -> Path:
+    """3 garments (topwear, bottomwear, dress) x 3 poses, all in the test split; garment
+    G03 is remeshed in pose P2 (its topology differs there, so ED is undefined)."""
+    from dressmeup.body import get_body_model
+    from dressmeup.data.writer import DatasetWriter
+
+    model = get_body_model("procedural")
+    w = DatasetWriter(root, {"name": "bench-fixture", "version": "1", "licence": "CC0",
+                             "body_model": "procedural", "generator": FIXTURE_GENERATOR})
+    garments = [("G01", "topwear", "t-shirt", tube(0.17, 1.05, 1.45, 24, 9)),
+                ("G02", "bottomwear", "trousers", tube(0.15, 0.55, 0.95, 20, 8)),
+                ("G03", "dress", "dress", tube(0.19, 0.7, 1.4, 22, 10))]
+    for gi, (gid, cat, gtype, (V, F)) in enumerate(garments):
+        for p in range(3):
+            params = model.default_params()
+            params.pose[16, 2] = -0.4 * p   # left shoulder
+            params.pose[17, 2] = 0.4 * p    # right shoulder
+            params.transl[:] = [0.0, 0.0, 0.01 * p]
+            if gid == "G03" and p == 2:
+                Vp, Fp = tube(0.19, 0.7, 1.4, 26, 11)
+            else:
+                Vp, Fp = V, F
+            Vp = pose_garment(Vp, p, gi) + params.transl
+            w.add_sample(subject_id="S01", garment_id=gid, pose_id=f"P{p}", category=cat,
+                         garment_type=gtype, split="test", garment=(Vp, Fp), body=params)
+    w.finalize()
+    return root
+
+
+def write_edition(path: Path, n_samples: int = 2000, **over) -> Path:
+    ed = {"schema": "dressmeup-edition/1", "name": "bench-fixture-v1", "version": 1,
+          "task": "retarget", "description": "test fixture",
+          "dataset": {"kind": "generated", "generator": FIXTURE_GENERATOR["name"],
+                      "generator_version": FIXTURE_GENERATOR["version"],
+                      "params": FIXTURE_GENERATOR["params"], "seed": 0},
+          "split": "test", "metrics": ["p2s", "p2s_bi", "chamfer", "ed", "nc", "ir"],
+          "options": {"n_samples": n_samples, "seed": 0}, "primary_metric": "p2s",
+          "per_category": ["p2s"]}
+    ed.update(over)
+    path.write_text(json.dumps(ed, indent=2))
+    return path
+
+
+@pytest.fixture(scope="session")
+def bench_data(tmp_path_factory) -> Path:
+    """The fixture dataset root (built once per session)."""
+    return build_fixture_dataset(tmp_path_factory.mktemp("bench-data") / "data")
+
+
+@pytest.fixture(scope="session")
+def bench_edition(tmp_path_factory) -> Path:
+    """Path of an edition JSON pinned to the fixture dataset."""
+    return write_edition(tmp_path_factory.mktemp("bench-ed") / "bench-fixture-v1.json")
+
+
+def gt_predictions(root: Path, edition) -> dict[str, np.ndarray]:
+    """Ground truth as predictions: for pairs whose target keeps the source topology, the
+    target garment's vertices; otherwise the source vertices moved by the mean offset."""
+    from dressmeup.bench.edition import load_edition
+    from dressmeup.data import Dataset
+
+    ed = load_edition(edition)
+    ds = Dataset(root)
+    preds = {}
+    for pair in ds.retarget_pairs(ed.split):
+        s, t = pair.source.garment(), pair.target.garment()
+        if s.vertices.shape == t.vertices.shape and np.array_equal(s.faces, t.faces):
+            preds[pair.pair_id] = np.asarray(t.vertices, np.float64)
+        else:
+            preds[pair.pair_id] = s.vertices + (t.vertices.mean(0) - s.vertices.mean(0))
+    return preds
