@@ -1,0 +1,110 @@
+"""Post-processes chained after any retargeting method (``"<method>+detail+penetration"``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dressmeup.methods.retarget.base import RetargetMethod, body_context, check_garment
+
+__all__ = ["DetailPost", "PenetrationPost", "Pipeline"]
+
+
+class DetailPost(RetargetMethod):
+    """``detail``: Laplacian detail transfer from the input garment (thesis 4.3.3.2).
+
+    Parameters
+    ----------
+    laplacian : {"uniform", "cotan"}
+        Thesis: uniform; demo: cotangent.
+    anchor_fraction : float
+        Share of vertices pinned to the retargeted garment (demo: 0.3).
+    anchor_weight : float
+    seed : int
+    """
+
+    name = "detail"
+
+    def __init__(self, laplacian: str = "uniform", anchor_fraction: float = 0.3, anchor_weight: float = 1.0,
+                 seed: int = 0) -> None:
+        self.laplacian = laplacian
+        self.anchor_fraction = anchor_fraction
+        self.anchor_weight = anchor_weight
+        self.seed = seed
+
+    def apply(self, garment_V, garment_F, retargeted_V, source, target, body_model) -> np.ndarray:
+        """Return the detailed (n, 3) float64 garment."""
+        from dressmeup.methods.retarget.detail import detail_transfer
+
+        return detail_transfer(garment_V, garment_F, retargeted_V, laplacian=self.laplacian,
+                               anchor_fraction=self.anchor_fraction, anchor_weight=self.anchor_weight,
+                               seed=self.seed)
+
+
+class PenetrationPost(RetargetMethod):
+    """``penetration``: push garment vertices inside the target body outside (TailorNet-style).
+
+    Parameters
+    ----------
+    margin : float
+        Metres outside the skin (demo: 0.02).
+    inside_weight : float
+        Anchor weight of penetrating vertices (demo: 2).
+    iterations : int
+    """
+
+    name = "penetration"
+
+    def __init__(self, margin: float = 0.005, inside_weight: float = 2.0, iterations: int = 3) -> None:
+        self.margin = margin
+        self.inside_weight = inside_weight
+        self.iterations = iterations
+
+    def apply(self, garment_V, garment_F, retargeted_V, source, target, body_model) -> np.ndarray:
+        """Return the (n, 3) float64 garment with penetrations resolved."""
+        from dressmeup.methods.retarget.penetration import resolve_penetration
+
+        t = body_context(body_model, target)
+        return resolve_penetration(retargeted_V, garment_F, t.skin_vertices, t.skin_faces, margin=self.margin,
+                                   inside_weight=self.inside_weight, iterations=self.iterations)
+
+
+class Pipeline(RetargetMethod):
+    """A retargeting method followed by post-processes, applied in order.
+
+    Parameters
+    ----------
+    method : RetargetMethod
+    post : list of DetailPost / PenetrationPost
+    """
+
+    def __init__(self, method: RetargetMethod, post: list) -> None:
+        self.method = method
+        self.post = post
+
+    @property
+    def name(self) -> str:  # type: ignore[override]
+        """``"<method>+<post>+..."``."""
+        return "+".join([self.method.name] + [p.name for p in self.post])
+
+    def fit(self, *args, **kwargs) -> Pipeline:
+        """Fit the base method (when it is trainable)."""
+        self.method.fit(*args, **kwargs)
+        return self
+
+    def retarget(self, garment_V, garment_F, source, target, body_model) -> np.ndarray:
+        """Run the method, then each post-process; returns (n, 3) float64."""
+        V, F = check_garment(garment_V, garment_F)
+        out = self.method.retarget(V, F, source, target, body_model)
+        for p in self.post:
+            out = p.apply(V, F, out, source, target, body_model)
+        return out
+
+    def save(self, path):
+        """Save the base method's weights (trainable methods only)."""
+        return self.method.save(path)
+
+    def __getattr__(self, item):
+        # timings and fitted attributes of the base method (e.g. last_timing_)
+        if item.endswith("_") and not item.startswith("__"):
+            return getattr(self.__dict__["method"], item)
+        raise AttributeError(item)
