@@ -111,3 +111,35 @@ def gt_predictions(root: Path, edition) -> dict[str, np.ndarray]:
         else:
             preds[pair.pair_id] = s.vertices + (t.vertices.mean(0) - s.vertices.mean(0))
     return preds
+
+
+def perturbed_predictions(root: Path, edition, sigma: float = 0.002, seed: int = 7
+                          ) -> dict[str, np.ndarray]:
+    """Ground-truth predictions plus seeded Gaussian noise (sigma in metres)."""
+    rng = np.random.default_rng(seed)
+    preds = gt_predictions(root, edition)
+    return {k: v + rng.normal(0.0, sigma, v.shape) for k, v in sorted(preds.items())}
+
+
+def make_submission(folder: Path, preds: dict, edition, method: str) -> Path:
+    from dressmeup.bench import write_submission
+
+    return write_submission(folder, preds, edition=edition, method=method,
+                            authors="Test Author", url="https://example.org/" + method,
+                            hardware="2-core CPU", runtime_per_sample_s=0.5)
+
+
+@pytest.fixture(scope="session")
+def scored(bench_data, bench_edition, tmp_path_factory) -> dict:
+    """Submissions and results of GT and GT+noise on the fixture (scored once, serially)."""
+    from dressmeup.bench import score_submission
+
+    base = tmp_path_factory.mktemp("bench-scored")
+    out = {}
+    for name, preds in (("gt", gt_predictions(bench_data, bench_edition)),
+                        ("noisy", perturbed_predictions(bench_data, bench_edition))):
+        sub = make_submission(base / f"sub-{name}", preds, bench_edition, name.upper())
+        res = score_submission(sub, bench_edition, bench_data, base / f"res-{name}",
+                               workers=1, show_progress=False)
+        out[name] = {"sub": sub, "res": res}
+    return out

@@ -1,0 +1,194 @@
+"""Library side of ``dressmeup demo`` and ``benchmarks/run_baselines.py``: build an edition's
+data, run the reference baselines into submissions, score them, make leaderboards.
+
+Each step logs one line per thing done or skipped through ``log`` (the CLI prints them).
+Baselines are discovered through the method registries (``dressmeup.methods.retarget`` /
+``dressmeup.methods.uvparam``); a stage that is not installed is skipped with a clear line.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import os
+import platform
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dressmeup.bench.edition import Edition, load_edition
+from dressmeup.errors import InputError
+
+Log = Callable[[str], Any]
+
+
+def _quiet(_line: str) -> None:
+    return None
+
+
+def _hardware() -> str:
+    return f"{platform.processor() or platform.machine()} CPU, {os.cpu_count()} cores"
+
+
+def build_data(edition: str | Edition, root: str | os.PathLike, log: Log = _quiet) -> Path:
+    """Generate (or resume) the data an edition pins into ``root``.
+
+    ``retarget`` editions of the synthetic generator call
+    :func:`dressmeup.data.synth.generate_dataset` with the pinned parameters and seed;
+    ``uvparam`` editions build their mesh set. Real datasets cannot be generated.
+
+    Raises
+    ------
+    InputError
+        For editions of real datasets or unknown generators.
+    """
+    ed = load_edition(edition)
+    root = Path(root)
+    pin = ed.dataset
+    if pin.kind != "generated":
+        raise InputError(f"edition {ed.name} is scored on a real dataset (manifest "
+                         f"{pin.manifest_sha256[:12]}...); it cannot be generated")
+    t0 = time.perf_counter()
+    if ed.task == "uvparam":
+        from dressmeup.bench.tasks.uvparam.data import build_mesh_set
+
+        build_mesh_set(root, edition=ed)
+    else:
+        from dressmeup.data.synth import generate_dataset
+
+        accepted = set(inspect.signature(generate_dataset).parameters)
+        unknown = sorted(set(pin.params) - accepted)
+        if unknown:
+            raise InputError(f"edition {ed.name}: generator parameters {unknown} are not "
+                             f"accepted by this toolkit's generate_dataset")
+        generate_dataset(root, seed=pin.seed, **pin.params)
+    log(f"data for {ed.name}: {root} ({time.perf_counter() - t0:.0f} s)")
+    return root
+
+
+def retarget_methods() -> list[str]:
+    """Names of the retargeting baselines this installation provides ([] when none)."""
+    try:
+        mod = importlib.import_module("dressmeup.methods.retarget")
+    except ImportError:
+        return []
+    names = getattr(mod, "available_methods", None)
+    return list(names()) if callable(names) else list(getattr(mod, "METHODS", {}))
+
+
+def uvparam_methods() -> list[str]:
+    """Names of the UV baselines this installation provides ([] when none)."""
+    try:
+        mod = importlib.import_module("dressmeup.methods.uvparam")
+    except ImportError:
+        return []
+    return list(getattr(mod, "METHODS", {}))
+
+
+def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: str | os.PathLike,
+                          out: str | os.PathLike, *, train_steps: int = 150,
+                          max_triplets: int = 8, log: Log = _quiet,
+                          **hyperparameters: Any) -> Path:
+    """Run one retargeting baseline over the edition's pairs into a submission folder.
+
+    Trainable methods (with ``fit``) are first trained self-supervised on the ``train``
+    split (``train_steps`` steps over ``max_triplets`` triplets; no ground truth is read).
+    """
+    from dressmeup.bench.submission import write_submission
+    from dressmeup.data import Dataset
+    from dressmeup.methods.retarget import get_method
+    from dressmeup.methods.retarget.run import predict_pairs, training_triplets
+
+    ed = load_edition(edition)
+    ds = Dataset(data_root)
+    method = get_method(method_name, **hyperparameters)
+    trained = ""
+    if hasattr(method, "fit"):
+        if "steps" in inspect.signature(type(method).__init__).parameters and \
+                "steps" not in hyperparameters:
+            method = get_method(method_name, steps=train_steps, **hyperparameters)
+        t0 = time.perf_counter()
+        triplets, model = training_triplets(ds, "train", max_triplets, seed=0)
+        method.fit(triplets, model)
+        trained = f", trained {time.perf_counter() - t0:.0f} s on {len(triplets)} triplets"
+    preds, seconds = predict_pairs(method, ds.retarget_pairs(ed.split))
+    runtime = float(np.mean(seconds)) if seconds else 0.0
+    path = write_submission(out, preds, edition=ed, method=method_name,
+                            authors="dressmeup reference baselines", url="",
+                            hardware=_hardware(), runtime_per_sample_s=runtime,
+                            extra={"hyperparameters": {k: repr(v)
+                                                       for k, v in hyperparameters.items()}})
+    log(f"  {method_name}: {len(preds)} pairs, {runtime:.2f} s/pair{trained}")
+    return path
+
+
+def run_uvparam_baseline(method_name: str, edition: str | Edition, data_root: str | os.PathLike,
+                         out: str | os.PathLike, *, log: Log = _quiet,
+                         **hyperparameters: Any) -> Path:
+    """Run one UV baseline over the edition's meshes into a submission folder."""
+    from dressmeup.bench.submission import write_submission
+    from dressmeup.bench.tasks.uvparam.data import meshes
+    from dressmeup.io.mesh import load_mesh
+    from dressmeup.methods.uvparam import get_method
+
+    ed = load_edition(edition)
+    method = get_method(method_name, **hyperparameters)
+    preds, secs = {}, []
+    for m in meshes(data_root):
+        mesh = load_mesh(m.path)
+        res = method.parameterize(mesh.vertices, mesh.faces)
+        preds[m.mesh_id] = {"uv": res.uv, "uv_faces": res.uv_faces,
+                            "chart_ids": res.chart_ids, "seconds": np.float64(res.seconds)}
+        secs.append(res.seconds)
+    runtime = float(np.mean(secs)) if secs else 0.0
+    path = write_submission(out, preds, edition=ed, method=method_name,
+                            authors="dressmeup reference baselines", url="",
+                            hardware=_hardware(), runtime_per_sample_s=runtime)
+    log(f"  {method_name}: {len(preds)} meshes, {runtime:.2f} s/mesh")
+    return path
+
+
+def run_baselines(edition: str | Edition, data_root: str | os.PathLike,
+                  sub_dir: str | os.PathLike, methods: Sequence[str] | None = None,
+                  log: Log = _quiet, **kw: Any) -> dict[str, Path]:
+    """Run every available baseline of the edition's task (or ``methods``); a method that
+    fails is reported and skipped. Returns method name -> submission folder."""
+    ed = load_edition(edition)
+    if ed.task == "retarget":
+        names, runner = retarget_methods(), run_retarget_baseline
+    elif ed.task == "uvparam":
+        names, runner = uvparam_methods(), run_uvparam_baseline
+    else:
+        log(f"no reference baselines for task {ed.task} in this toolkit: skipped")
+        return {}
+    if not names:
+        log(f"no {ed.task} baselines installed (dressmeup.methods.{ed.task}): skipped")
+        return {}
+    chosen = list(methods) if methods is not None else names
+    subs: dict[str, Path] = {}
+    for name in chosen:
+        try:
+            subs[name] = runner(name, ed, data_root, Path(sub_dir) / name.replace("+", "_"),
+                                log=log, **kw)
+        except Exception as exc:  # noqa: BLE001 - one broken baseline must not stop the others
+            log(f"  {name}: FAILED ({type(exc).__name__}: {exc}); skipped")
+    return subs
+
+
+def score_many(subs: dict[str, Path], edition: str | Edition, data_root: str | os.PathLike,
+               results_dir: str | os.PathLike, workers: int | None = None,
+               log: Log = _quiet) -> list[Path]:
+    """Score each submission into ``results_dir/<name>`` (new folders); return the folders."""
+    from dressmeup.bench.leaderboard import format_summary
+    from dressmeup.bench.score import score_submission
+
+    out = []
+    for sub in subs.values():
+        res = score_submission(sub, edition, data_root, Path(results_dir) / sub.name,
+                               workers=workers)
+        log(format_summary(res.summary))
+        out.append(res.path)
+    return out

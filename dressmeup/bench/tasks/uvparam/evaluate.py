@@ -1,0 +1,69 @@
+"""UV parameterisation task: score one UV map (QCE, ASE, flips, overlap, time)."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dressmeup.bench.tasks.base import STATUS_OK, Item
+
+
+def jobs(edition: Any, data_root: Path, files: Mapping[str, Path], items: Sequence[Item],
+         show_progress: bool | None = None) -> list[dict[str, Any]]:
+    """One job per mesh."""
+    return [{"item_id": it.item_id, "category": it.category, "meta": dict(it.meta),
+             "pred_path": str(files[it.item_id]), "metrics": list(edition.metrics),
+             "options": dict(edition.options)} for it in items]
+
+
+def evaluate_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np.ndarray | None,
+                metrics: Sequence[str], options: Mapping[str, Any]) -> dict[str, float]:
+    """QCE (mean, max), ASE (|log| mean), flipped/overlap fractions, zero-area share.
+
+    Parameters
+    ----------
+    V : (n, 3) float64, F : (m, 3) int64 the mesh.
+    uv : (n, 2) per vertex or (k, 2) per corner with ``uv_faces (m, 3)``.
+    """
+    from dressmeup.metrics.uv import ase_details, qce_details, uv_validity
+
+    out: dict[str, float] = {}
+    if {"qce", "qce_max", "zero_area"} & set(metrics):
+        q = qce_details(V, F, uv, uv_faces)
+        out.update(qce=float(q.mean), qce_max=float(q.max),
+                   zero_area=float(q.zero_uv_area_fraction))
+    if "ase" in metrics:
+        out["ase"] = float(ase_details(V, F, uv, uv_faces).abs_mean)
+    if {"flip", "overlap"} & set(metrics):
+        v = uv_validity(V, F, uv, uv_faces,
+                        resolution=int(options.get("overlap_resolution", 1024)))
+        out.update(flip=float(v.flipped_fraction), overlap=float(v.overlap_fraction))
+    return out
+
+
+def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
+    """Score one UV map job."""
+    from dressmeup.bench.tasks.uvparam.data import read_prediction
+    from dressmeup.io.mesh import load_mesh
+
+    t0 = time.perf_counter()
+    mesh = load_mesh(job["meta"]["mesh_path"])
+    a = read_prediction(Path(job["pred_path"]))
+    values = evaluate_uv(mesh.vertices, mesh.faces, np.asarray(a["uv"], np.float64),
+                         a.get("uv_faces"), job["metrics"], job["options"])
+    if "time" in job["metrics"]:
+        values["time"] = float(a["seconds"].reshape(-1)[0]) if "seconds" in a else math.nan
+    row = {"sample_id": job["item_id"], "category": job["category"],
+           **{k: values.get(k, math.nan) for k in job["metrics"]}}
+    row["n_charts"] = float(len(np.unique(a["chart_ids"]))) if "chart_ids" in a else math.nan
+    row["status"] = STATUS_OK
+    row["error"] = ""
+    row["note"] = "" if "seconds" in a or "time" not in job["metrics"] else \
+        "time: the file has no 'seconds'"
+    row["seconds"] = time.perf_counter() - t0
+    return row

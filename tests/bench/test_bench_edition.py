@@ -1,0 +1,64 @@
+"""Editions: shipped ones load, hashes are canonical, invalid files list every problem."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from dressmeup.bench.edition import edition_from_dict, list_editions, load_edition
+from dressmeup.errors import InputError
+
+
+def test_shipped_editions_load():
+    names = list_editions()
+    assert "synth-retarget-v1" in names
+    for name in names:
+        ed = load_edition(name)
+        assert ed.name == name and len(ed.hash) == 64
+        assert ed.primary_metric in ed.metrics
+
+
+def test_synth_retarget_defaults():
+    ed = load_edition("synth-retarget-v1")
+    assert ed.task == "retarget" and ed.split == "test"
+    assert ed.options["n_samples"] == 100_000 and ed.options["size_limit_mb"] == 256
+    assert ed.dataset.kind == "generated" and ed.dataset.seed is not None
+
+
+def test_hash_is_canonical(bench_edition, tmp_path):
+    ed = load_edition(bench_edition)
+    d = json.loads(bench_edition.read_text())
+    # Reordering keys and rewording the description keep the hash...
+    d2 = dict(reversed(list(d.items())))
+    d2["description"] = "another text"
+    assert edition_from_dict(d2).hash == ed.hash
+    # ...filling in a default explicitly too; changing any option does not.
+    d3 = dict(d, options={**d["options"], "size_limit_mb": 256})
+    assert edition_from_dict(d3).hash == ed.hash
+    d4 = dict(d, options={**d["options"], "seed": 1})
+    assert edition_from_dict(d4).hash != ed.hash
+    # save -> load round trip
+    ed.save(tmp_path / "e.json")
+    assert load_edition(tmp_path / "e.json").hash == ed.hash
+
+
+def test_invalid_edition_lists_every_problem():
+    bad = {"name": "bad name", "version": 0, "task": "retarget",
+           "dataset": {"kind": "generated", "generator": "x"},
+           "split": "test", "metrics": ["p2s", "qce"], "options": {"n_samples": -1, "foo": 1},
+           "primary_metric": "ed"}
+    with pytest.raises(InputError) as info:
+        edition_from_dict(bad)
+    msg = str(info.value)
+    for part in ("name must use", "version must be", "dataset.generator_version",
+                 "dataset.seed", "'qce' is not a retarget metric", "unknown option 'foo'",
+                 "'n_samples' must be a number", "primary_metric 'ed'"):
+        assert part in msg, part
+
+
+def test_unknown_name_lists_shipped(tmp_path):
+    with pytest.raises(InputError, match="synth-retarget-v1"):
+        load_edition("no-such-edition")
+    with pytest.raises(InputError, match="does not exist"):
+        load_edition(tmp_path / "missing.json")
