@@ -1,9 +1,99 @@
-"""Subcommands of the metrics stage (owned by that stage; see docs/cli.md)."""
+"""``dressmeup metrics PRED GT``: every applicable metric for two mesh files."""
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Register this stage's subcommands (none yet)."""
+    """Register the ``metrics`` subcommand."""
+    p = subparsers.add_parser(
+        "metrics",
+        help="score a predicted mesh against a ground-truth mesh (P2S, Chamfer, ED, NC, F-score, IR, QCE/ASE)",
+        description=(
+            "Print every applicable metric of PRED against GT (docs/metrics.md): distances in mm, "
+            "shares in %%, with the direction of 'better' (arrow). IR needs --body. QCE/ASE/UV "
+            "validity are added when PRED has UVs."
+        ),
+    )
+    p.add_argument("pred", metavar="PRED", help="predicted mesh (.ply or .obj)")
+    p.add_argument("gt", metavar="GT", help="ground-truth mesh (.ply or .obj)")
+    p.add_argument(
+        "--body", metavar="BODY", help="body mesh: adds IR and the penetrating-vertex share"
+    )
+    p.add_argument(
+        "--samples",
+        type=int,
+        default=100_000,
+        metavar="N",
+        help="surface samples per mesh (default 100000)",
+    )
+    p.add_argument("--seed", type=int, default=0, metavar="S", help="sampling seed (default 0)")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print JSON (values in metres / fractions) instead of a table",
+    )
+    p.set_defaults(func=run)
+
+
+def _display(m) -> tuple[str, str]:
+    if m.value is None:
+        return "n/a", ""
+    if m.unit == "m":
+        return f"{m.value * 1e3:.4f}", "mm"
+    if m.unit == "m^2":
+        return f"{m.value * 1e6:.4f}", "mm^2"
+    if m.unit == "fraction":
+        return f"{m.value * 100:.2f}", "%"
+    return f"{m.value:.4f}", ""
+
+
+def run(args: argparse.Namespace) -> int:
+    """Load the meshes, compute the report and print it."""
+    from dressmeup.io.mesh import load_mesh
+    from dressmeup.metrics.report import compare_meshes
+
+    if args.samples < 1:
+        raise ValueError(f"--samples: expected a positive number, got {args.samples}")
+    pred = load_mesh(args.pred)
+    gt = load_mesh(args.gt)
+    body = load_mesh(args.body) if args.body else None
+    pred_uv = (pred.uv, pred.uv_faces) if pred.uv is not None else None
+    rows = compare_meshes(
+        (pred.vertices, pred.faces),
+        (gt.vertices, gt.faces),
+        body=(body.vertices, body.faces) if body is not None else None,
+        n_samples=args.samples,
+        seed=args.seed,
+        pred_uv=pred_uv,
+    )
+    if args.json:
+        doc = {
+            "pred": str(args.pred),
+            "gt": str(args.gt),
+            "body": str(args.body) if args.body else None,
+            "samples": args.samples,
+            "seed": args.seed,
+            "units": "SI: m, m^2; fractions in [0, 1]",
+            "metrics": {m.name: m.as_dict() for m in rows},
+        }
+        sys.stdout.write(json.dumps(doc, indent=2) + "\n")
+        return 0
+    arrow = {"lower": "\u2193", "higher": "\u2191"}
+    width = max(len(m.name) for m in rows) + 2
+    lines = [f"pred: {args.pred}", f"gt:   {args.gt}"]
+    if args.body:
+        lines.append(f"body: {args.body}")
+    lines.append(f"samples: {args.samples} per mesh, seed {args.seed}")
+    lines.append("")
+    lines.append(f"{'metric':<{width}}{'value':>12}  {'unit':<5} better  note")
+    for m in rows:
+        val, unit = _display(m)
+        lines.append(
+            f"{m.name:<{width}}{val:>12}  {unit:<5} {arrow.get(m.better, m.better):^6}  {m.note}"
+        )
+    sys.stdout.write("\n".join(lines) + "\n")
+    return 0
