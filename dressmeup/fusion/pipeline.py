@@ -1,0 +1,234 @@
+"""The fusion pipeline: session frames -> filtered depth -> (ICP) -> TSDF -> cleaned scan."""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dressmeup.capture.rig import Rig, save_rig
+from dressmeup.capture.session import RGBDFrame, Session, open_session
+from dressmeup.fusion.cleanup import CleanupConfig, cleanup_mesh
+from dressmeup.fusion.filtering import DepthFilterConfig, filter_depth, undistort_frame
+from dressmeup.fusion.icp import ICPConfig, ICPReport, refine_extrinsics
+from dressmeup.fusion.tsdf import integrate_tsdf
+from dressmeup.io.atomic import atomic_path, atomic_write_text
+
+__all__ = ["FusionConfig", "FusionResult", "prepare_frames", "fuse_frames", "fuse_session",
+           "save_scan", "load_scan", "write_ply"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class FusionConfig:
+    """Everything the fusion pipeline can be told.
+
+    Attributes
+    ----------
+    voxel_size : float, TSDF voxel size in metres.
+    trunc_voxels : float, TSDF truncation in voxels.
+    min_weight : float, minimum number of observations per voxel (per fused frame set).
+    refine : bool, refine the extrinsics by multiway ICP before fusing.
+    device : ``"cpu"`` or ``"cuda[:N]"``.
+    filter : DepthFilterConfig
+    icp : ICPConfig
+    cleanup : CleanupConfig or None (None: keep the raw TSDF mesh).
+    frames : list of frame indices to fuse, or None for all frames of the session.
+    """
+
+    voxel_size: float = 0.004
+    trunc_voxels: float = 5.0
+    min_weight: float = 1.0
+    refine: bool = False
+    device: str = "cpu"
+    filter: DepthFilterConfig = field(default_factory=DepthFilterConfig)
+    icp: ICPConfig = field(default_factory=ICPConfig)
+    cleanup: CleanupConfig | None = field(default_factory=CleanupConfig)
+    frames: list[int] | None = None
+
+
+@dataclass
+class FusionResult:
+    """A fused scan.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float64, faces : (m, 3) int64, colors : (n, 3) uint8.
+    rig : Rig, the calibration used (refined when ICP ran).
+    frames : list of RGBDFrame, the undistorted, filtered frames that were fused.
+    timings : dict of step -> seconds.
+    icp : ICPReport or None.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    colors: np.ndarray
+    rig: Rig
+    frames: list[RGBDFrame]
+    timings: dict[str, float] = field(default_factory=dict)
+    icp: ICPReport | None = None
+
+
+def prepare_frames(frames: list[RGBDFrame], rig: Rig, config: DepthFilterConfig | None = None
+                   ) -> list[RGBDFrame]:
+    """Undistort and filter each frame (depth in metres, pinhole model afterwards).
+
+    Parameters
+    ----------
+    frames : list of RGBDFrame straight from a session.
+    rig : Rig
+    config : DepthFilterConfig
+
+    Returns
+    -------
+    list of RGBDFrame
+    """
+    out = []
+    for fr in frames:
+        und = undistort_frame(fr, rig.camera(fr.serial))
+        und.depth = filter_depth(und.depth, config)
+        out.append(und)
+    return out
+
+
+def fuse_frames(frames: list[RGBDFrame], rig: Rig, config: FusionConfig | None = None) -> FusionResult:
+    """Fuse raw session frames into one coloured mesh.
+
+    Parameters
+    ----------
+    frames : list of RGBDFrame (any number per camera; the first frame of each camera is used
+        for ICP refinement).
+    rig : Rig
+    config : FusionConfig
+
+    Returns
+    -------
+    FusionResult
+    """
+    cfg = config or FusionConfig()
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    prepared = prepare_frames(frames, rig, cfg.filter)
+    timings["filter"] = time.perf_counter() - t0
+    used_rig, report = rig, None
+    if cfg.refine:
+        t0 = time.perf_counter()
+        firsts: dict[str, RGBDFrame] = {}
+        for fr in prepared:
+            firsts.setdefault(fr.serial, fr)
+        used_rig, report = refine_extrinsics(list(firsts.values()), rig, cfg.icp)
+        timings["icp"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    n_sets = max(sum(1 for f in prepared if f.serial == s) for s in {f.serial for f in prepared})
+    V, F, C = integrate_tsdf(prepared, used_rig, cfg.voxel_size, cfg.trunc_voxels,
+                             depth_max=cfg.filter.max_depth, min_weight=cfg.min_weight * n_sets,
+                             device=cfg.device)
+    timings["tsdf"] = time.perf_counter() - t0
+    if cfg.cleanup is not None:
+        t0 = time.perf_counter()
+        V, F, C = cleanup_mesh(V, F, C, cfg.cleanup)
+        timings["cleanup"] = time.perf_counter() - t0
+    return FusionResult(V, F, C, used_rig, prepared, timings, report)
+
+
+def fuse_session(session: Session | str | os.PathLike, config: FusionConfig | None = None) -> FusionResult:
+    """Fuse a capture session (all its frames, or ``config.frames``).
+
+    Parameters
+    ----------
+    session : Session or a session folder (validated on opening).
+    config : FusionConfig
+
+    Returns
+    -------
+    FusionResult
+    """
+    cfg = config or FusionConfig()
+    if not isinstance(session, Session):
+        session = open_session(session)
+    idx = cfg.frames if cfg.frames is not None else list(range(session.info.n_frames))
+    frames = [fr for i in idx for fr in session.load_frames(i)]
+    return fuse_frames(frames, session.rig, cfg)
+
+
+def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray,
+              colors: np.ndarray | None = None, face_labels: np.ndarray | None = None) -> Path:
+    """Write a binary PLY (optional vertex colours and a per-face ``label`` property), atomically."""
+    V = np.asarray(vertices, dtype=np.float32)
+    F = np.asarray(faces, dtype=np.int32)
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(V)}",
+              "property float x", "property float y", "property float z"]
+    vdt = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
+    if colors is not None:
+        header += ["property uchar red", "property uchar green", "property uchar blue"]
+        vdt += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
+    header += [f"element face {len(F)}", "property list uchar int vertex_indices"]
+    fdt = [("n", "u1"), ("v", "<i4", (3,))]
+    if face_labels is not None:
+        header.append("property uchar label")
+        fdt.append(("label", "u1"))
+    header.append("end_header")
+    va = np.empty(len(V), dtype=vdt)
+    va["x"], va["y"], va["z"] = V[:, 0], V[:, 1], V[:, 2]
+    if colors is not None:
+        c = np.asarray(colors, dtype=np.uint8)
+        va["red"], va["green"], va["blue"] = c[:, 0], c[:, 1], c[:, 2]
+    fa = np.empty(len(F), dtype=fdt)
+    fa["n"] = 3
+    fa["v"] = F
+    if face_labels is not None:
+        fa["label"] = np.asarray(face_labels, dtype=np.uint8)
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(("\n".join(header) + "\n").encode("ascii"))
+            fh.write(va.tobytes())
+            fh.write(fa.tobytes())
+    return path
+
+
+def save_scan(result: FusionResult, out_dir: str | os.PathLike, extra: dict[str, Any] | None = None) -> Path:
+    """Write a fused scan folder: ``scan.ply`` (coloured), ``rig.json`` (used calibration),
+    ``fusion.json`` (timings, ICP report, counts, ``extra``)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    write_ply(out / "scan.ply", result.vertices, result.faces, result.colors)
+    save_rig(result.rig, out / "rig.json")
+    info = {"vertices": int(len(result.vertices)), "faces": int(len(result.faces)),
+            "timings_s": result.timings,
+            "icp": None if result.icp is None else {
+                "edges": [list(e) for e in result.icp.edges],
+                "corrections_deg_m": {k: list(v) for k, v in result.icp.corrections.items()}},
+            **(extra or {})}
+    atomic_write_text(out / "fusion.json", json.dumps(info, indent=2, default=_json_default) + "\n")
+    return out
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if hasattr(o, "__dataclass_fields__"):
+        return asdict(o)
+    return str(o)
+
+
+def load_scan(scan_dir: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Read ``scan.ply`` of a scan folder: (V (n,3) float64, F (m,3) int64, colors (n,3) uint8 or None)."""
+    import trimesh
+
+    p = Path(scan_dir) / "scan.ply"
+    if not p.is_file():
+        raise FileNotFoundError(f"{p}: no fused scan here (run 'dressmeup fuse' first)")
+    m = trimesh.load(str(p), process=False, force="mesh")
+    vc = getattr(m.visual, "vertex_colors", None)
+    C = None if vc is None or len(vc) != len(m.vertices) else np.asarray(vc)[:, :3].astype(np.uint8)
+    return np.asarray(m.vertices, dtype=np.float64), np.asarray(m.faces, dtype=np.int64), C
