@@ -94,7 +94,7 @@ class Operators:
             coo = mat.tocoo()
             idx = torch.from_numpy(np.vstack([coo.row, coo.col]).astype(np.int64))
             val = torch.from_numpy(coo.data).to(dtype)
-            return torch.sparse_coo_tensor(idx, val, coo.shape).coalesce()
+            return torch.sparse_coo_tensor(idx, val, coo.shape, check_invariants=False).coalesce()
 
         return {
             "mass": torch.from_numpy(self.mass).to(dtype),

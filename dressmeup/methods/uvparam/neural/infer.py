@@ -1,0 +1,112 @@
+"""Inference: apply a trained neural UV model to any discretisation of its shape.
+
+Steps (all timed in ``UVResult.info``): normalise the mesh, compute its DiffusionNet
+operators (mass, eigenbasis, gradients), run PatchNet, turn probabilities into disk charts,
+pool each chart's code psi, run the forward MLP on every (chart, vertex) row, orient each
+chart counter-clockwise and scale it to its 3D area, pack the charts with xatlas.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from dressmeup.geometry.mesh import as_arrays, face_areas
+from dressmeup.geometry.uv_atlas import orient_chart_uv, pack_charts, signed_uv_areas
+from dressmeup.methods.nn.diffusion_net import compute_operators
+from dressmeup.methods.uvparam.base import UVResult
+from dressmeup.methods.uvparam.neural.patchnet import (
+    assign_charts,
+    normalize_vertices,
+    patchnet_inputs,
+)
+from dressmeup.methods.uvparam.neural.train import NeuralUVModel, chart_codes, chart_rows
+
+__all__ = ["infer", "chart_uvs"]
+
+
+def chart_uvs(uv_rows: np.ndarray, Vn: np.ndarray, F: np.ndarray, row_vertex: np.ndarray,
+              row_chart: np.ndarray, row_faces: np.ndarray, chart_ids: np.ndarray) -> np.ndarray:
+    """Orient every chart counter-clockwise and scale it so its UV area equals its 3D area.
+
+    Returns
+    -------
+    (N, 2) float64 ndarray (rows as ``uv_rows``)
+    """
+    out = np.array(uv_rows, dtype=np.float64)
+    a3 = np.bincount(chart_ids, weights=face_areas(Vn, F))
+    order = np.argsort(row_chart, kind="stable")
+    starts = np.searchsorted(row_chart[order], np.arange(len(a3) + 1))
+    for c in range(len(a3)):
+        rows = order[starts[c]:starts[c + 1]]
+        faces = row_faces[chart_ids == c] - rows.min()
+        # rows of a chart are contiguous (chart_rows builds them chart by chart)
+        uvc = orient_chart_uv(out[rows], faces)
+        a2 = np.abs(signed_uv_areas(uvc, faces)).sum()
+        if a2 > 0:
+            uvc = (uvc - uvc.mean(axis=0)) * np.sqrt(a3[c] / a2)
+        out[rows] = uvc
+    return out
+
+
+def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: bool = True,
+          threads: int | None = None) -> UVResult:
+    """Parameterise a mesh with a trained model (no training).
+
+    Parameters
+    ----------
+    model : NeuralUVModel
+    V : (n, 3) float array
+    F : (m, 3) int array
+    use_operator_cache : bool
+        Reuse cached operators (pass False to time operators honestly).
+    pack : bool
+        Pack charts with xatlas into [0, 1]^2.
+    threads : int, optional
+        torch intra-op threads for this call.
+
+    Returns
+    -------
+    UVResult
+        ``info`` has per-stage seconds and the number of charts.
+    """
+    import torch
+
+    t0 = time.perf_counter()
+    V, F = as_arrays(V, F)
+    cfg = model.config
+    old_threads = torch.get_num_threads()
+    if threads:
+        torch.set_num_threads(int(threads))
+    try:
+        Vn = normalize_vertices(V)
+        ops = compute_operators(Vn, F, k_eig=cfg.k_eig, use_cache=use_operator_cache)
+        t1 = time.perf_counter()
+        tops = ops.to_torch()
+        x = torch.from_numpy(patchnet_inputs(Vn, F))
+        with torch.no_grad():
+            h = model.patchnet.features(x, tops)
+            probs = torch.softmax(model.patchnet.last(h), dim=-1).numpy()
+            feats = h.numpy()
+        t2 = time.perf_counter()
+        chart_ids = assign_charts(Vn, F, probs, cfg.consolidation_steps, cfg.min_chart_fraction)
+        psi = chart_codes(feats, ops.mass, F, chart_ids)
+        row_vertex, row_chart, row_faces = chart_rows(F, chart_ids)
+        t3 = time.perf_counter()
+        inp = torch.cat([torch.from_numpy(Vn[row_vertex].astype(np.float32)),
+                         torch.from_numpy(psi[row_chart])], dim=1)
+        with torch.no_grad():
+            uv = model.forward_mlp(inp).numpy().astype(np.float64)
+        t4 = time.perf_counter()
+        uv = chart_uvs(uv, Vn, F, row_vertex, row_chart, row_faces, chart_ids)
+        uv_faces = row_faces
+        if pack:
+            uv, uv_faces = pack_charts(uv, uv_faces)
+        t5 = time.perf_counter()
+    finally:
+        torch.set_num_threads(old_threads)
+    return UVResult(uv, uv_faces, chart_ids, t5 - t0, {
+        "n_charts": int(chart_ids.max()) + 1, "seconds_operators": t1 - t0,
+        "seconds_patchnet": t2 - t1, "seconds_charts": t3 - t2, "seconds_mlp": t4 - t3,
+        "seconds_pack": t5 - t4, "operators_cached": ops.seconds == 0.0})
