@@ -52,6 +52,7 @@ from dressmeup.metrics.penetration import (
     penetrating_vertex_fraction,
     signed_distance,
 )
+from dressmeup.metrics.report import MetricValue, compare_meshes, uv_report
 from dressmeup.metrics.richness import RichnessResult, richness, richness_details
 from dressmeup.metrics.uv import (
     ASEResult,
@@ -74,7 +75,10 @@ __all__ = [
     "QCEResult",
     "RichnessResult",
     "TopologyMismatchError",
+    "MetricValue",
     "UVValidity",
+    "compare_meshes",
+    "uv_report",
     "accuracy",
     "ase",
     "ase_details",

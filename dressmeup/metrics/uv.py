@@ -31,6 +31,8 @@ ZERO_AREA_RTOL = 1e-12
 
 
 def _corners(vertices, faces, uv, uv_faces):
+    """Validated corner coordinates, component-major for speed: ``P`` is a list of three
+    (3, m) arrays (the 3D corners), ``T`` a list of three (2, m) arrays (the UV corners)."""
     V, F = as_arrays(vertices, faces, name="mesh")
     UV = as_points(uv, name="uv", dim=2)
     if uv_faces is None:
@@ -39,43 +41,59 @@ def _corners(vertices, faces, uv, uv_faces):
                 f"uv: per-vertex UVs need shape ({V.shape[0]}, 2), got {UV.shape}; "
                 "pass uv_faces for per-corner UVs"
             )
-        T = UV[F]
+        UF = F
     else:
         UF = as_faces(uv_faces, UV.shape[0], name="uv_faces")
         if UF.shape != F.shape:
             raise ValueError(
                 f"uv_faces: expected shape {F.shape} (one row per face), got {UF.shape}"
             )
-        T = UV[UF]
-    return V[F], T
+    Vt = np.ascontiguousarray(V.T)
+    Ut = np.ascontiguousarray(UV.T)
+    P = [np.take(Vt, F[:, k], axis=1) for k in range(3)]
+    T = [np.take(Ut, UF[:, k], axis=1) for k in range(3)]
+    return P, T
 
 
-def _geometry(P: np.ndarray, T: np.ndarray):
+def _geometry(P, T, jacobian: bool = True):
     """Per-face quantities: 3D double area, signed UV double area, degenerate masks, and the
     2x2 Jacobian entries (A, B, C, D) of the map from the 3D triangle's own orthonormal
-    frame to UV."""
-    e1 = P[:, 1] - P[:, 0]
-    e2 = P[:, 2] - P[:, 0]
-    l1 = np.sqrt(np.einsum("ij,ij->i", e1, e1))
-    l2 = np.sqrt(np.einsum("ij,ij->i", e2, e2))
-    cr = np.cross(e1, e2)
-    a3 = np.sqrt(np.einsum("ij,ij->i", cr, cr))  # 2 * area
-    u1 = T[:, 1] - T[:, 0]
-    u2 = T[:, 2] - T[:, 0]
-    auv = u1[:, 0] * u2[:, 1] - u1[:, 1] * u2[:, 0]  # signed 2 * UV area
-    nu1 = np.hypot(u1[:, 0], u1[:, 1])
-    nu2 = np.hypot(u2[:, 0], u2[:, 1])
-    deg3 = ~(a3 > ZERO_AREA_RTOL * l1 * l2)
-    zero_uv = ~(np.abs(auv) > ZERO_AREA_RTOL * nu1 * nu2)
+    frame to UV (``None`` when ``jacobian`` is false)."""
+    e1 = P[1] - P[0]
+    e2 = P[2] - P[0]
+    l1sq = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]
+    l2sq = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]
+    cx = e1[1] * e2[2] - e1[2] * e2[1]
+    cy = e1[2] * e2[0] - e1[0] * e2[2]
+    cz = e1[0] * e2[1] - e1[1] * e2[0]
+    a3 = np.sqrt(cx * cx + cy * cy + cz * cz)  # 2 * area
+    u1 = T[1] - T[0]
+    u2 = T[2] - T[0]
+    auv = u1[0] * u2[1] - u1[1] * u2[0]  # signed 2 * UV area
+    deg3 = ~(a3 > ZERO_AREA_RTOL * np.sqrt(l1sq * l2sq))
+    zero_uv = ~(
+        np.abs(auv)
+        > ZERO_AREA_RTOL
+        * np.sqrt((u1[0] * u1[0] + u1[1] * u1[1]) * (u2[0] * u2[0] + u2[1] * u2[1]))
+    )
+    if not jacobian:
+        return a3, auv, deg3, zero_uv, None
     with np.errstate(divide="ignore", invalid="ignore"):
         # local frame: x1 = (l1, 0), x2 = (a, h) with a = e1.e2 / l1, h = 2A / l1
-        a = np.einsum("ij,ij->i", e1, e2) / l1
+        l1 = np.sqrt(l1sq)
+        a = (e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / l1
         h = a3 / l1
-        A = u1[:, 0] / l1
-        C = u1[:, 1] / l1
-        B = (u2[:, 0] - a * A) / h
-        D = (u2[:, 1] - a * C) / h
+        A = u1[0] / l1
+        C = u1[1] / l1
+        B = (u2[0] - a * A) / h
+        D = (u2[1] - a * C) / h
     return a3, auv, deg3, zero_uv, (A, B, C, D)
+
+
+def _sigma_max(A, B, C, D):
+    """Largest singular value of [[A, B], [C, D]] in closed form (Q + R)."""
+    e, f, g, h = A + D, A - D, C + B, C - B
+    return 0.5 * (np.sqrt(e * e + h * h) + np.sqrt(f * f + g * g))
 
 
 def uv_jacobian_singular_values(vertices, faces, uv, uv_faces=None) -> np.ndarray:
@@ -95,7 +113,7 @@ def uv_jacobian_singular_values(vertices, faces, uv, uv_faces=None) -> np.ndarra
     """
     P, T = _corners(vertices, faces, uv, uv_faces)
     a3, auv, deg3, _, (A, B, C, D) = _geometry(P, T)
-    smax = np.hypot((A + D) / 2, (C - B) / 2) + np.hypot((A - D) / 2, (C + B) / 2)
+    smax = _sigma_max(A, B, C, D)
     with np.errstate(divide="ignore", invalid="ignore"):
         smin = np.abs(auv / a3) / smax
     smin = np.where(smax == 0, 0.0, smin)
@@ -137,7 +155,7 @@ def qce_details(vertices, faces, uv, uv_faces=None) -> QCEResult:
     P, T = _corners(vertices, faces, uv, uv_faces)
     a3, auv, deg3, zero_uv, (A, B, C, D) = _geometry(P, T)
     # closed-form 2x2 SVD: sigma_max = Q + R; sigma_min = |det| / sigma_max with det = A_uv / A_3d
-    smax = np.hypot((A + D) / 2, (C - B) / 2) + np.hypot((A - D) / 2, (C + B) / 2)
+    smax = _sigma_max(A, B, C, D)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         per = smax * smax * a3 / np.abs(auv)
     per[zero_uv] = np.inf
@@ -213,7 +231,7 @@ class ASEResult:
 def ase_details(vertices, faces, uv, uv_faces=None) -> ASEResult:
     """ASE with per-face values; see :func:`ase`."""
     P, T = _corners(vertices, faces, uv, uv_faces)
-    a3, auv, deg3, zero_uv, _ = _geometry(P, T)
+    a3, auv, deg3, zero_uv, _ = _geometry(P, T, jacobian=False)
     auv = np.abs(auv)
     tot_uv = auv.sum()
     tot_3d = a3.sum()
@@ -385,15 +403,15 @@ def uv_validity(vertices, faces, uv, uv_faces=None, resolution: int = 1024) -> U
     if int(resolution) != resolution or resolution < 8:
         raise ValueError(f"resolution: expected an integer >= 8, got {resolution}")
     P, T = _corners(vertices, faces, uv, uv_faces)
-    _, auv, _, zero_uv, _ = _geometry(P, T)
+    _, auv, _, zero_uv, _ = _geometry(P, T, jacobian=False)
     pos = int(np.count_nonzero((auv > 0) & ~zero_uv))
     neg = int(np.count_nonzero((auv < 0) & ~zero_uv))
     n_flipped = min(pos, neg) if pos != neg else neg  # tie: counter-clockwise is the majority
-    cov = uv_coverage(T, int(resolution))
+    cov = uv_coverage(np.stack([t.T for t in T], axis=1), int(resolution))
     covered = int(np.count_nonzero(cov >= 1))
     overlap = float(np.count_nonzero(cov >= 2) / covered) if covered else 0.0
     return UVValidity(
-        flipped_fraction=n_flipped / T.shape[0],
+        flipped_fraction=n_flipped / auv.shape[0],
         overlap_fraction=overlap,
         n_flipped=n_flipped,
         n_zero_uv_area=int(np.count_nonzero(zero_uv)),
