@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from dressmeup import __version__
+from dressmeup.cache import hash_arrays
 from dressmeup.data import layout
 from dressmeup.data.manifest import MANIFEST_VERSION, read_manifest, write_manifest
 from dressmeup.errors import InputError
@@ -139,6 +140,7 @@ class DatasetWriter:
             self._rows = read_manifest(mpath).to_pylist()
             log.info("resuming %s: %d samples already written", self.root, len(self._rows))
         self._ids = {r["sample_id"] for r in self._rows}
+        self._faces_key: dict[str, str] = {}  # sample_id -> hash of its garment faces
 
     # ------------------------------------------------------------------ queries
     def has_sample(self, sample_id: str) -> bool:
@@ -269,24 +271,28 @@ class DatasetWriter:
                              f"got {arr.dtype} {arr.shape}")
         return arr
 
-    def _faces_of(self, row: dict[str, Any]) -> np.ndarray | None:
-        try:
-            from dressmeup.io.mesh import load_mesh
+    def _faces_key_of(self, row: dict[str, Any]) -> str | None:
+        sid = row["sample_id"]
+        if sid not in self._faces_key:
+            try:
+                from dressmeup.io.mesh import load_mesh
 
-            return load_mesh(layout.resolve_inside(self.root, row["garment_path"])).faces
-        except Exception:  # noqa: BLE001 - a missing file makes topology unknown, not shared
-            return None
+                F = load_mesh(layout.resolve_inside(self.root, row["garment_path"])).faces
+            except Exception:  # noqa: BLE001 - unreadable: topology unknown, not shared
+                return None
+            self._faces_key[sid] = hash_arrays(np.asarray(F, np.int64))
+        return self._faces_key[sid]
 
     def _update_topology(self, rows: list[dict[str, Any]], known: dict[str, np.ndarray]) -> None:
         """Set ``topology_shared`` for the garments in ``known`` (all rows of those garments)."""
+        for sid, F in known.items():
+            self._faces_key[sid] = hash_arrays(np.asarray(F, np.int64))
         garments = {r["garment_id"] for r in rows if r["sample_id"] in known}
         for g in garments:
             grp = [r for r in rows if r["garment_id"] == g]
-            faces = [known.get(r["sample_id"]) if r["sample_id"] in known else self._faces_of(r)
-                     for r in grp]
-            shared = all(f is not None for f in faces) and all(
-                r["garment_vertices"] == grp[0]["garment_vertices"] for r in grp) and all(
-                f.shape == faces[0].shape and np.array_equal(f, faces[0]) for f in faces)
+            keys = [self._faces_key_of(r) for r in grp]
+            shared = all(k is not None for k in keys) and len(set(keys)) == 1 and all(
+                r["garment_vertices"] == grp[0]["garment_vertices"] for r in grp)
             for r in grp:
                 r["topology_shared"] = bool(shared)
 

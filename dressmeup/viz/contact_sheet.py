@@ -1,0 +1,110 @@
+"""Contact sheets: headless pictures of many meshes in a grid (matplotlib, painter's algorithm).
+
+Each cell is an orthographic view of a few meshes (e.g. a body and its garment), flat shaded
+by a headlight, triangles drawn back to front. No OpenGL or display is needed.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class MeshLayer:
+    """One mesh of a cell: ``vertices (n, 3)``, ``faces (m, 3)``, RGB ``color`` in [0, 1]
+    (or ``face_colors (m, 3)``)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    color: tuple[float, float, float] = (0.7, 0.7, 0.7)
+    face_colors: np.ndarray | None = None
+
+
+def draw_cell(ax, layers: Sequence[MeshLayer], right: np.ndarray, up: np.ndarray,
+              title: str = "", bounds: tuple | None = None) -> None:
+    """Draw ``layers`` into a matplotlib axis, viewed along ``cross(right, up)``.
+
+    Parameters
+    ----------
+    ax : matplotlib axis.
+    layers : meshes to draw together (depth-sorted jointly).
+    right, up : (3,) unit screen axes in world coordinates; the camera looks at the scene from
+        ``cross(right, up)``.
+    title : cell caption.
+    bounds : optional ``(xmin, xmax, ymin, ymax)`` in screen units.
+    """
+    from matplotlib.collections import PolyCollection
+
+    right = np.asarray(right, float)
+    up = np.asarray(up, float)
+    view = np.cross(right, up)  # towards the viewer
+    polys, depth, cols = [], [], []
+    for L in layers:
+        V, F = np.asarray(L.vertices, float), np.asarray(L.faces, np.int64)
+        tri = V[F]
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+        shade = 0.25 + 0.75 * np.abs(n @ view)
+        base = np.asarray(L.face_colors, float) if L.face_colors is not None else \
+            np.tile(np.asarray(L.color, float), (len(F), 1))
+        cols.append(np.clip(base * shade[:, None], 0, 1))
+        polys.append(np.stack([tri @ right, tri @ up], axis=2))
+        depth.append(tri.mean(1) @ view)
+    P = np.concatenate(polys)
+    D = np.concatenate(depth)
+    C = np.concatenate(cols)
+    order = np.argsort(D)
+    ax.add_collection(PolyCollection(P[order], facecolors=C[order], edgecolors="none",
+                                     antialiased=False))
+    if bounds is None:
+        xy = P.reshape(-1, 2)
+        lo, hi = xy.min(0), xy.max(0)
+        c, r = (lo + hi) / 2, (hi - lo).max() / 2 * 1.05
+        bounds = (c[0] - r, c[0] + r, c[1] - r, c[1] + r)
+    ax.set_xlim(bounds[0], bounds[1])
+    ax.set_ylim(bounds[2], bounds[3])
+    ax.set_aspect("equal")
+    ax.axis("off")
+    if title:
+        ax.set_title(title, fontsize=7)
+
+
+def render_contact_sheet(cells: Sequence[Sequence[MeshLayer]], path: str | os.PathLike,
+                         right: np.ndarray, up: np.ndarray, ncols: int,
+                         titles: Sequence[str] | None = None, cell_size: float = 1.6,
+                         dpi: int = 110, suptitle: str = "") -> None:
+    """Render a grid of cells to a PNG (atomically).
+
+    Parameters
+    ----------
+    cells : one list of :class:`MeshLayer` per cell, row-major.
+    path : output PNG.
+    right, up : (3,) screen axes in world coordinates.
+    ncols : cells per row.
+    titles : optional caption per cell.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    from dressmeup.io.atomic import atomic_path
+
+    nrows = max(1, int(np.ceil(len(cells) / ncols)))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(cell_size * ncols, cell_size * 1.25 * nrows),
+                             squeeze=False)
+    for k, ax in enumerate(axes.ravel()):
+        if k < len(cells):
+            draw_cell(ax, cells[k], right, up, titles[k] if titles else "")
+        else:
+            ax.axis("off")
+    if suptitle:
+        fig.suptitle(suptitle, fontsize=9)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format="png")
+    plt.close(fig)
