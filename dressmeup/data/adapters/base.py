@@ -1,0 +1,101 @@
+"""Shared pieces of the format adapters: an in-memory sample collection with the same API
+as :class:`dressmeup.data.Dataset`, and a restricted pickle loader."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+import numpy as np
+
+from dressmeup.data.dataset import ID_FIELDS, RetargetPair, Sample, make_pairs
+
+
+def clean_id(text: str) -> str:
+    """Make a valid id from foreign names: any other character becomes ``_``."""
+    out = re.sub(r"[^A-Za-z0-9_-]", "_", str(text))
+    return out or "_"
+
+
+def load_pickle(path) -> Any:
+    """Load a pickle of plain numpy data without running code (reuses the body stage's
+    restricted unpickler)."""
+    from dressmeup.body.safe_pickle import safe_load_pickle
+
+    return safe_load_pickle(path)
+
+
+class SampleCollection:
+    """Samples read by an adapter, with the :class:`~dressmeup.data.Dataset` API
+    (``len``, indexing by position or id, iteration, ``filter``, ``retarget_pairs``,
+    ``manifest`` as pandas)."""
+
+    def __init__(self, samples: Sequence[Sample], source: str = "") -> None:
+        self._samples = list(samples)
+        self.source = source
+
+    def __len__(self) -> int:
+        return len(self._samples)
+
+    def __iter__(self) -> Iterator[Sample]:
+        return iter(self._samples)
+
+    def __getitem__(self, index: int | str) -> Sample:
+        if isinstance(index, str):
+            for s in self._samples:
+                if s.sample_id == index:
+                    return s
+            raise KeyError(f"no sample {index!r}")
+        return self._samples[index]
+
+    def __repr__(self) -> str:
+        return f"SampleCollection({self.source!r}, {len(self)} samples)"
+
+    @property
+    def manifest(self):
+        """The samples' rows (ids, category fields and whatever the adapter adds) as pandas."""
+        import pandas as pd
+
+        return pd.DataFrame([s.row for s in self._samples])
+
+    def filter(self, split=None, category=None, subject=None, garment=None, pose=None,
+               garment_type=None) -> SampleCollection:
+        """Samples matching every given value (one value or a list)."""
+        out = self._samples
+        for attr, val in (("split", split), ("category", category), ("subject_id", subject),
+                          ("garment_id", garment), ("pose_id", pose),
+                          ("garment_type", garment_type)):
+            if val is None:
+                continue
+            vals = {val} if isinstance(val, str) else set(val)
+            out = [s for s in out if s.row[attr] in vals]
+        return SampleCollection(out, self.source)
+
+    def samples(self) -> list[Sample]:
+        """All samples."""
+        return list(self._samples)
+
+    def retarget_pairs(self, split: str | None = None) -> list[RetargetPair]:
+        """Ordered pose pairs of each garment (see :func:`dressmeup.data.dataset.make_pairs`)."""
+        view = self if split is None else self.filter(split=split)
+        return make_pairs(view.samples())
+
+
+def make_row(**fields: Any) -> dict[str, Any]:
+    """A sample row with every :data:`ID_FIELDS` entry present (defaults: split ``test``)."""
+    row = {"split": "test", **fields}
+    missing = [f for f in ID_FIELDS if f not in row]
+    if missing:
+        raise ValueError(f"row lacks {missing}")
+    return row
+
+
+def as_array(value: Any, name: str, source: str) -> np.ndarray:
+    """A float64 array from pickled data (numpy, lists, or torch tensors saved as arrays)."""
+    from dressmeup.errors import InputError
+
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{source}: field {name!r} is not numeric ({exc})") from exc
