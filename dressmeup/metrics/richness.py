@@ -64,10 +64,57 @@ def _sorted_extreme(X: np.ndarray, m: int, largest: bool) -> np.ndarray:
     return part
 
 
-def _emb_dist(E: np.ndarray, rows: slice) -> np.ndarray:
-    from scipy.spatial.distance import cdist
+#: Embeddings wider than this use BLAS Gram products with an exact re-check (see
+#: :func:`_emb_extremes`); narrower ones use exact distances throughout.
+GRAM_MIN_DIM = 8
 
-    return cdist(E[rows], E, metric="euclidean")
+
+def _exact_dist(E: np.ndarray, i: int, idx: np.ndarray) -> np.ndarray:
+    diff = E[idx] - E[i]
+    return np.sqrt(np.einsum("ij,ij->i", diff, diff))
+
+
+def _emb_extremes(
+    E: np.ndarray, sq: np.ndarray, s: int, e: int, k: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """For rows ``s:e``: indices of the 2k nearest (self first) and the 2k - 1 farthest
+    vertices in the embedding, each in ascending (distance, index) order.
+
+    Narrow embeddings: exact distances (scipy ``cdist``) and :func:`_sorted_extreme`.
+    Wide embeddings: squared distances from a BLAS Gram product locate the candidates, with
+    a margin larger than their rounding error; the candidates' exact distances then decide,
+    so the result equals the exact stable ranking.
+    """
+    n, d = E.shape
+    r = np.arange(e - s)
+    if d <= GRAM_MIN_DIM:
+        from scipy.spatial.distance import cdist
+
+        Eb = cdist(E[s:e], E, metric="euclidean")
+        Eb[r, np.arange(s, e)] = -np.inf
+        return _sorted_extreme(Eb, 2 * k, largest=False), _sorted_extreme(
+            Eb, 2 * k - 1, largest=True
+        )
+    D2 = sq[s:e, None] + sq[None, :] - 2.0 * (E[s:e] @ E.T)
+    # rounding error of a length-d dot product and the sums: <= (d + 4) eps (|x|^2 + |y|^2)
+    margin = 4.0 * (d + 4) * np.finfo(np.float64).eps * (sq[s:e] + sq.max())
+    D2[r, np.arange(s, e)] = -np.inf
+    lo = np.partition(D2, 2 * k - 1, axis=1)[:, 2 * k - 1]
+    hi = np.partition(D2, n - (2 * k - 1), axis=1)[:, n - (2 * k - 1)]
+    small = np.empty((e - s, 2 * k), dtype=np.int64)
+    large = np.empty((e - s, 2 * k - 1), dtype=np.int64)
+    for row in range(e - s):
+        i = s + row
+        for out, cand, first in (
+            (small, np.nonzero(D2[row] <= lo[row] + 2 * margin[row])[0], True),
+            (large, np.nonzero(D2[row] >= hi[row] - 2 * margin[row])[0], False),
+        ):
+            dist = _exact_dist(E, i, cand)
+            dist[cand == i] = -np.inf
+            order = np.lexsort((cand, dist))
+            m = out.shape[1]
+            out[row] = cand[order[:m]] if first else cand[order[-m:]]
+    return small, large
 
 
 def richness_details(
@@ -90,6 +137,7 @@ def richness_details(
     rank_far_geo = np.arange(n - k, n)  # ranks of the k geodesically farthest (ascending)
     rank_small_emb = np.arange(0, 2 * k)  # embedding ranks of the 2k smallest (self = 0)
     rank_large_emb = np.arange(n - 2 * k + 1, n)  # embedding ranks of the 2k - 1 largest
+    sq = np.einsum("ij,ij->i", E, E)
     for s in range(0, n, batch):
         e = min(n, s + batch)
         r = np.arange(e - s)
@@ -97,12 +145,9 @@ def richness_details(
         if np.isnan(Gb).any():
             raise ValueError("geodesic: contains NaN")
         Gb[r, np.arange(s, e)] = -np.inf  # self ranks 0, before any tie at distance 0
-        Eb = _emb_dist(E, slice(s, e))
-        Eb[r, np.arange(s, e)] = -np.inf
         g_near = _sorted_extreme(Gb, k + 1, largest=False)[:, 1:]
         g_far = _sorted_extreme(Gb, k, largest=True)
-        e_small = _sorted_extreme(Eb, 2 * k, largest=False)
-        e_large = _sorted_extreme(Eb, 2 * k - 1, largest=True)
+        e_small, e_large = _emb_extremes(E, sq, s, e, k)
         # near: embedding rank is known exactly when < 2k, otherwise the difference is >= k
         match = g_near[:, :, None] == e_small[:, None, :]
         found = match.any(axis=2)

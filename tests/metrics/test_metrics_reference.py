@@ -306,6 +306,22 @@ def test_richness_vs_slow_reference(seed):
         assert M.richness(G, E, k=k) == pytest.approx(ref_richness(G, E, k), rel=1e-12)
 
 
+def test_richness_wide_embedding_vs_slow_reference():
+    # wide embeddings take the Gram-product path with an exact re-check
+    from dressmeup.metrics.richness import GRAM_MIN_DIM
+
+    rng = np.random.default_rng(4)
+    n, d = 70, GRAM_MIN_DIM + 24
+    X = rng.normal(size=(n, 3))
+    G = np.linalg.norm(X[:, None] - X[None], axis=2)
+    E = np.c_[X, 0.3 * rng.normal(size=(n, d - 3))] + 100.0  # offset: Gram cancellation
+    E[5] = E[6]  # duplicate embedding rows: exact ties broken by index
+    E[20] = E[40]
+    for k in (1, 6, 12):
+        got = M.richness_details(G, E, k=k, batch=16)
+        assert got.score == pytest.approx(ref_richness(G, E, k), rel=1e-12)
+
+
 def test_richness_ties_broken_by_index():
     # integer-valued distances: many ties in both rankings, resolved by vertex index
     rng = np.random.default_rng(2)
