@@ -129,7 +129,7 @@ def _editions(args: argparse.Namespace) -> int:
     for name in list_editions():
         ed = load_edition(name)
         sys.stdout.write(f"{name:28s} task={ed.task:14s} split={ed.split:6s} "
-                         f"hash={ed.hash[:12]}  {ed.description.splitlines()[0] if ed.description else ''}\n")
+                         f"hash={ed.hash[:12]}  {(ed.description[:60] + '...') if len(ed.description) > 60 else ed.description}\n")
     return 0
 
 
