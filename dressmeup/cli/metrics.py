@@ -14,7 +14,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="score a predicted mesh against a ground-truth mesh (P2S, Chamfer, ED, NC, F-score, IR, QCE/ASE)",
         description=(
             "Print every applicable metric of PRED against GT (docs/metrics.md): distances in mm, "
-            "shares in %%, with the direction of 'better' (arrow). IR needs --body. QCE/ASE/UV "
+            "shares in %, with the direction of 'better' (arrow). IR needs --body. QCE/ASE/UV "
             "validity are added when PRED has UVs."
         ),
     )
