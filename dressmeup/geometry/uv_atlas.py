@@ -370,7 +370,7 @@ def parameterize_charts(V: np.ndarray, F: np.ndarray, chart_ids: np.ndarray,
 
 
 def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resolution: int = 1024,
-                rotate: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                rotate: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Pack UV charts into the unit square with xatlas (translation, rotation, uniform scale).
 
     Charts are the connected components of the UV mesh (corners sharing a UV index).
@@ -384,7 +384,8 @@ def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resoluti
     resolution : int
         Atlas resolution used for packing.
     rotate : bool
-        Let xatlas rotate charts for a tighter packing.
+        Let xatlas rotate charts for a tighter packing. Off by default: xatlas' chart
+        rotation can also transpose a chart (a mirror image), which would flip its triangles.
 
     Returns
     -------
@@ -408,9 +409,12 @@ def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resoluti
     atlas.generate(pack_options=po)
     vmapping, indices, uvs = atlas[0]
     uv2 = np.asarray(uvs, dtype=np.float64)
+    # xatlas normalises u by the atlas width and v by its height: undo the anisotropy
+    w, h = float(atlas.width), float(atlas.height)
+    if w > 0 and h > 0:
+        uv2 = uv2 * (np.array([w, h]) / max(w, h))
     uv_faces2 = np.asarray(indices, dtype=np.int64)
-    # the packer may mirror charts: mirror them back inside their own bounding box
-    return orient_charts(uv2, uv_faces2), uv_faces2
+    return uv2, uv_faces2
 
 
 def uv_components(uv_faces: np.ndarray, k: int) -> np.ndarray:

@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from dressmeup.geometry.mesh import as_arrays
-from dressmeup.geometry.uv_atlas import orient_charts, uv_components
+from dressmeup.geometry.uv_atlas import uv_components
 from dressmeup.methods.uvparam.base import UVResult
 
 __all__ = ["XatlasMethod"]
@@ -24,16 +24,17 @@ class XatlasMethod:
         Texels between charts.
     max_iterations : int
         xatlas chart-growing iterations (its default is 1).
-    orient : bool
-        Mirror charts that xatlas' packer left clockwise back to counter-clockwise, inside
-        their own bounding box (no new overlaps; makes the flip count meaningful).
+    rotate_charts : bool
+        xatlas' chart rotation while packing. Off by default: it also transposes charts
+        (mirror images), so 30-50 % of the faces end up clockwise while the rest are
+        counter-clockwise, which the flip metric counts as flipped.
     """
 
     name = "xatlas"
 
     def __init__(self, resolution: int = 1024, padding: int = 2, max_iterations: int = 1,
-                 orient: bool = True):
-        self.orient = orient
+                 rotate_charts: bool = False):
+        self.rotate_charts = rotate_charts
         self.resolution = resolution
         self.padding = padding
         self.max_iterations = max_iterations
@@ -63,12 +64,15 @@ class XatlasMethod:
         po.resolution = int(self.resolution)
         po.padding = int(self.padding)
         po.bilinear = True
+        po.rotate_charts = bool(self.rotate_charts)
         atlas.generate(chart_options=co, pack_options=po)
         vmapping, indices, uvs = atlas[0]
         uv = np.asarray(uvs, dtype=np.float64)
+        # xatlas normalises u by the atlas width and v by its height: keep texels square
+        w, h = float(atlas.width), float(atlas.height)
+        if w > 0 and h > 0:
+            uv = uv * (np.array([w, h]) / max(w, h))
         uv_faces = np.asarray(indices, dtype=np.int64)
         chart_ids = uv_components(uv_faces, len(uv))
-        if self.orient:
-            uv = orient_charts(uv, uv_faces)
         return UVResult(uv, uv_faces, chart_ids, time.perf_counter() - t0,
                         {"n_charts": int(atlas.chart_count)})

@@ -1,0 +1,124 @@
+"""The neural method: its losses on analytic cases, a tiny training run, inference on a
+second resolution, checkpoints, and the CLI."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from dressmeup.methods.uvparam.neural import losses as L  # noqa: E402
+from dressmeup.methods.uvparam.shapes import make_test_mesh  # noqa: E402
+
+TINY = dict(n_patches=4, patch_width=16, patch_blocks=2, k_eig=16, patch_iters=40,
+            mlp_width=32, mlp_depth=4, uv_iters=120, geo_landmarks=300, pairs_per_iter=5000,
+            train_vertices=400)
+
+
+def test_losses_on_analytic_cases():
+    # flat patch: cosine loss 0; a closed sphere in one patch: ~1
+    n = torch.tensor([[0.0, 0, 1]] * 4)
+    a = torch.ones(4)
+    p1 = torch.ones(4, 1)
+    assert float(L.cosine_loss(p1, n, a)) == pytest.approx(0.0, abs=1e-6)
+    n2 = torch.tensor([[0.0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0]])
+    assert float(L.cosine_loss(p1, n2, a)) == pytest.approx(1.0, abs=1e-6)
+    # isometric and angle/area losses vanish for an isometric map of a plane
+    x = torch.tensor([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])
+    uv = x[:, :2].clone()
+    faces = torch.tensor([[0, 1, 2], [1, 3, 2]])
+    pairs = torch.tensor([[0, 1], [0, 3], [1, 2]])
+    g = (x[pairs[:, 0]] - x[pairs[:, 1]]).norm(dim=1)
+    assert float(L.isometric_loss(uv, pairs, g)) == pytest.approx(0.0, abs=1e-7)
+    assert float(L.angle_loss(uv, faces, L.triangle_cosines(x, faces))) == pytest.approx(0.0, abs=1e-7)
+    assert float(L.area_loss(uv, faces, L.triangle_areas_3d(x, faces))) == pytest.approx(0.0, abs=1e-7)
+    # doubling the UV: area loss (|2^2 a - a| / a)^2 = 9, angles unchanged
+    assert float(L.area_loss(2 * uv, faces, L.triangle_areas_3d(x, faces))) == pytest.approx(9.0, rel=1e-6)
+    assert float(L.angle_loss(2 * uv, faces, L.triangle_cosines(x, faces))) == pytest.approx(0.0, abs=1e-7)
+    # geodesic loss: two far-apart groups in one patch cost more than in two patches
+    G = torch.tensor([[0.0, 0.1, 1.0, 1.0], [0.1, 0, 1, 1], [1, 1, 0, 0.1], [1, 1, 0.1, 0]])
+    m = torch.ones(4)
+    one = L.geodesic_loss(torch.ones(4, 1), m, G)
+    two = L.geodesic_loss(torch.tensor([[1.0, 0], [1, 0], [0, 1], [0, 1]]), m, G)
+    assert float(two) < float(one)
+    assert float(two) == pytest.approx(0.05, rel=1e-6)  # mean distance to own patch
+
+
+@pytest.fixture(scope="module")
+def tiny_model():
+    from dressmeup.methods.uvparam.neural.train import train
+
+    V, F = make_test_mesh("blob-400")
+    return train(V, F, "fast", progress=False, **TINY)
+
+
+def test_losses_decrease_on_a_tiny_run(tiny_model):
+    h = tiny_model.history
+
+    def drop(key, k=5):
+        return np.mean(h[key][-k:]) < np.mean(h[key][:k])
+
+    assert drop("patch_total") and drop("cos")
+    assert drop("uv_total") and drop("cycle") and drop("iso")
+    assert np.mean(h["uv_total"][-5:]) < 0.5 * np.mean(h["uv_total"][:5])
+    assert h["n_charts_train"] >= 2
+
+
+def test_inference_on_another_resolution_and_checkpoint(tiny_model, tmp_path):
+    from dressmeup.methods.uvparam import get_method
+    from dressmeup.methods.uvparam.neural.infer import infer
+    from dressmeup.methods.uvparam.neural.train import save_model
+    from dressmeup.metrics import qce, uv_validity
+
+    path = tmp_path / "m.pt"
+    save_model(tiny_model, path)
+    V, F = make_test_mesh("blob-1.6k")
+    res = get_method("neural", checkpoint=path).parameterize(V, F)
+    ref = infer(tiny_model, V, F)
+    np.testing.assert_allclose(res.uv, ref.uv, atol=1e-6)  # the checkpoint is the model
+    assert np.all(np.isfinite(res.uv)) and res.uv_faces.shape == F.shape
+    assert res.n_charts >= 2 and res.uv.min() >= -1e-9 and res.uv.max() <= 1 + 1e-9
+    # training helped: an untrained pair of MLPs on the same charts distorts far more
+    from dressmeup.methods.uvparam.neural.train import NeuralUVModel, _build_modules
+
+    _, f0, b0 = _build_modules(tiny_model.config)
+    untrained = NeuralUVModel(tiny_model.config, tiny_model.patchnet, f0.eval(), b0.eval())
+    raw = infer(untrained, V, F)
+    assert qce(V, F, res.uv, res.uv_faces) < 0.75 * qce(V, F, raw.uv, raw.uv_faces)
+    assert uv_validity(V, F, res.uv, res.uv_faces, resolution=256).flipped_fraction < 0.5
+
+
+def test_neural_method_trains_when_no_checkpoint_and_open_mesh():
+    from dressmeup.methods.uvparam import get_method
+
+    V, F = make_test_mesh("sheet-300")
+    res = get_method("neural", **TINY).parameterize(V, F)
+    assert res.uv_faces.shape == F.shape and np.all(np.isfinite(res.uv))
+    assert "seconds_train" in res.info
+
+
+def test_bad_config_is_rejected():
+    from dressmeup.methods.uvparam.neural.train import get_config
+
+    with pytest.raises(ValueError, match="config"):
+        get_config("huge")
+    with pytest.raises(ValueError, match="unknown neural hyperparameter"):
+        get_config("fast", n_patchez=3)
+
+
+def test_cli_writes_a_submission(tmp_path):
+    from dressmeup.cli import main
+
+    out = tmp_path / "sub"
+    assert main(["baseline", "uvparam", "--method", "lscm", "--meshes", "sheet-300", "sphere-300",
+                 "--out", str(out)]) == 0
+    meta = json.loads((out / "submission.json").read_text())
+    assert meta["task"] == "uvparam" and meta["method"] == "lscm"
+    with np.load(out / "sphere-300.npz") as z:
+        V, F = make_test_mesh("sphere-300")
+        assert z["uv_faces"].shape == F.shape and z["chart_ids"].shape == (len(F),)
+        assert z["uv"].shape[1] == 2
+    assert main(["baseline", "uvparam", "--method", "lscm", "--meshes", "cube-3k", "--out", str(out)]) == 2
