@@ -218,7 +218,8 @@ def _iso_pairs(Vn: np.ndarray, row_vertex: np.ndarray, row_chart: np.ndarray, ro
 
 
 def train(V, F, config: str | NeuralConfig = "fast", progress: bool = True,
-          patchnet_only: bool = False, threads: int | None = 1, **overrides: Any) -> NeuralUVModel:
+          patchnet_only: bool = False, threads: int | None = 1, init_patchnet: Any = None,
+          **overrides: Any) -> NeuralUVModel:
     """Train PatchNet and the UV MLPs on one mesh.
 
     Parameters
@@ -231,6 +232,9 @@ def train(V, F, config: str | NeuralConfig = "fast", progress: bool = True,
         Show progress bars.
     patchnet_only : bool
         Stop after PatchNet (the UV MLPs stay untrained).
+    init_patchnet : torch.nn.Module, optional
+        A PatchNet already trained on this mesh (same configuration): its training is
+        skipped (used by the loss ablation to compare UV losses on identical charts).
     threads : int or None
         torch intra-op threads while training (default 1: the networks are small, and extra
         threads only contend on a shared CPU; ``None`` keeps torch's setting).
@@ -254,12 +258,13 @@ def train(V, F, config: str | NeuralConfig = "fast", progress: bool = True,
     if threads:
         torch.set_num_threads(int(threads))
     try:
-        return _train(V, F, get_config(config, **overrides), progress, patchnet_only)
+        return _train(V, F, get_config(config, **overrides), progress, patchnet_only, init_patchnet)
     finally:
         torch.set_num_threads(old)
 
 
-def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool) -> NeuralUVModel:
+def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool,
+           init_patchnet: Any = None) -> NeuralUVModel:
     import torch
 
     from dressmeup.progress import progress as bar
@@ -272,6 +277,8 @@ def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool) -> Neur
     tops = ops.to_torch()
     x = torch.from_numpy(patchnet_inputs(Vn, F))
     patchnet, fwd, bwd = _build_modules(cfg)
+    if init_patchnet is not None:
+        patchnet.load_state_dict(init_patchnet.state_dict())
     hist: dict = {k: [] for k in ("patch_total", "cos", "geo", "uv_total", "cycle", "iso", "angle", "area")}
 
     # --- PatchNet -------------------------------------------------------------------------
@@ -288,7 +295,8 @@ def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool) -> Neur
     Ft = torch.from_numpy(F)
     lm_t = torch.from_numpy(lm)
     opt = torch.optim.Adam(patchnet.parameters(), lr=cfg.patch_lr)
-    for _ in bar(range(cfg.patch_iters), desc="PatchNet", disable=not progress or None):
+    n_patch_iters = 0 if init_patchnet is not None else cfg.patch_iters
+    for _ in bar(range(n_patch_iters), desc="PatchNet", disable=not progress or None):
         probs = patchnet(x, tops)
         fprobs = probs[Ft].mean(dim=1)
         lc = L.cosine_loss(fprobs, fn, fa)
