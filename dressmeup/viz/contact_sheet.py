@@ -108,3 +108,99 @@ def render_contact_sheet(cells: Sequence[Sequence[MeshLayer]], path: str | os.Pa
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     plt.close(fig)
+
+
+def _face_colors_from_texture(g) -> np.ndarray | None:
+    """Per-face RGB in [0, 1] sampled from the texture at each face's UV centroid."""
+    if g.uv is None or g.texture_path is None:
+        return None
+    from PIL import Image
+
+    with Image.open(g.texture_path) as im:
+        tex = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
+    uvf = g.uv_faces if g.uv_faces is not None else g.faces
+    c = g.uv[uvf].mean(1)
+    h, w = tex.shape[:2]
+    x = np.clip((c[:, 0] % 1.0) * (w - 1), 0, w - 1).astype(int)
+    y = np.clip((1.0 - c[:, 1] % 1.0) * (h - 1), 0, h - 1).astype(int)
+    return tex[y, x]
+
+
+def render_dataset_contact_sheet(root: str | os.PathLike, path: str | os.PathLike,
+                                 max_garments: int = 8, max_poses: int = 5,
+                                 view: str = "front", one_per_type: bool = True) -> None:
+    """Contact sheet of a dataset: one row per garment, one column per pose.
+
+    Each cell shows the posed body (grey, from ``body()`` through its body model) and the
+    textured garment. Needs the body model named in each body file.
+
+    Parameters
+    ----------
+    root : dataset folder.
+    path : output PNG.
+    max_garments, max_poses : grid size limits.
+    view : ``front`` or ``side``.
+    one_per_type : show garments of distinct types first.
+    """
+    from dressmeup.body import get_body_model
+    from dressmeup.data.dataset import Dataset
+
+    ds = Dataset(root)
+    m = ds.manifest.sort_values(["garment_id", "pose_id"])
+    garments = list(dict.fromkeys(m["garment_id"]))
+    if one_per_type:
+        first = m.drop_duplicates("garment_type")["garment_id"].tolist()
+        garments = first + [g for g in garments if g not in first]
+    garments = garments[:max_garments]
+    cells, titles = [], []
+    frame = None
+    for g in garments:
+        rows = m[m["garment_id"] == g].head(max_poses)
+        for _, r in rows.iterrows():
+            s = ds[r["sample_id"]]
+            gm = s.garment()
+            layers = []
+            b = s.body()
+            if b is not None:
+                model = get_body_model(b.model)
+                out = model.posed(b)
+                layers.append(MeshLayer(out.vertices, model.faces, (0.75, 0.75, 0.75)))
+                if frame is None:
+                    from dressmeup.data.synth.garments import BodyFrame
+
+                    frame = BodyFrame.from_joints(out.rest_joints, tuple(model.joint_names))
+            layers.append(MeshLayer(gm.vertices, gm.faces, (0.8, 0.35, 0.3),
+                                    _face_colors_from_texture(gm)))
+            cells.append(layers)
+            pose = ds.info.get("subjects", {}).get(s.subject_id, {}).get("poses", {}).get(
+                s.pose_id, s.pose_id)
+            titles.append(f"{s.sample_id}\n{s.garment_type}, {pose}")
+        for _ in range(max_poses - len(rows)):
+            cells.append([])
+            titles.append("")
+    up = frame.up if frame is not None else np.array([0.0, 1.0, 0.0])
+    right = (frame.left if view == "front" else frame.forward) if frame is not None else \
+        np.array([1.0, 0.0, 0.0])
+    filled = [c if c else None for c in cells]
+    _render_sparse(filled, path, right, up, max_poses, titles)
+
+
+def _render_sparse(cells, path, right, up, ncols, titles):
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    from dressmeup.io.atomic import atomic_path
+
+    nrows = max(1, int(np.ceil(len(cells) / ncols)))
+    fig, axes = plt.subplots(nrows, ncols, figsize=(1.9 * ncols, 2.4 * nrows), squeeze=False)
+    for k, ax in enumerate(axes.ravel()):
+        if k < len(cells) and cells[k]:
+            draw_cell(ax, cells[k], right, up, titles[k])
+        else:
+            ax.axis("off")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100, format="png")
+    plt.close(fig)

@@ -271,13 +271,26 @@ def build_garment(garment_type: str, params: dict[str, Any], body_V: np.ndarray,
     off = params["offset"]
     hip_h = 0.5 * (frame.h(J["left_hip"]) + frame.h(J["right_hip"]))
     ankle_h = 0.5 * (frame.h(J["left_ankle"]) + frame.h(J["right_ankle"]))
+    from scipy.spatial import cKDTree
+
+    body_tree = cKDTree(body_V)
+
+    def near_label(x):
+        return labels[body_tree.query(x)[1]]
+
     planes: list[Plane] = []
     is_top = "neck_drop" in spec
     has_skirt = bool(spec.get("skirt"))
     if is_top:
         neck_cut = frame.h(J["neck"]) - params["neck_drop"]
         r_neck = np.linalg.norm(J["left_collar"] - J["right_collar"]) * 0.5 + 0.06
-        planes.append(Plane(up * neck_cut, -up, radius=r_neck, axis_point=J["neck"], axis_dir=up))
+
+        def neck_region(x, r=r_neck):
+            d = x - J["neck"]
+            radial = np.linalg.norm(d - np.outer(d @ up, up), axis=1)
+            return (radial < r) | np.isin(near_label(x), ("neck", "head"))
+
+        planes.append(Plane(up * neck_cut, -up, region=neck_region))
     if "waist_above_pelvis" in params:
         planes.append(Plane(up * (frame.h(J["pelvis"]) + params["waist_above_pelvis"]), -up))
     if "hem_below_hip" in params and not has_skirt:
@@ -286,13 +299,6 @@ def build_garment(garment_type: str, params: dict[str, Any], body_V: np.ndarray,
         planes.append(Plane(up * (hip_h - params["skirt_hem_frac"] * (hip_h - ankle_h)), up))
     if "leg_frac" in params:
         planes.append(Plane(up * (hip_h - params["leg_frac"] * (hip_h - ankle_h)), up))
-    from scipy.spatial import cKDTree
-
-    body_tree = cKDTree(body_V)
-
-    def near_label(x):
-        return labels[body_tree.query(x)[1]]
-
     def on_side(side):
         names = [f"{side}_{j}" for j in ("shoulder", "elbow", "wrist")]
         return lambda x: np.isin(near_label(x), names)

@@ -1,0 +1,99 @@
+"""Speed of the data stage, side by side with a named alternative.
+
+1. Loading one sample's garment (50k vertices, per-corner UVs, texture) through
+   ``Dataset(...)[i].garment()`` versus ``trimesh.load`` of the same PLY file.
+2. With ``--generate``: wall time of ``generate_dataset`` for 3 subjects x 4 garments x
+   5 poses with the anny body (the target is under 5 minutes on 2 cores).
+
+Run: ``python benchmarks/perf/dataset.py [--generate] [--body-model anny]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def _garment_50k():
+    import trimesh
+
+    m = trimesh.creation.uv_sphere(count=[190, 190])  # about 50k vertices after opening it
+    V, F = np.asarray(m.vertices), np.asarray(m.faces)
+    keep = V[F].mean(1)[:, 2] < 0.6  # open it (a garment has holes)
+    F = F[keep]
+    used = np.unique(F)
+    remap = -np.ones(len(V), int)
+    remap[used] = np.arange(len(used))
+    V, F = V[used], remap[F]
+    uv = np.random.default_rng(0).uniform(size=(3 * len(F), 2))
+    return V * 0.3, F, uv, np.arange(3 * len(F)).reshape(-1, 3)
+
+
+def bench_load(repeats: int = 15) -> None:
+    import trimesh
+
+    from dressmeup.data import Dataset, DatasetWriter
+
+    V, F, uv, uvf = _garment_50k()
+    with tempfile.TemporaryDirectory() as d:
+        w = DatasetWriter(d, {"name": "bench"})
+        w.add_sample(subject_id="S01", garment_id="G01", pose_id="P1", category="topwear",
+                     garment_type="t-shirt", split="test", garment=(V, F, uv, uvf),
+                     texture=np.zeros((64, 64, 3), np.uint8))
+        w.finalize()
+        ds = Dataset(d)
+        path = Path(d) / ds.manifest["garment_path"][0]
+        ds[0].garment()  # warm the imports
+        t_ours, t_tri = [], []
+        logging.getLogger("trimesh").setLevel(logging.CRITICAL)
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            g = Dataset(d)[0].garment()
+            t_ours.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            trimesh.load(path, process=False)
+            t_tri.append(time.perf_counter() - t0)
+        a, b = statistics.median(t_ours), statistics.median(t_tri)
+        print(f"garment with {len(g.vertices)} vertices, {len(g.faces)} faces, per-corner UVs")
+        print(f"{'method':44s} {'median ms':>10s}")
+        print(f"{'Dataset(root)[0].garment() (manifest + mesh)':44s} {a * 1e3:10.1f}")
+        print(f"{'trimesh.load(garment.ply, process=False)':44s} {b * 1e3:10.1f}")
+        print(f"ratio trimesh / ours: {b / a:.2f}x")
+
+
+def bench_generate(body_model: str, out: str | None) -> None:
+    import torch
+
+    from dressmeup.data.synth import generate_dataset
+
+    torch.set_num_threads(1)
+    with tempfile.TemporaryDirectory() as d:
+        root = out or os.path.join(d, "synth")
+        t0 = time.perf_counter()
+        generate_dataset(root, subjects=3, garments=4, poses=5, seed=0, body_model=body_model)
+        dt = time.perf_counter() - t0
+        load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+        print(f"generate_dataset 3x4x5 ({body_model}): {dt:.1f} s "
+              f"(target < 300 s on 2 cores; 1-min load average at the end {load:.1f})")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--generate", action="store_true", help="also time the 3x4x5 generation")
+    p.add_argument("--body-model", default="anny")
+    p.add_argument("--out", default=None, help="keep the generated dataset here")
+    args = p.parse_args()
+    bench_load()
+    if args.generate:
+        bench_generate(args.body_model, args.out)
+
+
+if __name__ == "__main__":
+    main()
