@@ -182,7 +182,7 @@ class LBSBodyModel:
                 raise InputError(f"scale: expected shape ({b},), got {tuple(scale_t.shape)}")
         return shape_t, pose_t, transl_t, scale_t
 
-    def forward(self, shape, pose, transl=None, scale=None) -> BodyOutput:
+    def forward(self, shape, pose, transl=None, scale=None, vertex_ids=None) -> BodyOutput:
         """Pose and shape a batch of bodies (differentiable in torch).
 
         Parameters
@@ -192,6 +192,8 @@ class LBSBodyModel:
         pose : (b, j, 3) or (j, 3) axis-angle per joint, relative to the parent.
         transl : (b, 3) translation, default zeros.
         scale : (b,) uniform scale, default ones.
+        vertex_ids : optional (k,) vertex indices: skin only those vertices (``vertices``
+            is then (b, k, 3); ``rest_vertices`` stays complete). Registration uses it.
 
         Returns
         -------
@@ -206,6 +208,11 @@ class LBSBodyModel:
         skinned_in = rest_v if offsets is None else rest_v + offsets
         joints, A = forward_kinematics(R, rest_j, self.joint_parents)
         W = self._buffer("skinning_weights", pose_t.dtype, pose_t.device)
+        if vertex_ids is not None:
+            import torch
+
+            ids = torch.as_tensor(vertex_ids, dtype=torch.long, device=pose_t.device)
+            skinned_in, W = skinned_in[:, ids], W[ids]
         verts = skin_points(skinned_in, W, A)
         s = scale_t[:, None, None]
         t = transl_t[:, None, :]
