@@ -63,8 +63,11 @@ def build_fixture_dataset(root: Path) -> Path:
             else:
                 Vp, Fp = V, F
             Vp = pose_garment(Vp, p, gi) + params.transl
+            B = model.posed(params).vertices
+            scan = (np.vstack([B, Vp]), np.vstack([model.faces, Fp + len(B)]))
             w.add_sample(subject_id="S01", garment_id=gid, pose_id=f"P{p}", category=cat,
-                         garment_type=gtype, split="test", garment=(Vp, Fp), body=params)
+                         garment_type=gtype, split="test", garment=(Vp, Fp), body=params,
+                         scan=scan)
     w.finalize()
     return root
 
