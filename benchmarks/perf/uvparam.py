@@ -50,9 +50,12 @@ def main() -> None:
     ap.add_argument("--config", default="fast", choices=("fast", "reference"))
     ap.add_argument("--threads", type=int, default=2, help="torch threads for neural inference")
     ap.add_argument("--skip-lscm", action="store_true")
+    ap.add_argument("--uv-iters", type=int, default=None,
+                    help="override the configuration's UV training steps (inference time does not depend on it)")
     args = ap.parse_args()
     mesh_id = f"{args.shape}-{args.resolution}"
-    model, ckpt = trained_model(args.shape, args.config)
+    overrides = {"uv_iters": args.uv_iters} if args.uv_iters else {}
+    model, ckpt = trained_model(args.shape, args.config, **overrides)
     V, F = make_test_mesh(mesh_id)
     print(f"{mesh_id}: {len(V)} vertices, {len(F)} faces; model {ckpt.name} "
           f"(trained in {model.history.get('seconds_total', float('nan')):.1f} s)")
@@ -92,7 +95,7 @@ def main() -> None:
                       f"({rows[0]['qce']:.3f} vs {rows[2]['qce']:.3f}, {rel:+.1%})")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     text = (f"# Neural UV inference vs xatlas on {mesh_id}\n\n{len(V)} vertices, {len(F)} faces; model trained on "
-            f"{args.shape}-2.5k with the {args.config} configuration; operators computed (no cache); "
+            f"{args.shape}-2.5k with the {args.config} configuration{' (' + str(args.uv_iters) + ' UV steps)' if args.uv_iters else ''}; operators computed (no cache); "
             f"torch threads {args.threads}; 1-min load average at the end {load:.1f} on {os.cpu_count()} cores.\n\n"
             + table + "\n" + "\n".join(checks) + "\n")
     RESULTS.mkdir(parents=True, exist_ok=True)

@@ -102,8 +102,9 @@ def render_uv_checker(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np
     nrm /= np.linalg.norm(nrm, axis=1, keepdims=True) + 1e-20
 
     fig = plt.figure(figsize=(4.2 * (len(views) + 1), 4.4))
-    c = V.mean(axis=0)
-    r = float(np.max(np.abs(V - c))) or 1.0
+    lo3, hi3 = V.min(axis=0), V.max(axis=0)
+    c = 0.5 * (lo3 + hi3)
+    half = np.maximum(0.5 * (hi3 - lo3), 1e-3 * float(np.max(hi3 - lo3) or 1.0))
     for i, (elev, azim) in enumerate(views):
         ax = fig.add_subplot(1, len(views) + 1, i + 1, projection="3d")
         e, a = np.deg2rad(elev), np.deg2rad(azim)
@@ -111,11 +112,11 @@ def render_uv_checker(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np
         shade = 0.35 + 0.65 * np.abs(nrm @ eye)
         pc = Poly3DCollection(P, facecolors=np.clip(col * shade[:, None], 0, 1), edgecolors="none")
         ax.add_collection3d(pc)
-        ax.set_xlim(c[0] - r, c[0] + r)
-        ax.set_ylim(c[1] - r, c[1] + r)
-        ax.set_zlim(c[2] - r, c[2] + r)
+        ax.set_xlim(c[0] - half[0], c[0] + half[0])
+        ax.set_ylim(c[1] - half[1], c[1] + half[1])
+        ax.set_zlim(c[2] - half[2], c[2] + half[2])
         ax.view_init(elev=elev, azim=azim)
-        ax.set_box_aspect((1, 1, 1))
+        ax.set_box_aspect(tuple(half / half.max()), zoom=1.35)
         ax.set_axis_off()
     ax = fig.add_subplot(1, len(views) + 1, len(views) + 1)
     tri = uvn[uv_faces[sel]]
