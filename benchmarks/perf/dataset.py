@@ -51,7 +51,10 @@ def bench_load(repeats: int = 15) -> None:
         ds = Dataset(d)
         path = Path(d) / ds.manifest["garment_path"][0]
         ds[0].garment()  # warm the imports
-        t_ours, t_tri = [], []
+        from dressmeup.io.mesh import load_mesh
+
+        sample = ds[0]
+        t_ours, t_tri, t_g, t_lm = [], [], [], []
         logging.getLogger("trimesh").setLevel(logging.CRITICAL)
         for _ in range(repeats):
             t0 = time.perf_counter()
@@ -60,10 +63,20 @@ def bench_load(repeats: int = 15) -> None:
             t0 = time.perf_counter()
             trimesh.load(path, process=False)
             t_tri.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            sample.garment()
+            t_g.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            load_mesh(path)
+            t_lm.append(time.perf_counter() - t0)
         a, b = statistics.median(t_ours), statistics.median(t_tri)
         print(f"garment with {len(g.vertices)} vertices, {len(g.faces)} faces, per-corner UVs")
         print(f"{'method':44s} {'median ms':>10s}")
         print(f"{'Dataset(root)[0].garment() (manifest + mesh)':44s} {a * 1e3:10.1f}")
+        print(f"{'sample.garment() (dataset already open)':44s} "
+              f"{statistics.median(t_g) * 1e3:10.1f}")
+        print(f"{'dressmeup.io.mesh.load_mesh(garment.ply)':44s} "
+              f"{statistics.median(t_lm) * 1e3:10.1f}")
         print(f"{'trimesh.load(garment.ply, process=False)':44s} {b * 1e3:10.1f}")
         print(f"ratio trimesh / ours: {b / a:.2f}x")
 

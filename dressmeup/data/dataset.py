@@ -49,6 +49,66 @@ class GarmentMesh:
     texture_path: Path | None = None
 
 
+_PLY_VERTEX = ["property double x", "property double y", "property double z"]
+_PLY_FACE = "property list uchar int vertex_indices"
+_PLY_TEX = "property list uchar double texcoord"
+
+
+def read_dataset_ply(path: str | os.PathLike) -> GarmentMesh | None:
+    """Fast path for the exact binary PLY layout that :func:`dressmeup.io.mesh.save_mesh`
+    writes (float64 xyz; triangles; optional per-corner ``texcoord``): one
+    ``numpy.frombuffer`` per element. Returns None for any other layout (the caller then
+    uses the general reader), and validates like it (finite, faces in range, non-empty).
+    """
+    path = Path(path)
+    with open(path, "rb") as fh:
+        data = fh.read()
+    end = data.find(b"end_header\n", 0, 65536)
+    if not data.startswith(b"ply\n") or end < 0:
+        return None
+    lines = [ln.strip() for ln in data[:end].decode("ascii", "replace").splitlines()[1:]]
+    tex = None
+    for ln in lines:
+        if ln.lower().startswith("comment texturefile"):
+            tex = ln.split(None, 2)[2].strip() if len(ln.split(None, 2)) == 3 else None
+    body = [ln for ln in lines if ln and not ln.startswith(("comment", "obj_info"))]
+    if len(body) not in (7, 8) or body[0] != "format binary_little_endian 1.0":
+        return None
+    if not (body[1].startswith("element vertex ") and body[5].startswith("element face ")):
+        return None
+    if body[2:5] != _PLY_VERTEX or body[6] != _PLY_FACE:
+        return None
+    has_uv = len(body) == 8
+    if has_uv and body[7] != _PLY_TEX:
+        return None
+    try:
+        n, m = int(body[1].split()[2]), int(body[5].split()[2])
+    except ValueError:
+        return None
+    fdt = [("n", "u1"), ("i", "<i4", (3,))] + ([("nt", "u1"), ("t", "<f8", (6,))]
+                                               if has_uv else [])
+    fdt = np.dtype(fdt)
+    start = end + len(b"end_header\n")
+    if len(data) < start + 24 * n + fdt.itemsize * m or n == 0 or m == 0:
+        return None
+    V = np.frombuffer(data, "<f8", 3 * n, start).reshape(n, 3).copy()
+    rec = np.frombuffer(data, fdt, m, start + 24 * n)
+    if np.any(rec["n"] != 3) or (has_uv and np.any(rec["nt"] != 6)):
+        return None
+    F = rec["i"].astype(np.int64)
+    if not np.isfinite(V).all() or F.min() < 0 or F.max() >= n:
+        return None  # let the general reader raise its precise error
+    uv = uvf = None
+    if has_uv:
+        uv = rec["t"].reshape(-1, 2).copy()
+        uvf = np.arange(3 * m, dtype=np.int64).reshape(m, 3)
+    tpath = None
+    if tex:
+        cand = path.parent / tex
+        tpath = cand if cand.is_file() else None
+    return GarmentMesh(V, F, uv, uvf, tpath)
+
+
 class Sample:
     """One garment worn in one pose: ids, category fields and lazy loaders.
 
@@ -94,11 +154,14 @@ class Sample:
         """Load the garment mesh (vertices in metres, UVs and texture when present)."""
         if "garment" in self._loaders:
             return self._loaders["garment"]()
-        from dressmeup.io.mesh import load_mesh
-
         p = self.path("garment")
         if p is None:
             raise InputError(f"sample {self.sample_id}: no garment file")
+        fast = read_dataset_ply(p)
+        if fast is not None:
+            return fast
+        from dressmeup.io.mesh import load_mesh
+
         m = load_mesh(p)
         return GarmentMesh(m.vertices, m.faces, m.uv, m.uv_faces, m.texture_path)
 

@@ -230,3 +230,32 @@ def test_split_by_garment():
     two = split_by_garment(["A", "B"], seed=0)
     assert sorted(two.values()) == ["test", "train"]
     assert split_by_garment(["A"]) == {"A": "train"}
+
+
+def test_fast_ply_path_matches_general_reader(tmp_path):
+    from dressmeup.data.dataset import read_dataset_ply
+    from dressmeup.io.mesh import load_mesh, save_mesh
+
+    V, F, uv = _grid(7, seed=4)
+    uvf = F[:, [1, 2, 0]]
+    save_mesh(tmp_path / "g.ply", V, F, uv=uv, uv_faces=uvf,
+              texture=np.zeros((2, 2, 3), np.uint8))
+    fast, ref = read_dataset_ply(tmp_path / "g.ply"), load_mesh(tmp_path / "g.ply")
+    np.testing.assert_array_equal(fast.vertices, ref.vertices)
+    np.testing.assert_array_equal(fast.faces, ref.faces)
+    np.testing.assert_array_equal(fast.uv[fast.uv_faces], ref.uv[ref.uv_faces])
+    assert fast.texture_path == ref.texture_path
+    save_mesh(tmp_path / "c.ply", V, F, vertex_colors=np.zeros((len(V), 3), np.uint8))
+    assert read_dataset_ply(tmp_path / "c.ply") is None  # other layouts: general reader
+
+
+def test_cli_validate_dataset_exit_codes(tmp_path, capsys):
+    from dressmeup.cli import main
+
+    root = make_tiny(tmp_path / "ds")
+    assert main(["validate-dataset", str(root)]) == 0
+    assert "OK" in capsys.readouterr().out
+    (root / "samples/S01/G02/P3/scan.ply").unlink()
+    assert main(["validate-dataset", str(root)]) == 1
+    out = capsys.readouterr().out
+    assert "S01-G02-P3" in out and "scan_path file" in out and "INVALID" in out
