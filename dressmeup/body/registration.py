@@ -327,14 +327,14 @@ class OptimizationRegistrar:
                 terms["keypoints"] = float(kl.detach())
             return loss, terms
 
-        def run(stage: str, n: int, params: list, lrs: list):
+        def run(stage: str, n: int, params: list, lrs: list, label: str | None = None):
             if n <= 0:
                 return {}
             opt = torch.optim.Adam([{"params": [p], "lr": lr} for p, lr in zip(params, lrs, strict=True)])
             sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=n, eta_min=0.05 * min(lrs))
             terms: dict = {}
             state["rest_normals"], state["nn_s2b"], state["step"] = None, None, 0
-            bar = progress(range(n), desc=f"register: {stage}", disable=None if self.verbose else True)
+            bar = progress(range(n), desc=f"register: {label or stage}", disable=None if self.verbose else True)
             for _ in bar:
                 opt.zero_grad()
                 loss, terms = loss_fn(pose, transl, stage)
@@ -382,7 +382,7 @@ class OptimizationRegistrar:
                     pose[0] = torch.tensor([0.0, yaw, 0.0], dtype=dt)
                     transl.copy_(base_transl)
                 terms = run("global", max(n_global // 3, 5), [pose, transl],
-                            [self.lr_pose, self.lr_transl])
+                            [self.lr_pose, self.lr_transl], label=f"yaw {math.degrees(yaw):.0f}")
                 if best is None or terms["data"] < best[0]:
                     best = (terms["data"], pose.detach().clone(), transl.detach().clone())
             with torch.no_grad():

@@ -1,0 +1,45 @@
+"""The ``dressmeup register`` command on a procedural-body scan."""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from dressmeup.body import BodyParams, get_body_model
+from dressmeup.body.synthetic import named_pose
+from dressmeup.cli import main
+
+
+def test_register_command(tmp_path, capsys):
+    model = get_body_model("procedural")
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=named_pose("standing"),
+                       transl=[0.0, 0.1, 0.0])
+    scan = tmp_path / "scan.ply"
+    trimesh.Trimesh(model.posed(truth).vertices, model.faces, process=False).export(scan)
+    out = tmp_path / "body.npz"
+    assert main(["register", str(scan), "--model", "procedural", "--out", str(out),
+                 "--iterations", "10,40,20"]) == 0
+    fit = BodyParams.load(out)
+    assert fit.model == "procedural" and fit.pose.shape == (22, 3)
+    err = np.linalg.norm(model.posed(fit).joints - model.posed(truth).joints, axis=1).mean()
+    assert err < 0.05
+    assert "wrote" in capsys.readouterr().out
+    # from-file registrar: import instead of fitting
+    out2 = tmp_path / "copy.npz"
+    assert main(["register", str(scan), "--model", "procedural", "--out", str(out2),
+                 "--registrar", "from-file", "--params", str(out)]) == 0
+    np.testing.assert_array_equal(BodyParams.load(out2).pose, fit.pose)
+
+
+def test_register_command_errors(tmp_path, capsys):
+    assert main(["register", str(tmp_path / "none.ply"), "--model", "procedural",
+                 "--out", str(tmp_path / "b.npz")]) == 2
+    assert "scan not found" in capsys.readouterr().err
+    assert main(["register", str(tmp_path / "none.ply"), "--model", "smpl",
+                 "--model-path", str(tmp_path), "--out", str(tmp_path / "b.npz")]) == 2
+    err = capsys.readouterr().err
+    assert "SMPL_NEUTRAL.pkl" in err and "licence" in err
+    np.save(tmp_path / "p.npy", np.random.default_rng(0).normal(size=(50, 3)))
+    assert main(["register", str(tmp_path / "p.npy"), "--model", "procedural",
+                 "--iterations", "1,2", "--out", str(tmp_path / "b.npz")]) == 2
+    assert "--iterations" in capsys.readouterr().err
