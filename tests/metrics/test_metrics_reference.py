@@ -139,6 +139,25 @@ def test_chamfer_vs_brute_force(squared):
     np.testing.assert_allclose(d_ba, D.min(0), rtol=1e-12)
 
 
+def test_chamfer_large_clouds_vs_brute_force():
+    rng = np.random.default_rng(13)
+    a, b = rng.normal(size=(4300, 3)), rng.normal(size=(4150, 3))  # both >= ORDER_MIN_QUERIES
+
+    def brute(p, q):  # chunked full distance matrices
+        return np.concatenate(
+            [
+                np.linalg.norm(p[s : s + 500, None] - q[None], axis=2).min(1)
+                for s in range(0, len(p), 500)
+            ]
+        )
+
+    d_ab, d_ba = brute(a, b), brute(b, a)
+    got_ab, got_ba = M.chamfer_details(a, b)
+    np.testing.assert_allclose(got_ab, d_ab, rtol=1e-12)
+    np.testing.assert_allclose(got_ba, d_ba, rtol=1e-12)
+    assert M.chamfer(a, b) == pytest.approx(np.mean(d_ab**2) + np.mean(d_ba**2), rel=1e-12)
+
+
 def test_euclidean_vs_loop():
     V, F = random_mesh(4)
     W = V + np.random.default_rng(0).normal(size=V.shape) * 0.01
