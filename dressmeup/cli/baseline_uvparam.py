@@ -23,14 +23,16 @@ def register(tasks: argparse._SubParsersAction) -> None:
     p = tasks.add_parser(
         "uvparam", help="run a UV parameterisation method into a submission folder",
         description="Parameterise meshes with one method and write per-corner UV submissions "
-                    "(<mesh_id>.npz with uv, uv_faces, chart_ids + submission.json). Meshes are "
+                    "(<mesh_id>.npz with uv, uv_faces, chart_ids, seconds + submission.json, the "
+                    "dressmeup.bench submission format). Meshes are "
                     "test-mesh ids (sphere-2k, torus-30k, blob-3k, sheet-2k, skirt-3k, body-native, "
                     "...) or mesh files (.obj/.ply/.off, id = file stem).")
     p.add_argument("--method", required=True, choices=METHOD_NAMES)
     p.add_argument("--meshes", nargs="+", default=None,
                    help="mesh ids or files (default: the synth-uvparam-v1 set)")
     p.add_argument("--edition", default=None,
-                   help="take the mesh ids from this edition (name or JSON path) when dressmeup.bench offers it")
+                   help="take the mesh ids from this uvparam edition (name or JSON path); also "
+                        "recorded in submission.json (default synth-uvparam-v1)")
     p.add_argument("--out", required=True, type=Path, help="submission folder to write")
     p.add_argument("--config", default="fast", choices=("fast", "reference"),
                    help="neural method: network configuration")
@@ -38,6 +40,7 @@ def register(tasks: argparse._SubParsersAction) -> None:
                    help="neural method: trained model (infer only); otherwise it trains per mesh")
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="extra method hyperparameter (repeatable), e.g. --param n_patches=12")
+    p.add_argument("--overwrite", action="store_true", help="allow writing into a non-empty folder")
     p.add_argument("--images", type=Path, default=None,
                    help="also write a checkerboard picture per mesh into this folder")
     p.set_defaults(func=_run_uvparam)
@@ -87,26 +90,23 @@ def load_mesh_arg(spec: str):
 
 
 def _mesh_ids_from_edition(edition: str) -> list[str]:
-    try:
-        from dressmeup.bench import load_edition  # type: ignore[attr-defined]
-    except ImportError as exc:
-        raise ValueError("--edition: dressmeup.bench.load_edition is not available; pass --meshes") from exc
+    from dressmeup.bench.edition import load_edition
+
     ed = load_edition(edition)
-    data = ed if isinstance(ed, dict) else getattr(ed, "__dict__", {})
-    for key in ("meshes", "mesh_ids", "samples"):
-        ids = data.get(key) or data.get("options", {}).get(key) if isinstance(data, dict) else None
-        if ids:
-            return [m if isinstance(m, str) else m["id"] for m in ids]
-    raise ValueError(f"--edition {edition}: no mesh list found in the edition")
+    if ed.task != "uvparam":
+        raise ValueError(f"--edition {edition}: a '{ed.task}' edition, expected a 'uvparam' one")
+    ids = ed.dataset.params.get("mesh_ids")
+    if not ids:
+        raise ValueError(f"--edition {edition}: the edition lists no mesh_ids")
+    return list(ids)
 
 
 def _run_uvparam(args: argparse.Namespace) -> int:
+    import os
     import platform
-    import time
 
     import numpy as np
 
-    from dressmeup.io.atomic import atomic_path, atomic_write_text
     from dressmeup.methods.uvparam import get_method
     from dressmeup.methods.uvparam.shapes import DEFAULT_MESH_IDS
     from dressmeup.progress import progress
@@ -124,16 +124,14 @@ def _run_uvparam(args: argparse.Namespace) -> int:
     else:
         specs = list(DEFAULT_MESH_IDS)
     out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    times = {}
+    edition = args.edition or "synth-uvparam-v1"
+    preds, times = {}, {}
     for spec in progress(specs, desc=f"uvparam {args.method}"):
         mesh_id, V, F = load_mesh_arg(spec)
         res = method.parameterize(V, F)
         times[mesh_id] = res.seconds
-        with atomic_path(out / f"{mesh_id}.npz", suffix=".npz") as tmp:
-            with open(tmp, "wb") as fh:
-                np.savez(fh, uv=res.uv, uv_faces=res.uv_faces, chart_ids=res.chart_ids,
-                         seconds=np.float64(res.seconds))
+        preds[mesh_id] = {"uv": res.uv, "uv_faces": res.uv_faces, "chart_ids": res.chart_ids,
+                          "seconds": np.float64(res.seconds)}
         if args.images:
             from dressmeup.viz.uv_checker import render_uv_checker
 
@@ -141,16 +139,15 @@ def _run_uvparam(args: argparse.Namespace) -> int:
                               title=f"{args.method} on {mesh_id} ({res.n_charts} charts)",
                               chart_ids=res.chart_ids)
         sys.stdout.write(f"{mesh_id}: {len(V)} vertices, {res.n_charts} charts, {res.seconds:.2f} s\n")
-    from dressmeup import __version__
+    from dressmeup.bench.submission import write_submission
 
-    meta = {"task": "uvparam", "edition": args.edition or "synth-uvparam-v1", "method": args.method,
-            "hyperparameters": {k: str(v) for k, v in params.items()},
-            "authors": "dressmeup reference baselines", "url": "", "toolkit_version": __version__,
-            "hardware": f"{platform.machine()} {platform.processor() or ''} CPU".strip(),
-            "mean_runtime_seconds": float(np.mean(list(times.values()))) if times else None,
-            "runtime_seconds": times, "format": "per-corner npz: uv (k,2), uv_faces (m,3), chart_ids (m,)",
-            "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
-    atomic_write_text(out / "submission.json", json.dumps(meta, indent=2) + "\n")
+    write_submission(out, preds, edition=edition, method=args.method,
+                     authors="dressmeup reference baselines", url="",
+                     hardware=f"{platform.machine()} CPU ({os.cpu_count()} cores)",
+                     runtime_per_sample_s=float(np.mean(list(times.values()))) if times else None,
+                     task="uvparam", overwrite=args.overwrite,
+                     extra={"hyperparameters": {k: str(v) for k, v in params.items()},
+                            "runtime_seconds": times})
     sys.stdout.write(f"wrote {len(times)} UV maps to {out}\n")
     return 0
 
