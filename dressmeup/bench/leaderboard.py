@@ -89,17 +89,17 @@ class Leaderboard:
         rt = row.get("runtime")
         return f"{rt:.2f}" if isinstance(rt, (int, float)) and math.isfinite(rt) else "–"
 
-    def _caption(self) -> str:
+    def _caption(self, ascii_only: bool = False) -> str:
         ed = self.edition
         return (f"Edition {ed.name} v{ed.version} (task {ed.task}, split {ed.split}; "
                 f"edition hash {ed.hash[:12]}, dataset manifest "
                 f"{(self.manifest_sha256 or '?')[:12]}). Sorted by "
-                f"{self._primary_label()}. Best per column in bold.")
+                f"{self._primary_label(ascii_only)}. Best per column in bold.")
 
-    def _primary_label(self) -> str:
+    def _primary_label(self, ascii_only: bool = False) -> str:
         for c in self.columns:
             if c.key == self.primary:
-                return c.header(ascii_only=True)
+                return c.header(ascii_only=ascii_only)
         return self.primary
 
     def to_markdown(self) -> str:
@@ -175,7 +175,7 @@ class Leaderboard:
             cells += [f"{row['failed']}/{row['items']}", self._runtime(row).replace("–", "--")]
             lines.append(" & ".join(cells) + r" \\")
         lines += [r"\bottomrule", r"\end{tabular}",
-                  rf"\caption{{{esc(self._caption())}}}",
+                  rf"\caption{{{esc(self._caption(ascii_only=True))}}}",
                   rf"\label{{tab:{esc(self.edition.name)}}}", r"\end{table}"]
         return "\n".join(lines) + "\n"
 
