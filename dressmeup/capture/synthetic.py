@@ -157,8 +157,10 @@ class NoiseModel:
             big = np.where(exact > 0, exact, np.inf)
             fly = np.zeros(d.shape, dtype=bool)
             far = np.zeros(d.shape)
+            padded = np.pad(big, 1, mode="edge")
+            h, w = big.shape
             for dy, dx in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-                nb = np.roll(big, (dy, dx), axis=(0, 1))
+                nb = padded[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
                 edge = valid & (nb - exact > self.flying_threshold)
                 fly |= edge
                 far = np.where(edge, np.maximum(far, np.where(np.isfinite(nb), nb, exact + self.flying_max_tail)), far)
@@ -453,8 +455,9 @@ def camera_rays(camera: Camera) -> np.ndarray:
     u, v = np.meshgrid(np.arange(camera.width, dtype=np.float64), np.arange(camera.height, dtype=np.float64))
     pix = np.stack([u.ravel(), v.ravel()], axis=1)
     if camera.has_distortion:
-        norm = cv2.undistortPointsIter(pix.reshape(-1, 1, 2), camera.K, camera.distortion, None, None,
-                                       (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 20, 1e-9)).reshape(-1, 2)
+        crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-10)
+        norm = cv2.undistortPoints(pix.reshape(-1, 1, 2), camera.K, camera.distortion, None, None, None,
+                                   crit).reshape(-1, 2)
     else:
         norm = np.stack([(pix[:, 0] - camera.cx) / camera.fx, (pix[:, 1] - camera.cy) / camera.fy], axis=1)
     d_cam = np.concatenate([norm, np.ones((len(norm), 1))], axis=1)

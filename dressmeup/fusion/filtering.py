@@ -27,6 +27,8 @@ class DepthFilterConfig:
         8-neighbour by more than ``edge_threshold * z`` (z in metres, at least 1 m) is an edge
         or flying pixel and is dropped.
     min_neighbors : int, pixels with fewer valid 8-neighbours are dropped (speckle).
+    erode_boundary : int, pixels this close (8-connected) to a pixel without depth are dropped
+        (the silhouette ring, where flying pixels live).
     bilateral_diameter : int, pixel diameter of the bilateral filter (0 disables it).
     bilateral_sigma_depth : float, metres, range kernel of the bilateral filter.
     bilateral_sigma_space : float, pixels, spatial kernel of the bilateral filter.
@@ -36,6 +38,7 @@ class DepthFilterConfig:
     max_depth: float = 5.0
     edge_threshold: float = 0.015
     min_neighbors: int = 5
+    erode_boundary: int = 0
     bilateral_diameter: int = 5
     bilateral_sigma_depth: float = 0.008
     bilateral_sigma_space: float = 1.5
@@ -129,6 +132,9 @@ def filter_depth(depth: np.ndarray, config: DepthFilterConfig | None = None) -> 
         raise ValueError(f"depth: expected shape (h, w), got {d.shape}")
     d = np.where((d >= cfg.min_depth) & (d <= cfg.max_depth), d, 0).astype(np.float32)
     d = remove_flying_pixels(d, cfg.edge_threshold, cfg.min_neighbors)
+    if cfg.erode_boundary > 0:
+        k = np.ones((2 * cfg.erode_boundary + 1,) * 2, np.uint8)
+        d[cv2.erode((d > 0).astype(np.uint8), k, borderType=cv2.BORDER_CONSTANT, borderValue=0) == 0] = 0
     if cfg.bilateral_diameter > 0:
         valid = d > 0
         sm = cv2.bilateralFilter(d, cfg.bilateral_diameter, cfg.bilateral_sigma_depth, cfg.bilateral_sigma_space)
