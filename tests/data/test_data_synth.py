@@ -149,3 +149,58 @@ def test_pose_library_mirrors_and_is_exact():
     down = Rotation.from_rotvec(q[li]).apply(arm)
     np.testing.assert_allclose(down, [np.cos(np.deg2rad(-70)), np.sin(np.deg2rad(-70)), 0],
                                atol=1e-9)
+
+
+def test_corrupted_copy_of_generated_dataset_fails(tiny, tmp_path):
+    import shutil
+
+    from dressmeup.data.manifest import read_manifest, write_manifest
+
+    bad = tmp_path / "bad"
+    shutil.copytree(tiny, bad)
+    ids = Dataset(bad).manifest["sample_id"].tolist()
+    rows = read_manifest(bad / "manifest.parquet").to_pylist()
+    by = {r["sample_id"]: r for r in rows}
+    (bad / by[ids[0]]["body_path"]).unlink()                                  # deleted file
+    g = bad / by[ids[1]]["garment_path"]                                      # edited mesh
+    data = bytearray(g.read_bytes())
+    data[len(data) // 2] ^= 0x5A
+    g.write_bytes(bytes(data))
+    by[ids[2]]["scan_path"] = "../../etc/passwd"                              # outside ROOT
+    write_manifest(bad / "manifest.parquet", rows)
+    text = validate_dataset(bad).format()
+    assert f"'{ids[0]}'" in text and "body_path file" in text and "does not exist" in text
+    assert f"'{ids[1]}'" in text and "garment_sha256" in text
+    assert f"'{ids[2]}'" in text and "escapes the dataset root" in text
+    mp = bad / "manifest.parquet"                                             # truncated
+    mp.write_bytes(mp.read_bytes()[:-40])
+    rep = validate_dataset(bad)
+    assert not rep.ok and "damaged or truncated" in rep.format()
+
+
+@pytest.mark.slow
+def test_every_garment_type_is_plausible(tmp_path):
+    """All seven types on the procedural body in the hardest library poses."""
+    root = generate_dataset(tmp_path / "all", subjects=7, garments=1, poses=2, seed=11,
+                            body_model="procedural", edge_length=0.03, texture_size=16)
+    from dressmeup.body import get_body_model
+
+    ds = Dataset(root)
+    assert sorted(ds.manifest["garment_type"].unique()) == sorted(
+        ["dress", "long-sleeve", "shorts", "skirt", "t-shirt", "tank-top", "trousers"]) or \
+        len(ds.manifest["garment_type"].unique()) >= 5
+    model = get_body_model("procedural")
+    for s in ds:
+        g = s.garment()
+        body = model.posed(s.body())
+        assert _signed_distance(body.vertices, model.faces, g.vertices).min() > -0.002
+    assert validate_dataset(root).ok
+
+
+@pytest.mark.slow
+def test_anny_tiny_dataset(tmp_path):
+    root = generate_dataset(tmp_path / "anny", subjects=1, garments=1, poses=2, seed=0,
+                            body_model="anny", texture_size=16)
+    rep = validate_dataset(root)
+    assert rep.ok, rep.format()
+    assert Dataset(root).info["report"]["min_signed_distance_mm"] > -2.0
