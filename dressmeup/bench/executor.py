@@ -12,6 +12,7 @@ import multiprocessing
 import os
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
 
@@ -78,8 +79,16 @@ class LocalExecutor:
             limit = n_workers * self.max_pending
             while next_job < len(jobs) or pending:
                 while next_job < len(jobs) and len(pending) < limit:
-                    pending[pool.submit(fn, jobs[next_job])] = next_job
+                    try:
+                        pending[pool.submit(fn, jobs[next_job])] = next_job
+                    except BrokenProcessPool as exc:  # a worker died: fail what is left
+                        for i in range(next_job, len(jobs)):
+                            yield i, exc
+                        next_job = len(jobs)
+                        break
                     next_job += 1
+                if not pending:
+                    break
                 done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
                 for fut in done:
                     i = pending.pop(fut)

@@ -146,3 +146,19 @@ def test_process_pool_gives_the_serial_numbers(scored, bench_edition, bench_data
     pd.testing.assert_frame_equal(res.table[["sample_id", *cols]],
                                   serial.table[["sample_id", *cols]])
     assert res.summary["provenance"]["workers"] == 2
+
+
+def _crash(job):
+    import os
+
+    if job == 1:
+        os._exit(3)  # a worker dies (segfault-like)
+    return job * 10
+
+
+def test_local_executor_reports_a_dead_worker_without_raising():
+    results = dict(LocalExecutor(2).run(_crash, [0, 1, 2, 3]))
+    assert sorted(results) == [0, 1, 2, 3]
+    assert isinstance(results[1], BaseException)
+    # Jobs that finished before the crash keep their results; the others carry the error.
+    assert all(r == i * 10 or isinstance(r, BaseException) for i, r in results.items())
