@@ -125,12 +125,15 @@ class DatasetWriter:
                 old = json.loads(info_path.read_text())
             except json.JSONDecodeError as exc:
                 raise InputError(f"{info_path}: not valid JSON ({exc})") from exc
-            diff = sorted(k for k in set(old) | set(self.info)
+            # keys given now must match; keys only in the old file (added by finalize or
+            # by a later writer version) are kept
+            diff = sorted(k for k in self.info
                           if k not in _VOLATILE and old.get(k) != self.info.get(k))
             if diff:
                 raise InputError(f"{self.root} already holds a different dataset (dataset.json "
                                  f"differs in {diff}); choose another folder or delete it")
-        full = {"format": "dressmeup-dataset", "manifest_version": MANIFEST_VERSION,
+        full = {**(old if info_path.exists() else {}),
+                "format": "dressmeup-dataset", "manifest_version": MANIFEST_VERSION,
                 "units": "m", **self.info, "complete": False,
                 "toolkit_version": __version__}
         atomic_write_text(info_path, json.dumps(full, indent=2, sort_keys=True) + "\n")

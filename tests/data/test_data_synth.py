@@ -10,6 +10,7 @@ import pytest
 
 from dressmeup.data import Dataset, validate_dataset
 from dressmeup.data.synth import DrapeSettings, generate_dataset
+from dressmeup.errors import InputError
 
 # small and quick: coarse garments, a short solver budget (the physics is the same)
 KW = {"body_model": "procedural", "edge_length": 0.035, "texture_size": 32,
@@ -117,6 +118,12 @@ def test_deterministic_and_resumes_after_crash(tmp_path, monkeypatch):
         b[cols].sort_values("sample_id").values.tolist()
     rep = validate_dataset(tmp_path / "run")
     assert rep.ok and not rep.warnings, rep.format()
+    # re-running a finished dataset is a no-op
+    generate_dataset(tmp_path / "run", subjects=1, garments=1, poses=2, seed=5, **KW)
+    c = Dataset(tmp_path / "run").manifest
+    assert c[cols].values.tolist() == b[cols].values.tolist()
+    with pytest.raises(InputError, match="different dataset"):
+        generate_dataset(tmp_path / "run", subjects=1, garments=1, poses=2, seed=6, **KW)
 
 
 def test_pose_library_mirrors_and_is_exact():
