@@ -64,6 +64,14 @@ JOINT_LIMITS: dict[str, tuple[tuple[float, float], ...]] = {
 }
 
 
+#: Per-joint multipliers of the pose prior: toes and ankles move little in scans, and their
+#: rotation is poorly seen by the data, so they are held closer to the rest pose.
+PRIOR_SCALE: dict[str, float] = {
+    "left_foot": 50.0, "right_foot": 50.0, "left_ankle": 10.0, "right_ankle": 10.0,
+    "left_collar": 10.0, "right_collar": 10.0,
+}
+
+
 @dataclass
 class RegistrationResult:
     """What a fit returns besides the parameters: per-stage losses and timing."""
@@ -157,6 +165,9 @@ class OptimizationRegistrar:
     Parameters
     ----------
     iterations : steps for the (global, pose, shape) stages.
+    shape_in_pose_stage : let the shape move (at half rate) already in the pose stage, so
+        limb lengths adapt before the pose settles (avoids tip-toe / bent-leg minima).
+    refine_rounds, lbfgs_steps : optional final ICP-like L-BFGS rounds (0: off).
     inside_weight : weight of body-inside-scan residuals (1 for naked scans gives a
         symmetric term; the default 0.5 with the saturating ``sigma_in`` suits clothes too).
     sigma_out, sigma_in : Geman-McClure scales (m) of outside / inside residuals.
@@ -172,10 +183,10 @@ class OptimizationRegistrar:
 
     iterations: tuple[int, int, int] = (60, 160, 160)
     inside_weight: float = 0.5
-    sigma_out: float = 0.05
+    sigma_out: float = 0.15
     sigma_in: float = 0.01
-    point_weight: float = 0.1
-    pose_prior_weight: float = 1e-4
+    point_weight: float = 0.3
+    pose_prior_weight: float = 1e-2
     limit_weight: float = 1e-2
     shape_weight: float = 1e-4
     keypoint_weight: float = 1.0
@@ -183,6 +194,7 @@ class OptimizationRegistrar:
     n_body_points: int = 5000
     correspondence_every: int = 2
     refine_rounds: int = 0
+    shape_in_pose_stage: bool = True
     lbfgs_steps: int = 10
     lr_pose: float = 0.03
     lr_transl: float = 0.01
@@ -262,6 +274,11 @@ class OptimizationRegistrar:
         lim_lo_t = torch.as_tensor(lim_lo, dtype=dt, device=dev).reshape(-1, 3)
         lim_hi_t = torch.as_tensor(lim_hi, dtype=dt, device=dev).reshape(-1, 3)
         shape_mean = torch.as_tensor(default_shape, dtype=dt, device=dev)
+        prior_scale = torch.ones(j, dtype=dt, device=dev)
+        for name, factor in PRIOR_SCALE.items():
+            if name in model.joint_names:
+                prior_scale[list(model.joint_names).index(name)] = factor
+        prior_scale = prior_scale[1:, None]
         if kp is not None:
             kp_ids = torch.as_tensor(kp[0], dtype=torch.long, device=dev)
             kp_pts = torch.as_tensor(kp[1], dtype=dt, device=dev)
@@ -310,7 +327,7 @@ class OptimizationRegistrar:
             loss = data * 1e4  # residuals in metres: scale to ~cm^2
             terms = {"data": float(data.detach()) * 1e4}
             if stage != "global":
-                prior = self.pose_prior_weight * (pose_t[1:] ** 2).sum()
+                prior = self.pose_prior_weight * (prior_scale * pose_t[1:] ** 2).sum()
                 if len(lim_ids):
                     p = pose_t[lim_ids_t]
                     viol = torch.relu(lim_lo_t - p) + torch.relu(p - lim_hi_t)
@@ -391,8 +408,12 @@ class OptimizationRegistrar:
         losses = {}
         losses.update({f"global_{k}": v for k, v in run(
             "global", n_global, [pose, transl], [self.lr_pose, self.lr_transl]).items()})
+        pose_params, pose_lrs = [pose, transl], [self.lr_pose, self.lr_transl]
+        if self.shape_in_pose_stage:
+            pose_params.append(shape_z)
+            pose_lrs.append(self.lr_shape * 0.5)
         losses.update({f"pose_{k}": v for k, v in run(
-            "pose", n_pose, [pose, transl], [self.lr_pose, self.lr_transl]).items()})
+            "pose", n_pose, pose_params, pose_lrs).items()})
         shape_params = [pose, transl, shape_z]
         shape_lrs = [self.lr_pose * 0.5, self.lr_transl * 0.5, self.lr_shape]
         if self.optimize_scale:
