@@ -6,7 +6,7 @@ import json
 import logging
 import os
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -93,8 +93,7 @@ def prepare_frames(frames: list[RGBDFrame], rig: Rig, config: DepthFilterConfig 
     out = []
     for fr in frames:
         und = undistort_frame(fr, rig.camera(fr.serial))
-        und.depth = filter_depth(und.depth, config)
-        out.append(und)
+        out.append(replace(und, depth=filter_depth(und.depth, config)))  # inputs stay untouched
     return out
 
 
