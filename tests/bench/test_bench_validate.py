@@ -132,7 +132,8 @@ def test_size_limit_and_dataset_pin(scored, bench_data, tmp_path):
                                    "params": {"garments": 3, "poses": 5}, "seed": 1})
     rep = validate_submission(scored["gt"]["sub"], other, bench_data)
     msgs = [p.message for p in rep.problems if p.kind == "dataset"]
-    assert len(msgs) == 2 and any("poses" in m for m in msgs) and any("seed" in m for m in msgs)
+    assert len(msgs) == 3 and "poses=3, edition pins 5" in msgs[1] and "seed is 0" in msgs[0]
+    assert "generate it with" in msgs[2]
     real = write_edition(tmp_path / "real.json",
                          dataset={"kind": "real", "manifest_sha256": "0" * 64})
     rep = validate_submission(scored["gt"]["sub"], real, bench_data)
