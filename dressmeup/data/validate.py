@@ -75,10 +75,13 @@ def _check_body(path: Path, where: str, problems: list[str]) -> None:
 
 
 def _check_mesh(path: Path, where: str, what: str, n_v, n_f, problems: list[str]):
+    from dressmeup.data.dataset import read_dataset_ply
     from dressmeup.io.mesh import load_mesh
 
     try:
-        m = load_mesh(path)
+        m = read_dataset_ply(path) if path.suffix.lower() == ".ply" else None
+        if m is None:  # other layouts, or a damaged file: the general reader names the fault
+            m = load_mesh(path)
     except Exception as exc:  # noqa: BLE001
         problems.append(f"{where}: {what} mesh {path.name} is not a valid mesh ({exc})")
         return None
