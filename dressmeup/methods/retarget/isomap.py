@@ -154,20 +154,22 @@ def landmark_geodesics(V: np.ndarray, F: np.ndarray, n_landmarks: int,
 # multidimensional scaling
 # --------------------------------------------------------------------------------------------
 def _top_eigen(B: np.ndarray, d: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Largest ``d`` eigenpairs of a symmetric matrix, descending."""
+    """Largest ``d`` (algebraic) eigenpairs of a symmetric matrix, descending (exact, LAPACK).
+
+    Geodesic "Gram" matrices have large negative eigenvalues (heat-method geodesics are not
+    Euclidean: on the procedural body the most negative is -177 against +1611 for the top
+    one and +0.014 for the 256th), so randomized or magnitude-based iterations converge
+    badly; the exact subset solver (``eigh(subset_by_index=...)``) is used. It is O(n^3):
+    about 2.5 min for n = 5.7k on a loaded 2-core machine; landmark MDS avoids it.
+    ``seed`` is unused (kept for a stable signature). Eigenvector signs are normalised
+    (largest-magnitude entry positive) for determinism.
+    """
     from scipy.linalg import eigh
-    from scipy.sparse.linalg import eigsh
 
     n = B.shape[0]
-    if d >= n - 1 or n <= 600:
-        w, U = eigh(B)
-        w, U = w[::-1][:d], U[:, ::-1][:, :d]
-    else:
-        v0 = np.random.default_rng(seed).standard_normal(n)
-        w, U = eigsh(B, k=d, which="LA", v0=v0)
-        order = np.argsort(w)[::-1]
-        w, U = w[order], U[:, order]
-    # fix each eigenvector's sign (largest-magnitude entry positive) for determinism
+    d = min(d, n)
+    w, U = eigh(B, subset_by_index=[n - d, n - 1])
+    w, U = w[::-1].copy(), U[:, ::-1].copy()
     idx = np.argmax(np.abs(U), axis=0)
     U = U * np.sign(U[idx, np.arange(U.shape[1])])
     return w, U
