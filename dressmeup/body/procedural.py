@@ -114,12 +114,12 @@ def _shape_fields(points: np.ndarray, is_joint: bool) -> np.ndarray:
     q = points.shape[0]
     fields = np.zeros((6, q, 3))
     x, y = points[:, 0], points[:, 1]
-    # 0 gender (0 female -> 1 male): broader shoulders, narrower hips.
+    # 0 gender (as anny: 0 male -> 1 female): narrower shoulders, wider hips, shorter.
     shoulder = np.clip((y - 1.2) / 0.2, 0, 1)
     hips = np.exp(-(((y - 0.92) / 0.12) ** 2))
-    fields[0, :, 0] = x * (0.16 * shoulder - 0.14 * hips * (np.abs(x) < 0.3))
-    fields[0, :, 1] = 0.06 * y  # men are taller on average
-    # 1 age (0 young -> 1 old): overall size grows with age (MakeHuman spans child to adult).
+    fields[0, :, 0] = -x * (0.16 * shoulder - 0.14 * hips * (np.abs(x) < 0.3))
+    fields[0, :, 1] = -0.06 * y
+    # 1 age (0 young -> 1 old): overall size grows with age (anny spans baby to old adult).
     fields[1] = 0.25 * points
     fields[1, :, 1] -= 0.05 * np.clip(y - 1.5, 0, None)  # relatively smaller head
     # 4 height: uniform scale about the ground point under the pelvis.
