@@ -7,13 +7,21 @@
 
 from __future__ import annotations
 
-from dressmeup.data.dataset import Dataset, GarmentMesh, RetargetPair, Sample, TorchDataset
+from dressmeup.data.dataset import Dataset, GarmentMesh, RetargetPair, Sample
 from dressmeup.data.splits import split_by_garment
 from dressmeup.data.validate import ValidationReport, validate_dataset
 from dressmeup.data.writer import DatasetWriter
 
 __all__ = ["Dataset", "DatasetWriter", "GarmentMesh", "RetargetPair", "Sample", "TorchDataset",
            "ValidationReport", "generate_dataset", "split_by_garment", "validate_dataset"]
+
+
+def __getattr__(name: str):
+    if name == "TorchDataset":  # imports torch: only on demand
+        from dressmeup.data.torch_dataset import TorchDataset
+
+        return TorchDataset
+    raise AttributeError(f"module 'dressmeup.data' has no attribute {name!r}")
 
 
 def generate_dataset(*args, **kwargs):

@@ -109,6 +109,7 @@ def test_torch_wrapper(tmp_path):
     assert item["body_pose"].shape == (22, 3)
     loader = torch.utils.data.DataLoader(tds, batch_size=1)
     assert len(list(loader)) == 6
+    assert isinstance(tds, torch.utils.data.Dataset)
 
 
 def test_writer_refuses_duplicates_and_mixed_splits(tmp_path):
