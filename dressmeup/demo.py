@@ -44,7 +44,7 @@ def _run_folder(out: Path) -> Path:
 def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
              quick: bool = False, log: Callable[[str], Any] = lambda s: None,
              retarget_methods: list[str] | None = None, with_uv: bool = True,
-             with_fusion: bool = True) -> dict[str, Any]:
+             with_fusion: bool = True, train_steps: int = 0) -> dict[str, Any]:
     """Run the demo journey; return a dict with the paths and leaderboards it made.
 
     Parameters
@@ -55,6 +55,8 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     log : called with each line of the report.
     retarget_methods : restrict the retargeting baselines (default: every available one).
     with_uv, with_fusion : include the UV and capture/fusion parts when installed.
+    train_steps : self-supervised training steps for trainable baselines without shipped
+        weights (0: such baselines are skipped with a line saying how to train them).
 
     Returns
     -------
@@ -73,7 +75,7 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     data = runs.build_data(edition, out / "data" / edition, log=log)
 
     log("[2/4] retargeting baselines -> submissions")
-    kw = {"train_steps": 60 if quick else 150}
+    kw = {"train_steps": train_steps}
     subs = runs.run_baselines(edition, data, run / "submissions" / edition,
                               methods=retarget_methods, log=log, **kw)
     if not subs:

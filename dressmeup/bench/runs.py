@@ -29,6 +29,20 @@ def _quiet(_line: str) -> None:
     return None
 
 
+class SkippedBaseline(Exception):
+    """A baseline that cannot run in this configuration (the message says why and what to do)."""
+
+
+def _shipped_weights(method: Any, body_model: str) -> Path | None:
+    """The checkpoint a trainable method ships for ``body_model`` (None when there is none)."""
+    mod = importlib.import_module(type(method).__module__)
+    wdir = getattr(mod, "WEIGHTS_DIR", None)
+    if wdir is None:
+        return None
+    hits = sorted(Path(wdir).glob(f"*_{body_model}.pt"))
+    return hits[0] if hits else None
+
+
 def _hardware() -> str:
     return f"{platform.processor() or platform.machine()} CPU, {os.cpu_count()} cores"
 
@@ -106,14 +120,25 @@ def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: s
     ds = Dataset(data_root)
     method = get_method(method_name, **hyperparameters)
     trained = ""
-    if hasattr(method, "fit"):
-        if "steps" in inspect.signature(type(method).__init__).parameters and \
-                "steps" not in hyperparameters:
-            method = get_method(method_name, steps=train_steps, **hyperparameters)
-        t0 = time.perf_counter()
-        triplets, model = training_triplets(ds, "train", max_triplets, seed=0)
-        method.fit(triplets, model)
-        trained = f", trained {time.perf_counter() - t0:.0f} s on {len(triplets)} triplets"
+    if hasattr(method, "fit") and "weights" not in hyperparameters:
+        body_model = ds[0].body().model
+        shipped = _shipped_weights(method, body_model)
+        if shipped is not None:
+            trained = f", shipped weights {shipped.name}"
+        elif train_steps <= 0:
+            raise SkippedBaseline(
+                f"trainable and no shipped weights for the {body_model} body; training is off "
+                f"here (train with 'dressmeup baseline train-retarget --data {data_root} "
+                f"--out w.pt', then '--weights w.pt')")
+        else:
+            if "steps" in inspect.signature(type(method).__init__).parameters and \
+                    "steps" not in hyperparameters:
+                method = get_method(method_name, steps=train_steps, **hyperparameters)
+            t0 = time.perf_counter()
+            triplets, model = training_triplets(ds, "train", max_triplets, seed=0)
+            method.fit(triplets, model)
+            trained = (f", trained {train_steps} steps ({time.perf_counter() - t0:.0f} s) on "
+                       f"{len(triplets)} train-split triplets")
     preds, seconds = predict_pairs(method, ds.retarget_pairs(ed.split))
     runtime = float(np.mean(seconds)) if seconds else 0.0
     path = write_submission(out, preds, edition=ed, method=method_name,
@@ -173,6 +198,8 @@ def run_baselines(edition: str | Edition, data_root: str | os.PathLike,
         try:
             subs[name] = runner(name, ed, data_root, Path(sub_dir) / name.replace("+", "_"),
                                 log=log, **kw)
+        except SkippedBaseline as exc:
+            log(f"  {name}: skipped ({exc})")
         except Exception as exc:  # noqa: BLE001 - one broken baseline must not stop the others
             log(f"  {name}: FAILED ({type(exc).__name__}: {exc}); skipped")
     return subs

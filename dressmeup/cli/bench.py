@@ -71,7 +71,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="work folder (default: a new folder under ./dressmeup-demo)")
     p.add_argument("--workers", "-j", type=int, default=None, help="scoring workers")
     p.add_argument("--quick", action="store_true",
-                   help="smallest data and fewer surface samples (about a minute)")
+                   help="the tiny edition (procedural body, 2 pairs): a few minutes")
+    p.add_argument("--train-steps", type=int, default=0,
+                   help="train trainable baselines without shipped weights for this many "
+                        "self-supervised steps (default 0: skip them)")
     p.set_defaults(func=_demo)
 
 
@@ -137,5 +140,6 @@ def _demo(args: argparse.Namespace) -> int:
     from dressmeup.demo import run_demo
 
     res = run_demo(out=args.out, workers=args.workers, quick=args.quick,
+                   train_steps=args.train_steps,
                    log=lambda line: sys.stdout.write(line + "\n") or sys.stdout.flush())
     return 0 if res.get("ok", True) else 1
