@@ -67,12 +67,14 @@ def main() -> None:
     r.update(method=f"neural ({args.config}, inference)", wall=wall_n, cpu=cpu_n,
              stages=", ".join(f"{k[8:]} {v:.2f}" for k, v in res_n.info.items() if k.startswith("seconds_")))
     rows.append(r)
+    print(r, flush=True)
     t, c = time.perf_counter(), time.process_time()
     res_x = get_method("xatlas").parameterize(V, F)
     wall_x, cpu_x = time.perf_counter() - t, time.process_time() - c
     r = score_uv(V, F, res_x)
     r.update(method="xatlas", wall=wall_x, cpu=cpu_x, stages="")
     rows.append(r)
+    print(r, flush=True)
     if not args.skip_lscm:
         t, c = time.perf_counter(), time.process_time()
         res_l = get_method("lscm").parameterize(V, F)
