@@ -229,6 +229,20 @@ def _remesh(V, F, edge_length, iterations=6):
                                             adaptive=False, checksurfdist=True,
                                             maxsurfdist=pymeshlab.PureValue(edge_length * 0.3))
     ms.meshing_remove_unreferenced_vertices()
+    # a garment must not cross itself: drop the rare faces that do (where two cuts meet, e.g.
+    # neckline and armhole, the snapped boundary can fold) and their loose fragments
+    for _ in range(3):
+        ms.compute_selection_by_self_intersections_per_face()
+        if ms.current_mesh().selected_face_number() == 0:
+            break
+        ms.compute_selection_transfer_face_to_vertex(inclusive=False)
+        ms.compute_selection_transfer_vertex_to_face(inclusive=True)
+        ms.meshing_remove_selected_faces()
+        ms.meshing_remove_unreferenced_vertices()
+        ms.meshing_repair_non_manifold_edges()
+        ms.meshing_repair_non_manifold_vertices()
+        ms.meshing_remove_connected_component_by_face_number(mincomponentsize=10)
+        ms.meshing_remove_unreferenced_vertices()
     m = ms.current_mesh()
     return m.vertex_matrix().astype(np.float64), m.face_matrix().astype(np.int64)
 
