@@ -39,6 +39,7 @@ def register(tasks: argparse._SubParsersAction) -> None:
     t.add_argument("--max-triplets", type=int, default=8, help="triplets used (default 8)")
     t.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="hyperparameter of isomap-refine (repeatable), e.g. --param width=256")
+    t.add_argument("--exclude-garments", default="", help="comma-separated garment ids not to train on")
     t.add_argument("--seed", type=int, default=0)
     t.set_defaults(func=_train)
 
@@ -94,7 +95,9 @@ def _train(args: argparse.Namespace) -> int:
     params.setdefault("steps", args.steps)
     params.setdefault("seed", args.seed)
     method = get_method("isomap-refine", **params)
-    triplets, model = training_triplets(Dataset(args.data), args.split, args.max_triplets, seed=args.seed)
+    triplets, model = training_triplets(
+        Dataset(args.data), args.split, args.max_triplets, seed=args.seed,
+        exclude_garments=[g for g in args.exclude_garments.split(",") if g])
     method.fit(triplets, model)
     path = method.save(args.out)
     first = method.loss_history_[0][0]

@@ -409,8 +409,6 @@ class IsomapRefine(IsomapRetarget):
         -------
         self, with ``network_`` and ``loss_history_`` (list of (total, terms) per step).
         """
-        import torch
-
         from dressmeup.progress import progress
 
         triplets = list(triplets)
@@ -418,6 +416,22 @@ class IsomapRefine(IsomapRetarget):
             raise ValueError("triplets: expected at least one (garment_V, garment_F, source, target) triplet")
         samples = [self.prepare(gv, gf, s, t, body_model)
                    for gv, gf, s, t in progress(triplets, desc="preparing", total=len(triplets))]
+        return self.fit_samples(samples, getattr(body_model, "name", ""), callback=callback)
+
+    def fit_samples(self, samples: list[RefineSample], body_model_name: str = "",
+                    callback=None) -> IsomapRefine:
+        """Train on already prepared samples (:meth:`prepare`); see :meth:`fit`.
+
+        The samples must come from the same coarse-stage and input settings (``dim``,
+        ``k_neighbors``, ``n_points``, ...) as this object's; the loss settings may differ,
+        which is how the loss ablation reuses one preparation for every variant.
+        """
+        import torch
+
+        from dressmeup.progress import progress
+
+        if not samples:
+            raise ValueError("samples: expected at least one prepared sample")
         net = self._new_network()
         opt = torch.optim.Adam(net.parameters(), lr=float(self.lr))
         rng = np.random.default_rng(int(self.seed))
@@ -435,7 +449,7 @@ class IsomapRefine(IsomapRetarget):
         net.eval()
         self.network_ = net
         self.loss_history_ = history
-        self.body_model_name_ = getattr(body_model, "name", "")
+        self.body_model_name_ = body_model_name
         return self
 
     # ----------------------------------------------------------------------------------------
@@ -507,14 +521,22 @@ class IsomapRefine(IsomapRetarget):
         ``last_timing_`` holds the seconds of the correspondence search (coarse placement and
         neighbour search) and of the network forward pass.
         """
-        import torch
 
         self._ensure_network(body_model)
         sample = self.prepare(garment_V, garment_F, source, target, body_model)
         t0 = time.perf_counter()
+        out = self.predict_sample(sample)
+        self.last_timing_ = {"correspondence": sample.seconds_correspondence,
+                             "network": time.perf_counter() - t0}
+        return out
+
+    def predict_sample(self, sample: RefineSample) -> np.ndarray:
+        """One forward pass on a prepared sample: (n, 3) float64 world positions."""
+        import torch
+
+        if not hasattr(self, "network_"):
+            raise ValueError("isomap-refine: no network; call fit() or load() first")
         with torch.no_grad():
             feats, gp, bp = self._features(sample)
             dx = self.network_(feats, gp, bp).cpu().numpy().astype(np.float64)
-        t1 = time.perf_counter()
-        self.last_timing_ = {"correspondence": sample.seconds_correspondence, "network": t1 - t0}
         return sample.x.astype(np.float64) + dx + sample.center

@@ -62,7 +62,8 @@ def predict_pairs(method, pairs: Sequence[Any], limit: int | None = None) -> tup
     return preds, seconds
 
 
-def training_triplets(dataset, split: str = "train", max_triplets: int | None = None, seed: int = 0):
+def training_triplets(dataset, split: str = "train", max_triplets: int | None = None, seed: int = 0,
+                      exclude_garments: Sequence[str] = ()):
     """Self-supervised training triplets (garment, source body, target body) of a split.
 
     Every ordered pose pair of every garment in ``split`` (no ground truth is read: only the
@@ -75,7 +76,7 @@ def training_triplets(dataset, split: str = "train", max_triplets: int | None = 
     """
     from dressmeup.errors import InputError
 
-    pairs = dataset.retarget_pairs(split)
+    pairs = [p for p in dataset.retarget_pairs(split) if p.source.garment_id not in set(exclude_garments)]
     if not pairs:
         raise InputError(f"dataset {dataset.root}: no retargeting pairs in split {split!r}")
     order = np.random.default_rng(seed).permutation(len(pairs))
