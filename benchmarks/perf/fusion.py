@@ -13,6 +13,7 @@ alternative, open3d screened Poisson reconstruction of the same back-projected p
 Usage::
 
     python benchmarks/perf/fusion.py [--scale 1.0] [--samples 100000] [--json out.json]
+    python benchmarks/perf/fusion.py --figures docs/images   # only the pictures of docs/fusion.md
 """
 
 from __future__ import annotations
@@ -83,13 +84,168 @@ def _speed(frames, rig, repeats=3):
     return min(tsdf), poisson, len(P)
 
 
+def _view_camera(rig, width=360, height=540, azimuth_deg=25.0, distance=2.6):
+    import math
+
+    from dressmeup.capture.rig import Camera, look_at
+
+    up = rig.up
+    a = math.radians(azimuth_deg)
+    e1 = np.cross(up, [1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.cross(up, [0.0, 0.0, 1.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(e1, up)
+    eye = rig.target + 0.3 * up + distance * (math.cos(a) * e1 + math.sin(a) * e2)
+    f = height / 2 / math.tan(math.radians(22))
+    return Camera("view", width, height, f, f, (width - 1) / 2, (height - 1) / 2, look_at(eye, rig.target, up))
+
+
+def _render(V, F, colors=None, color_fn=None, rig=None, cam=None):
+    from dressmeup.capture.rig import Rig
+    from dressmeup.capture.synthetic import SyntheticSubject, render_frames
+
+    subj = SyntheticSubject(np.asarray(V), np.asarray(F), np.ones(len(F), np.uint8), [],
+                            vertex_colors=colors, color_fn=color_fn)
+    fr = render_frames(subj, Rig([cam]), None, light=cam.center - rig.target + rig.up)[0]
+    img = fr.color.copy()
+    img[fr.depth == 0] = 255
+    return img
+
+
+def _texture_fn(V, F, uv, uvf, tex):
+    """Colour of surface points from a texture atlas (for rendering a textured garment)."""
+    def fn(points, face_ids):
+        tri = V[F[face_ids]]
+        # barycentric coordinates of the points in their triangles
+        v0, v1, v2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0], points - tri[:, 0]
+        d00, d01, d11 = (v0 * v0).sum(1), (v0 * v1).sum(1), (v1 * v1).sum(1)
+        d20, d21 = (v2 * v0).sum(1), (v2 * v1).sum(1)
+        den = np.maximum(d00 * d11 - d01 ** 2, 1e-20)
+        b1 = (d11 * d20 - d01 * d21) / den
+        b2 = (d00 * d21 - d01 * d20) / den
+        b = np.stack([1 - b1 - b2, b1, b2], 1)
+        t = np.einsum("kj,kjc->kc", b, uv[uvf[face_ids]])
+        s = tex.shape[0]
+        x = np.clip((t[:, 0] * s).astype(int), 0, s - 1)
+        y = np.clip(((1 - t[:, 1]) * s).astype(int), 0, s - 1)
+        return tex[y, x] / 255.0
+    return fn
+
+
+def make_figures(out_dir, scale=1.0) -> None:
+    """Render the before/after pictures of docs/fusion.md into ``out_dir``."""
+    from pathlib import Path
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dressmeup.capture.rig import perturb_rig, ring_rig
+    from dressmeup.capture.session import SessionInfo
+    from dressmeup.capture.synthetic import NoiseModel, make_mannequin, place_subject, render_frames
+    from dressmeup.extraction.pipeline import ExtractionConfig, extract_garments
+    from dressmeup.fusion.pipeline import FusionConfig, fuse_frames, prepare_frames
+    from dressmeup.metrics.distance import distances_to
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rig = ring_rig(7, name="default-7").scaled(scale)
+    subject, _ = place_subject(make_mannequin(), rig)
+    frames = render_frames(subject, rig, NoiseModel(), seed=0)
+    prepared = prepare_frames(frames, rig)
+    crop = np.s_[60:520, 200:440] if scale == 1.0 else np.s_[:, :]
+
+    # 1. depth views: raw noisy vs filtered
+    fig, ax = plt.subplots(2, 7, figsize=(14, 6.2))
+    for k in range(7):
+        for r, d in enumerate((frames[k].depth, prepared[k].depth)):
+            img = np.where(d > 0, d, np.nan)[crop]
+            ax[r, k].imshow(img, cmap="turbo", vmin=1.8, vmax=2.7)
+            ax[r, k].set_axis_off()
+        ax[0, k].set_title(rig.cameras[k].serial)
+    ax[0, 0].text(-40, 230, "raw (noise, dropouts,\nflying pixels)", rotation=90, va="center", fontsize=9)
+    ax[1, 0].text(-40, 230, "filtered", rotation=90, va="center", fontsize=9)
+    fig.suptitle("Synthetic Kinect-like depth of the default 7-camera rig (1.8 m to 2.7 m)")
+    fig.tight_layout()
+    fig.savefig(out / "fusion-depth-views.png", dpi=80)
+    plt.close(fig)
+
+    # 2. fused mesh vs ground truth, error heat map
+    res = fuse_frames(frames, rig, FusionConfig())
+    cam = _view_camera(rig)
+    gt_img = _render(subject.vertices, subject.faces, color_fn=subject.color_fn, rig=rig, cam=cam)
+    fu_img = _render(res.vertices, res.faces, colors=res.colors, rig=rig, cam=cam)
+    d = distances_to(res.vertices, (subject.vertices, subject.faces))
+    cmap = plt.get_cmap("viridis")
+    heat = (np.asarray(cmap(np.clip(d / 0.005, 0, 1)))[:, :3] * 255).astype(np.uint8)
+    he_img = _render(res.vertices, res.faces, colors=heat, rig=rig, cam=cam)
+    fig, ax = plt.subplots(1, 3, figsize=(10, 5.4))
+    for a, img, t in zip(ax, (gt_img, fu_img, he_img),
+                         ("ground truth", "TSDF fusion, 4 mm voxels", "distance to GT (0-5 mm)"), strict=True):
+        a.imshow(img)
+        a.set_title(t)
+        a.set_axis_off()
+    fig.tight_layout()
+    fig.savefig(out / "fusion-mesh.png", dpi=80)
+    plt.close(fig)
+
+    # 3. drifted calibration before/after ICP
+    drifted = perturb_rig(rig, 1.0, 0.01, seed=1)
+    imgs = []
+    for refine in (False, True):
+        r = fuse_frames(frames, drifted, FusionConfig(refine=refine))
+        imgs.append(_render(r.vertices, r.faces, colors=r.colors, rig=rig, cam=cam))
+    fig, ax = plt.subplots(1, 2, figsize=(7, 5.4))
+    for a, img, t in zip(ax, imgs, ("drifted calibration (1 deg, 1 cm)", "after multiway ICP"), strict=True):
+        a.imshow(img)
+        a.set_title(t)
+        a.set_axis_off()
+    fig.tight_layout()
+    fig.savefig(out / "fusion-drift.png", dpi=80)
+    plt.close(fig)
+
+    # 4. labels and extracted garments, 5. texture
+    info = SessionInfo("S00", "P0", subject.garments)
+    ex = extract_garments(res, info, ExtractionConfig(target_faces=15000, texture_size=1024))
+    palette = np.array([[128, 128, 128], [225, 180, 150], [40, 90, 200], [90, 60, 40]], np.uint8)
+    vl = np.zeros(len(res.vertices), np.int64)
+    for k in range(3):
+        vl[res.faces[:, k]] = ex.face_labels
+    lab_img = _render(res.vertices, res.faces, colors=palette[vl], rig=rig, cam=cam)
+    g_imgs = [_render(g.vertices, g.faces, color_fn=_texture_fn(g.vertices, g.faces, g.uv, g.uv_faces, g.texture),
+                      rig=rig, cam=cam) for g in ex.garments]
+    fig, ax = plt.subplots(1, 1 + len(g_imgs), figsize=(3.4 * (1 + len(g_imgs)), 5.4))
+    ax[0].imshow(lab_img)
+    ax[0].set_title("voted labels (skin/top/trousers)")
+    for a, img, g in zip(ax[1:], g_imgs, ex.garments, strict=True):
+        a.imshow(img)
+        a.set_title(f"{g.info.id}: cut out + baked texture")
+    for a in ax:
+        a.set_axis_off()
+    fig.tight_layout()
+    fig.savefig(out / "fusion-garment.png", dpi=80)
+    plt.close(fig)
+    fig, ax = plt.subplots(1, len(ex.garments), figsize=(5 * len(ex.garments), 5))
+    for a, g in zip(np.atleast_1d(ax), ex.garments, strict=True):
+        a.imshow(g.texture)
+        a.set_title(f"{g.info.id} texture atlas (xatlas, {len(g.faces)} faces)")
+        a.set_axis_off()
+    fig.tight_layout()
+    fig.savefig(out / "fusion-texture.png", dpi=80)
+    plt.close(fig)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scale", type=float, default=1.0, help="image size factor (1.0 = 640x576)")
     ap.add_argument("--samples", type=int, default=100_000)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--figures", default=None, help="render the docs pictures into this folder and stop")
     args = ap.parse_args(argv)
     os.environ.setdefault("DRESSMEUP_NO_PROGRESS", "1")
+    if args.figures:
+        make_figures(args.figures, args.scale)
+        return 0
     try:
         import torch
 

@@ -93,7 +93,7 @@ def prepare_frames(frames: list[RGBDFrame], rig: Rig, config: DepthFilterConfig 
     out = []
     for fr in frames:
         und = undistort_frame(fr, rig.camera(fr.serial))
-        out.append(replace(und, depth=filter_depth(und.depth, config)))  # inputs stay untouched
+        out.append(replace(und, depth=filter_depth(und.depth, config, rig.camera(fr.serial))))  # inputs stay untouched
     return out
 
 
