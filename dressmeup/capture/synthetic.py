@@ -327,11 +327,15 @@ def _read_mesh(path: Path) -> Any:
     return m
 
 
-def subject_from_sample(sample_dir: str | os.PathLike, tolerance: float = 0.004) -> SyntheticSubject:
+def subject_from_sample(sample_dir: str | os.PathLike, tolerance: float = 0.004,
+                        with_siblings: bool = False) -> SyntheticSubject:
     """A subject from a dataset sample folder ``samples/<subject>/<garment>/<pose>/``.
 
-    Reads ``scan.ply`` and the garment meshes of every garment the same subject wears in the
-    same pose (sibling folders ``samples/<subject>/*/<pose>/garment.*``), and labels the scan's
+    Reads ``scan.ply`` and the sample's garment mesh (a DressMeUp-style sample holds one
+    garment, and the generator's scans show that garment only); with ``with_siblings`` also
+    the garments of the same subject and pose (``samples/<subject>/*/<pose>/garment.*``) that
+    the scan surface runs along (median distance below ``tolerance``), for datasets whose
+    scans dress several garments at once. Then it labels the scan's
     faces by the garment surface they lie on (:func:`label_faces_by_garments`). The categories
     come from ``manifest.parquet`` when it can be read, else ``unknown``.
 
@@ -347,6 +351,7 @@ def subject_from_sample(sample_dir: str | os.PathLike, tolerance: float = 0.004)
     pose_id, subject_dir = sample_dir.name, sample_dir.parent.parent
     subject_id = subject_dir.name
     categories: dict[str, str] = {}
+    types: dict[str, str] = {}
     manifest = subject_dir.parent.parent / "manifest.parquet"
     if manifest.is_file():
         try:
@@ -355,20 +360,34 @@ def subject_from_sample(sample_dir: str | os.PathLike, tolerance: float = 0.004)
             df = pd.read_parquet(manifest)
             if {"garment_id", "category"} <= set(df.columns):
                 categories = dict(zip(df["garment_id"].astype(str), df["category"].astype(str), strict=False))
+            if {"garment_id", "garment_type"} <= set(df.columns):
+                types = dict(zip(df["garment_id"].astype(str), df["garment_type"].astype(str), strict=False))
         except Exception as exc:  # a damaged manifest only loses the category names
             log.warning("could not read categories from %s: %s", manifest, exc)
+    import open3d as o3d
+
+    V, F = np.asarray(scan.vertices, dtype=np.float64), np.asarray(scan.faces, dtype=np.int64)
+    scan_scene = o3d.t.geometry.RaycastingScene()
+    scan_scene.add_triangles(V.astype(np.float32), F.astype(np.uint32))
     meshes, infos = [], []
-    for gdir in sorted(p for p in subject_dir.iterdir() if p.is_dir()):
+    siblings = sorted(p for p in subject_dir.iterdir() if p.is_dir()) if with_siblings else [sample_dir.parent]
+    for gdir in siblings:
         cand = [gdir / pose_id / f"garment.{ext}" for ext in ("ply", "obj")]
         path = next((c for c in cand if c.is_file()), None)
         if path is None:
             continue
         m = _read_mesh(path)
-        meshes.append((np.asarray(m.vertices), np.asarray(m.faces)))
-        infos.append(GarmentInfo(gdir.name, categories.get(gdir.name, "unknown"), 2 + len(infos)))
+        gv = np.asarray(m.vertices, dtype=np.float64)
+        # a sibling garment belongs to this scan only if the scan surface runs along it
+        # (generated datasets write one scan per garment; real ones may dress several)
+        dist = scan_scene.compute_distance(gv.astype(np.float32)).numpy()
+        if gdir.name != sample_dir.parent.name and np.median(dist) > tolerance:
+            continue
+        meshes.append((gv, np.asarray(m.faces)))
+        infos.append(GarmentInfo(gdir.name, categories.get(gdir.name, "unknown"), 2 + len(infos),
+                                 types.get(gdir.name, "")))
     if not infos:
         raise InputError(f"{subject_dir}: no garment.ply/obj found for pose {pose_id!r}")
-    V, F = np.asarray(scan.vertices, dtype=np.float64), np.asarray(scan.faces, dtype=np.int64)
     labels = label_faces_by_garments(V, F, meshes, [g.label for g in infos], tolerance)
     vc = None
     vcol = getattr(scan.visual, "vertex_colors", None)
