@@ -18,7 +18,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-__all__ = ["get_method", "available_methods", "METHODS", "POSTPROCESSES"]
+__all__ = ["get_method", "available_methods", "METHODS", "POSTPROCESSES", "LEADERBOARD"]
 
 METHODS = {
     "rigid": ("dressmeup.methods.retarget.rigid", "RigidRetarget"),
@@ -32,9 +32,16 @@ POSTPROCESSES = {
 }
 
 
+# the rows of the reference leaderboards: every base method and the chains worth comparing
+LEADERBOARD = ("rigid", "skinning", "isomap", "isomap+penetration", "isomap-refine", "isomap-refine+penetration")
+
+
 def available_methods() -> list[str]:
-    """Base method names (post-processes chain with ``+``)."""
-    return list(METHODS)
+    """The reference baselines (leaderboard rows): base methods and the penetration chains.
+
+    Any other ``"<method>+<post>"`` chain is accepted by :func:`get_method` too.
+    """
+    return list(LEADERBOARD)
 
 
 def _cls(table: dict, name: str):

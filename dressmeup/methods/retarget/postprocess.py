@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from dressmeup.methods.retarget.base import RetargetMethod, body_context, check_garment
+from dressmeup.methods.retarget.refine import WEIGHTS_DIR  # noqa: F401  (shipped weights of chains)
 
 __all__ = ["DetailPost", "PenetrationPost", "Pipeline"]
 
@@ -86,11 +87,6 @@ class Pipeline(RetargetMethod):
         """``"<method>+<post>+..."``."""
         return "+".join([self.method.name] + [p.name for p in self.post])
 
-    def fit(self, *args, **kwargs) -> Pipeline:
-        """Fit the base method (when it is trainable)."""
-        self.method.fit(*args, **kwargs)
-        return self
-
     def retarget(self, garment_V, garment_F, source, target, body_model) -> np.ndarray:
         """Run the method, then each post-process; returns (n, 3) float64."""
         V, F = check_garment(garment_V, garment_F)
@@ -99,12 +95,17 @@ class Pipeline(RetargetMethod):
             out = p.apply(V, F, out, source, target, body_model)
         return out
 
-    def save(self, path):
-        """Save the base method's weights (trainable methods only)."""
-        return self.method.save(path)
-
     def __getattr__(self, item):
-        # timings and fitted attributes of the base method (e.g. last_timing_)
-        if item.endswith("_") and not item.startswith("__"):
-            return getattr(self.__dict__["method"], item)
-        raise AttributeError(item)
+        # ``fit``/``save``/``load``, fitted attributes (``loss_history_``, ``last_timing_``) and
+        # ``WEIGHTS`` of the base method; absent when the base method lacks them, so that
+        # ``hasattr(pipeline, "fit")`` tells whether the chain is trainable.
+        method = self.__dict__.get("method")
+        if method is None or item.startswith("__") or not (item.endswith("_") or item in ("fit", "save")):
+            raise AttributeError(item)
+        attr = getattr(method, item)
+        if item == "fit":
+            def fit(*args, **kwargs):
+                attr(*args, **kwargs)
+                return self
+            return fit
+        return attr
