@@ -253,9 +253,10 @@ def _build_dataset(args: argparse.Namespace) -> int:
                                   scan=(tf(result.vertices), result.faces), texture=g.texture, sample_id=sid)
                 n_written += 1
             log.info("%s: %d garment(s), labels from %s, body from %s", sdir, len(ex.garments), ex.method, body_src)
-        except (DressmeupError, ValueError, FileNotFoundError, OSError, RuntimeError) as exc:
-            failed.append((str(sdir), str(exc)))
-            sys.stderr.write(f"build-dataset: skipped session {sdir}: {exc}\n")
+        except Exception as exc:  # noqa: BLE001 - one bad session must not stop the build
+            msg = str(exc) if isinstance(exc, (DressmeupError, ValueError, OSError)) else f"{type(exc).__name__}: {exc}"
+            failed.append((str(sdir), msg))
+            sys.stderr.write(f"build-dataset: skipped session {sdir}: {msg}\n")
     writer.finalize()
     sys.stdout.write(f"{args.out}: {n_written} sample(s) written, {n_skipped} already present, "
                      f"{len(failed)} session(s) failed\n")
