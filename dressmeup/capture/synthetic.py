@@ -109,6 +109,8 @@ class NoiseModel:
     flying_max_tail : float, metres.
     color_sigma : float, colour noise standard deviation on 0..255.
     depth_unit : float, metres per stored unit (quantisation).
+    mask_boundary_px : int, label-mask boundary errors (see :meth:`corrupt_labels`; 0: exact).
+    mask_blobs : int, wrongly labelled blobs per view (0: none).
     """
 
     enabled: bool = True
@@ -123,6 +125,58 @@ class NoiseModel:
     flying_max_tail: float = 0.3
     color_sigma: float = 2.0
     depth_unit: float = 0.001
+    mask_boundary_px: int = 0
+    mask_blobs: int = 0
+
+    def corrupt_labels(self, labels: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Imitate a 2D human-parsing model's errors on an exact label mask.
+
+        Each label region (>= 1) grows or shrinks by up to ``mask_boundary_px`` pixels (its own
+        random amount per view) and ``mask_blobs`` discs of 4-12 px radius inside the
+        silhouette take a wrong label. Background (0) is left alone. Off by default.
+
+        Parameters
+        ----------
+        labels : (h, w) uint8, rng : numpy Generator.
+
+        Returns
+        -------
+        (h, w) uint8
+        """
+        import cv2
+
+        out = labels.copy()
+        fg = labels > 0
+        present = [int(v) for v in np.unique(labels) if v > 0]
+        if self.mask_boundary_px > 0:
+            for lab in present:
+                k = int(rng.integers(-self.mask_boundary_px, self.mask_boundary_px + 1))
+                if k == 0:
+                    continue
+                mask = (out == lab).astype(np.uint8)
+                ker = np.ones((2 * abs(k) + 1,) * 2, np.uint8)
+                if k > 0:
+                    grown = cv2.dilate(mask, ker) > 0
+                    out[grown & fg] = lab
+                else:
+                    shrunk = cv2.erode(mask, ker) > 0
+                    lost = (mask > 0) & ~shrunk
+                    # lost pixels take the most common other label around them
+                    others = np.where(out == lab, 0, out).astype(np.uint8)
+                    spread = cv2.dilate(others, np.ones((2 * abs(k) + 3,) * 2, np.uint8))
+                    out[lost & (spread > 0)] = spread[lost & (spread > 0)]
+        if self.mask_blobs > 0 and len(present) > 1:
+            ys, xs = np.nonzero(fg)
+            for _ in range(self.mask_blobs):
+                if len(ys) == 0:
+                    break
+                i = int(rng.integers(len(ys)))
+                r = int(rng.integers(4, 13))
+                disc = np.zeros(labels.shape, np.uint8)
+                cv2.circle(disc, (int(xs[i]), int(ys[i])), r, 1, -1)
+                wrong = [v for v in present if v != labels[ys[i], xs[i]]]
+                out[(disc > 0) & fg] = wrong[int(rng.integers(len(wrong)))]
+        return out
 
     def sigma(self, z: np.ndarray) -> np.ndarray:
         """Axial noise standard deviation (metres) at depth ``z`` (metres)."""
@@ -570,6 +624,8 @@ def render_frames(subject: SyntheticSubject, rig: Rig, noise: NoiseModel | None 
             cos_view[hit] = np.abs(np.einsum("ij,ij->i", n, dirs))
         lum = color @ np.array([0.299, 0.587, 0.114])
         noisy = noise.apply(depth, cos_view, lum, rng)
+        if noise.enabled and (noise.mask_boundary_px > 0 or noise.mask_blobs > 0):
+            labels = noise.corrupt_labels(labels, rng)
         c8 = color * 255.0
         if noise.enabled and noise.color_sigma > 0:
             c8 = c8 + rng.normal(scale=noise.color_sigma, size=c8.shape) * hit[..., None]

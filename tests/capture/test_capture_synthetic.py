@@ -95,3 +95,15 @@ def test_look_at_camera_renders_subject_in_view():
     cam.camera_to_world = look_at([0, 0, -2.0], [0, 0, 0], [0, 1, 0])
     fr = render_frames(_plane_subject(0.0), Rig([cam]), None)[0]
     assert np.all(fr.depth == pytest.approx(2.0, abs=1e-6))
+
+
+def test_parsing_errors_move_label_boundaries_but_not_the_silhouette():
+    lab = np.zeros((100, 100), np.uint8)
+    lab[10:90, 10:90] = 1
+    lab[10:50, 10:90] = 2
+    nm = NoiseModel(mask_boundary_px=3, mask_blobs=2)
+    out = nm.corrupt_labels(lab, np.random.default_rng(0))
+    assert np.array_equal(out > 0, lab > 0)
+    changed = out != lab
+    assert 0 < changed.mean() < 0.1
+    assert NoiseModel().corrupt_labels(lab, np.random.default_rng(0)).tolist() == lab.tolist()
