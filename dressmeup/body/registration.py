@@ -44,6 +44,8 @@ logger = logging.getLogger(__name__)
 #: Soft limits (radians) on the axis-angle components (x, y, z) of the SMPL-like joints in
 #: the SMPL frame (y up, facing +z, left on +x). Knees bend one way; elbows bend forward.
 JOINT_LIMITS: dict[str, tuple[tuple[float, float], ...]] = {
+    "left_hip": ((-2.6, 0.9), (-1.0, 1.0), (-0.5, 1.2)),
+    "right_hip": ((-2.6, 0.9), (-1.0, 1.0), (-1.2, 0.5)),
     "left_knee": ((-0.15, 2.7), (-0.3, 0.3), (-0.3, 0.3)),
     "right_knee": ((-0.15, 2.7), (-0.3, 0.3), (-0.3, 0.3)),
     "left_elbow": ((-0.6, 0.6), (-2.7, 0.15), (-0.6, 0.6)),
@@ -63,6 +65,15 @@ JOINT_LIMITS: dict[str, tuple[tuple[float, float], ...]] = {
     "right_wrist": ((-1.2, 1.2), (-1.0, 1.0), (-1.5, 1.5)),
 }
 
+
+#: Joints whose skin decides the yaw candidate (limbs excluded: their pose is unknown yet).
+CORE_JOINTS = ("pelvis", "spine1", "spine2", "spine3", "neck", "head", "left_collar",
+               "right_collar")
+
+#: Joints held at their current rotation during the first third of the pose stage, so the
+#: trunk and the proximal limb joints settle before hands, feet and head follow.
+DISTAL_JOINTS = ("left_ankle", "right_ankle", "left_foot", "right_foot", "left_wrist",
+                 "right_wrist", "head")
 
 #: Per-joint multipliers of the pose prior: toes and ankles move little in scans, and their
 #: rotation is poorly seen by the data, so they are held closer to the rest pose.
@@ -174,8 +185,13 @@ class OptimizationRegistrar:
     pose_prior_weight, limit_weight, shape_weight, keypoint_weight : prior weights.
     n_scan_points, n_body_points : points used by the data term.
     correspondence_every : recompute scan-to-body nearest neighbours every this many steps.
-    yaw_search : try 4 root yaw angles when no ``init`` is given.
-    optimize_scale : also fit the uniform ``scale``.
+    yaw_search : try 4 root yaw angles when no ``init`` is given; each gets
+        ``n_global // 2`` rigid steps fitting the torso, hips and head
+        (:data:`CORE_JOINTS`) to the scan, and the best goes on.
+    optimize_scale : also fit the uniform ``scale`` (else the result has ``scale = 1``).
+    size_init : without ``init``/keypoints, start from a uniform scale matching the scan's
+        vertical extent, refined in the pose stage and handed over to the shape in the
+        shape stage (a penalty pulls it back to 1).
     seed : sampling seed; device : torch device; verbose : progress bar.
     num_threads : torch threads during the fit (restored afterwards; None leaves torch's
         setting). One thread is fastest for these small problems on a shared CPU.
@@ -196,11 +212,12 @@ class OptimizationRegistrar:
     refine_rounds: int = 0
     shape_in_pose_stage: bool = True
     lbfgs_steps: int = 10
-    lr_pose: float = 0.03
+    lr_pose: float = 0.015
     lr_transl: float = 0.01
     lr_shape: float = 0.05
     yaw_search: bool = True
     optimize_scale: bool = False
+    size_init: bool = True
     seed: int = 0
     device: str = "cpu"
     num_threads: int | None = 1
@@ -260,8 +277,15 @@ class OptimizationRegistrar:
         if transl0 is None:  # place the body's centre on the scan's centre
             with torch.no_grad():
                 out = model.forward(shape_value()[None], pose[None])
-                c = out.vertices[0].mean(0).cpu().numpy()
-            transl0 = P.mean(0) - c
+                Vd = out.vertices[0].cpu().numpy()
+            if self.size_init and kp is None:
+                # Upright scan: match the vertical extent with a temporary uniform scale,
+                # which the shape takes over in the last stage (limb lengths then need not
+                # be faked by bending the knees).
+                ratio = float(np.ptp(P[:, 1]) / max(np.ptp(Vd[:, 1]), 1e-6))
+                with torch.no_grad():
+                    log_scale.fill_(math.log(min(max(ratio, 0.5), 1.5)))
+            transl0 = P.mean(0) - float(torch.exp(log_scale.detach())) * Vd.mean(0)
         transl = torch.tensor(transl0, dtype=dt, device=dev, requires_grad=True)
 
         lim_ids, lim_lo, lim_hi = [], [], []
@@ -284,6 +308,11 @@ class OptimizationRegistrar:
             kp_pts = torch.as_tensor(kp[1], dtype=dt, device=dev)
 
         W_sub = torch.as_tensor(model.skinning_weights[body_ids], dtype=dt, device=dev)
+        core_joints = [list(model.joint_names).index(n) for n in CORE_JOINTS
+                       if n in model.joint_names]
+        core = model.skinning_weights[body_ids][:, core_joints].sum(1) > 0.5
+        core_t = torch.as_tensor(np.flatnonzero(core) if core.any() else
+                                 np.arange(len(body_ids)), device=dev)
         state: dict = {"step": 0, "rest_normals": None, "nn_s2b": None}
 
         def update_rest_normals(rest_vertices):
@@ -319,7 +348,10 @@ class OptimizationRegistrar:
             e = Vb[nn_s2b] - P_t
             r2 = (e * Nb[nn_s2b]).sum(-1)
             data = 0.0
-            for res, diff in ((r, d), (r2, e)):
+            pairs = ((r, d), (r2, e))
+            if state.get("core_only"):  # yaw search: torso and head against the scan only
+                pairs = ((r[core_t], d[core_t]),)
+            for res, diff in pairs:
                 cost = torch.where(res > 0, _gm(res * res, self.sigma_out),
                                    self.inside_weight * _gm(res * res, self.sigma_in))
                 pt = self.point_weight * _gm((diff * diff).sum(-1), self.sigma_out)
@@ -334,7 +366,11 @@ class OptimizationRegistrar:
                     prior = prior + self.limit_weight * 1e2 * (viol ** 2).sum()
                 loss = loss + prior
                 terms["prior"] = float(prior.detach())
-            if stage == "shape" and state["step"] >= 0:
+            if stage == "shape" and not self.optimize_scale:
+                # pull the temporary size scale back to 1: the shape takes it over
+                progress_frac = min(state["step"] / max(n_shape, 1), 1.0)
+                loss = loss + 1e3 * progress_frac * log_scale ** 2
+            if stage == "shape":
                 reg = self.shape_weight * ((shape_value() - shape_mean) ** 2).sum()
                 loss = loss + reg
                 terms["shape"] = float(reg.detach())
@@ -344,6 +380,9 @@ class OptimizationRegistrar:
                 terms["keypoints"] = float(kl.detach())
             return loss, terms
 
+        distal = [list(model.joint_names).index(n) for n in DISTAL_JOINTS
+                  if n in model.joint_names]
+
         def run(stage: str, n: int, params: list, lrs: list, label: str | None = None):
             if n <= 0:
                 return {}
@@ -352,12 +391,14 @@ class OptimizationRegistrar:
             terms: dict = {}
             state["rest_normals"], state["nn_s2b"], state["step"] = None, None, 0
             bar = progress(range(n), desc=f"register: {label or stage}", disable=None if self.verbose else True)
-            for _ in bar:
+            for it in bar:
                 opt.zero_grad()
                 loss, terms = loss_fn(pose, transl, stage)
                 loss.backward()
                 if stage == "global":  # only the root rotation moves in this stage
                     pose.grad[1:] = 0
+                elif stage == "pose" and it < n // 3 and len(distal):
+                    pose.grad[distal] = 0
                 opt.step()
                 sched.step()
             return terms
@@ -390,33 +431,44 @@ class OptimizationRegistrar:
 
         n_global, n_pose, n_shape = self.iterations
         if init is None and self.yaw_search and n_global > 0:
+            # Candidates are compared on the torso, hips and head only: with the limbs, a
+            # wrong yaw can win (A-pose arms sideways match a walking scan's legs seen
+            # from the side).
             best = None
-            base_root = pose.detach().clone()
             base_transl = transl.detach().clone()
+            state["core_only"] = True
             for yaw in (0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi):
                 with torch.no_grad():
-                    pose.copy_(base_root)
+                    pose.zero_()
                     pose[0] = torch.tensor([0.0, yaw, 0.0], dtype=dt)
                     transl.copy_(base_transl)
-                terms = run("global", max(n_global // 3, 5), [pose, transl],
-                            [self.lr_pose, self.lr_transl], label=f"yaw {math.degrees(yaw):.0f}")
+                label = f"yaw {math.degrees(yaw):.0f}"
+                terms = run("global", max(n_global // 2, 5), [pose, transl],
+                            [self.lr_pose, self.lr_transl], label=label)
+                logger.info("%s: core data %.4f", label, terms["data"])
                 if best is None or terms["data"] < best[0]:
                     best = (terms["data"], pose.detach().clone(), transl.detach().clone())
             with torch.no_grad():
                 pose.copy_(best[1])
                 transl.copy_(best[2])
+        # The rigid stage fits the torso, hips and head only (limb poses are unknown yet).
+        state["core_only"] = True
         losses = {}
         losses.update({f"global_{k}": v for k, v in run(
             "global", n_global, [pose, transl], [self.lr_pose, self.lr_transl]).items()})
+        state["core_only"] = False
         pose_params, pose_lrs = [pose, transl], [self.lr_pose, self.lr_transl]
         if self.shape_in_pose_stage:
             pose_params.append(shape_z)
             pose_lrs.append(self.lr_shape * 0.5)
+        if self.size_init and init is None and kp is None:
+            pose_params.append(log_scale)
+            pose_lrs.append(0.003)
         losses.update({f"pose_{k}": v for k, v in run(
             "pose", n_pose, pose_params, pose_lrs).items()})
         shape_params = [pose, transl, shape_z]
         shape_lrs = [self.lr_pose * 0.5, self.lr_transl * 0.5, self.lr_shape]
-        if self.optimize_scale:
+        if self.optimize_scale or abs(float(log_scale.detach())) > 0:
             shape_params.append(log_scale)
             shape_lrs.append(0.01)
         losses.update({f"shape_{k}": v for k, v in run("shape", n_shape, shape_params,
@@ -428,7 +480,8 @@ class OptimizationRegistrar:
         params = BodyParams(model=model.name, gender=getattr(model, "gender", "neutral"),
                             shape=shape_np, pose=pose.detach().cpu().numpy().astype(np.float64),
                             transl=transl.detach().cpu().numpy().astype(np.float64),
-                            scale=float(torch.exp(log_scale.detach())))
+                            scale=float(torch.exp(log_scale.detach())) if self.optimize_scale
+                            else 1.0)
         return RegistrationResult(params=params, seconds=time.perf_counter() - t_start,
                                   losses=losses)
 
