@@ -31,9 +31,16 @@ def _garment(model, params, n_min: int):
 
     ctx = body_context(model, params)
     y = model.template_vertices[:, 1]
-    sel = np.zeros(model.n_vertices, dtype=bool)
-    sel[ctx.skin_ids] = True
-    sel &= (y > np.percentile(y, 50)) & (y < np.percentile(y, 80))
+    skin = np.zeros(model.n_vertices, dtype=bool)
+    skin[ctx.skin_ids] = True
+    # a band above mid-height holding about n_min / 4^k vertices, so that k midpoint
+    # subdivisions (x4 vertices each) land near n_min
+    band = skin & (y > np.percentile(y, 50)) & (y < np.percentile(y, 80))
+    k = max(0, int(np.ceil(np.log(n_min / band.sum()) / np.log(4))))
+    want = n_min / 4 ** k
+    ys = np.sort(y[skin & (y > np.percentile(y, 50))])
+    top = ys[min(len(ys) - 1, int(want * 1.02))]
+    sel = skin & (y > np.percentile(y, 50)) & (y <= top)
     idx = np.flatnonzero(sel)
     remap = -np.ones(model.n_vertices, dtype=np.int64)
     remap[idx] = np.arange(len(idx))
