@@ -52,6 +52,15 @@ def _score_case(name, subject, rig_true, rig_used, noise, refine, samples, seed=
     fl = label_mesh(res.vertices, res.faces, res.frames, res.rig, n_labels)
     row["face_label_acc"] = round(face_label_accuracy(res.vertices, res.faces, fl, subject.vertices,
                                                       subject.faces, subject.face_labels), 4)
+    import warnings
+
+    from dressmeup.extraction.labels import cluster_colors
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fc = cluster_colors(res.vertices, res.faces, res.colors, [g.label for g in subject.garments], up=rig_true.up)
+    row["color_fallback_acc"] = round(face_label_accuracy(res.vertices, res.faces, fc, subject.vertices,
+                                                          subject.faces, subject.face_labels), 4)
     for g in subject.garments:
         V, F, _ = cut_garment(res.vertices, res.faces, fl, g.label)
         gs = score_surface(V, F, subject.vertices, subject.faces, rig_true, n_samples=samples // 2,
@@ -308,7 +317,7 @@ def main(argv=None) -> int:
     print(json.dumps(row), file=sys.stderr, flush=True)
     keys = ["case", "chamfer_l1_mm", "accuracy_mm", "completeness_mm", "completeness_all_mm",
             "fscore@1mm", "fscore@2mm", "fscore@5mm", "visible_fraction", "face_label_acc",
-            "calib_err_mm_max", "fuse_s"]
+            "color_fallback_acc", "calib_err_mm_max", "fuse_s"]
     gkeys = sorted(k for k in rows[0] if k.startswith("G-"))
     print(f"\nFusion on the default rig ({rig.cameras[0].width}x{rig.cameras[0].height}, 7 cameras, "
           f"4 mm voxels; distances in mm vs GT visible from >= 1 camera)")

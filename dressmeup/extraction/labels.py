@@ -296,17 +296,17 @@ def label_mesh(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFra
 
 
 def cluster_colors(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray, garment_labels: Sequence[int],
-                   up: np.ndarray | None = None, seed: int = 0, height_weight: float = 60.0,
+                   up: np.ndarray | None = None, seed: int = 0, height_weight: float = 100.0,
                    config: LabelConfig | None = None) -> np.ndarray:
-    """Fallback without label masks: separate garments from skin by colour clustering.
+    """Fallback without label masks: separate garments from skin by colour.
 
-    k-means (k = garments + 1) on CIELAB vertex colours plus the height along ``up``
-    (``height_weight`` Lab units per metre, so clusters stay spatially coherent); the cluster
-    whose mean colour is nearest a skin tone becomes skin, the others are given to the
-    garments in ``garment_labels`` order from the highest cluster down (list tops first).
-    Then the same graph smoothing and island cleanup as :func:`label_mesh`. It fails on
-    skin-coloured garments, multi-coloured prints and garments of similar colour: a
-    :class:`ColorFallbackWarning` says so every time it is used.
+    Skin is found by the classic YCrCb skin-tone box (Cr 135-180, Cb 85-135); the other
+    vertices are clustered by k-means (k = number of garments) on CIELAB colour and height
+    along ``up`` (``height_weight`` Lab units per metre, so clusters stay spatially
+    coherent), and clusters are given to ``garment_labels`` from the highest down (list tops
+    first). Then the same graph smoothing and island cleanup as :func:`label_mesh`. It fails
+    on skin-coloured garments, bare skin of unusual tones, and garments that overlap in height
+    with similar colours: a :class:`ColorFallbackWarning` says so every time it is used.
 
     Parameters
     ----------
@@ -321,32 +321,37 @@ def cluster_colors(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray, 
     """
     import cv2
 
-    warnings.warn("no label masks: garments separated by colour clustering, which fails on "
-                  "skin-coloured or multi-coloured garments; check the result or provide masks",
-                  ColorFallbackWarning, stacklevel=2)
+    warnings.warn("no label masks: garments separated from skin by colour, which fails on "
+                  "skin-coloured garments and garments of similar colour at similar heights; "
+                  "check the result or provide label masks", ColorFallbackWarning, stacklevel=2)
     cfg = config or LabelConfig()
     V = np.asarray(vertices, dtype=np.float64)
     C = np.asarray(colors, dtype=np.uint8).reshape(-1, 1, 3)
-    lab = cv2.cvtColor(C, cv2.COLOR_RGB2LAB).reshape(-1, 3).astype(np.float32)
-    lab[:, 0] *= 100.0 / 255.0
-    lab[:, 1:] -= 128.0
+    ycc = cv2.cvtColor(C, cv2.COLOR_RGB2YCrCb).reshape(-1, 3).astype(np.float64)
+    skin = (ycc[:, 1] >= 135) & (ycc[:, 1] <= 180) & (ycc[:, 2] >= 85) & (ycc[:, 2] <= 135) & (ycc[:, 0] > 60)
     up = np.array([0.0, 1.0, 0.0]) if up is None else np.asarray(up, dtype=np.float64)
-    h = (V @ up).astype(np.float32)
-    feats = np.concatenate([lab, (height_weight * (h - h.mean()))[:, None]], axis=1).astype(np.float32)
-    k = len(garment_labels) + 1
-    cv2.setRNGSeed(int(seed))
-    _, assign, centers = cv2.kmeans(feats, k, None, (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3),
-                                    5, cv2.KMEANS_PP_CENTERS)
-    assign = assign.ravel()
-    skin_lab = np.array([65.0, 15.0, 18.0])
-    skin = int(np.argmin(np.linalg.norm(centers[:, :3] - skin_lab, axis=1)))
-    others = [c for c in range(k) if c != skin]
-    others.sort(key=lambda c: -float(h[assign == c].mean()) if (assign == c).any() else 0.0)
-    mapping = {skin: 1}
-    mapping.update({c: int(g) for c, g in zip(others, garment_labels, strict=False)})
+    h = V @ up
     n_labels = max([1, *garment_labels]) + 1
+    assign = np.full(len(V), 1, dtype=np.int64)
+    cloth = np.nonzero(~skin)[0]
+    k = len(garment_labels)
+    if k == 1:
+        assign[cloth] = int(garment_labels[0])
+    elif k > 1 and len(cloth) >= k:
+        lab = cv2.cvtColor(C[cloth], cv2.COLOR_RGB2LAB).reshape(-1, 3).astype(np.float32)
+        lab[:, 0] *= 100.0 / 255.0
+        lab[:, 1:] -= 128.0
+        feats = np.concatenate([0.3 * lab, (height_weight * (h[cloth] - h.mean()))[:, None]], axis=1)
+        cv2.setRNGSeed(int(seed))
+        _, cl, _ = cv2.kmeans(feats.astype(np.float32), k, None,
+                              (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3), 5,
+                              cv2.KMEANS_PP_CENTERS)
+        cl = cl.ravel()
+        order = sorted(range(k), key=lambda c: -float(h[cloth][cl == c].mean()) if (cl == c).any() else 0.0)
+        for rank, c in enumerate(order):
+            assign[cloth[cl == c]] = int(garment_labels[rank])
     votes = np.zeros((len(V), n_labels))
-    votes[np.arange(len(V)), [mapping[a] for a in assign]] = 1.0
+    votes[np.arange(len(V)), assign] = 1.0
     vl = smooth_labels(faces, votes, cfg.smooth_iterations, cfg.smooth_alpha)
     fl = face_labels_from_vertices(faces, vl, n_labels)
     return remove_label_islands(faces, fl, cfg.min_island_faces)
