@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -100,7 +101,7 @@ def main() -> None:
              f"{f', scored on {len(sub)} random vertices' if len(sub) < n else ''}, k = {args.k})",
              "", "Lower is better. Seconds: time to build the embedding (full MDS includes the "
              "all-pairs geodesics). Produced by `python benchmarks/studies/richness.py "
-             f"--body {args.body}`.", "",
+             f"{' '.join(sys.argv[1:])}`.", "",
              "| representation | dim | Richness ↓ | seconds |", "|---|---:|---:|---:|"]
     lines += [f"| {r['representation']} | {r['dim']} | {r['richness']:.4f} | {r['seconds']} |" for r in rows]
     lines += ["", "Thesis Table 4.6 (SMPL, 6890 vertices) for comparison: "
