@@ -107,7 +107,9 @@ def main() -> None:
         t_kd = _best(lambda: iso.knn_embedding(phi, E, k=32, method="brute"), 1)
         rows.append(("  alternative: eq. 4.4 by torch brute force", t_kd))
 
-    if not args.weights:
+    if args.weights:
+        method._ensure_network(model)  # hyperparameters of the checkpoint, before preparing
+    else:
         method.network_ = method._new_network().eval()
         method.body_model_name_ = model.name
     sample = method.prepare(V, F, src, tgt, model)
