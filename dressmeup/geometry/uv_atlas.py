@@ -40,6 +40,7 @@ __all__ = [
     "signed_uv_areas",
     "orient_charts",
     "uv_components",
+    "shelf_pack",
 ]
 
 log = logging.getLogger(__name__)
@@ -389,8 +390,9 @@ def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resoluti
 
     Returns
     -------
-    uv : (k2, 2) float64 in [0, 1]
-    uv_faces : (m, 3) int64 (same face order)
+    uv : (k, 2) float64, inside [0, 1]^2 (square texels)
+    uv_faces : (m, 3) int64, the input's indexing (each chart moved by a global scale and
+        its own translation)
     """
     import xatlas
 
@@ -405,16 +407,96 @@ def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resoluti
     po.padding = int(padding)
     po.resolution = int(resolution)
     po.rotate_charts = bool(rotate)
+    po.rotate_charts_to_axis = bool(rotate)
     po.bilinear = True
     atlas.generate(pack_options=po)
     vmapping, indices, uvs = atlas[0]
-    uv2 = np.asarray(uvs, dtype=np.float64)
+    packed = np.asarray(uvs, dtype=np.float64)
     # xatlas normalises u by the atlas width and v by its height: undo the anisotropy
     w, h = float(atlas.width), float(atlas.height)
     if w > 0 and h > 0:
-        uv2 = uv2 * (np.array([w, h]) / max(w, h))
-    uv_faces2 = np.asarray(indices, dtype=np.int64)
-    return uv2, uv_faces2
+        packed = packed * (np.array([w, h]) / max(w, h))
+    # Use xatlas only to place the charts: it drops faces that are degenerate in float32
+    # (their corners come back at the origin) and may split a chart there. Each chart keeps
+    # its own UVs, moved by one global scale and its own translation, in the input indexing.
+    pre = (uv - lo) / span
+    vmap = np.asarray(vmapping, dtype=np.int64)
+    comp = uv_components(uv_faces, len(uv))
+    row_comp = np.zeros(len(uv), dtype=np.int64)
+    row_comp[uv_faces.reshape(-1)] = np.repeat(comp, 3)
+    c_of_new = row_comp[vmap]
+    # the global scale: median ratio of packed to input distances between vertices of the
+    # same chart (robust to the few misplaced corners)
+    rng = np.random.default_rng(0)
+    a = rng.integers(0, len(vmap), size=min(200000, 4 * len(vmap)))
+    same = np.flatnonzero(c_of_new[a] == c_of_new[(a + 1) % len(vmap)])
+    i, j = a[same], (a[same] + 1) % len(vmap)
+    if len(i) < 10:  # charts of one vertex run: compare random pairs inside charts instead
+        order0 = np.argsort(c_of_new, kind="stable")
+        i, j = order0[:-1], order0[1:]
+        keep = c_of_new[i] == c_of_new[j]
+        i, j = i[keep], j[keep]
+    dn = np.linalg.norm(packed[i] - packed[j], axis=1)
+    do = np.linalg.norm(pre[vmap[i]] - pre[vmap[j]], axis=1)
+    ok = do > 1e-9
+    scale = float(np.median(dn[ok] / do[ok])) if np.any(ok) else 1.0
+    off = packed - scale * pre[vmap]
+    n_c = int(comp.max()) + 1
+    t = np.zeros((n_c, 2))
+    order = np.argsort(c_of_new, kind="stable")
+    bounds = np.searchsorted(c_of_new[order], np.arange(n_c + 1))
+    for c in range(n_c):
+        sel = order[bounds[c]:bounds[c + 1]]
+        if len(sel):
+            t[c] = np.median(off[sel], axis=0)
+    out = scale * pre + t[row_comp]
+    # xatlas split some charts (at bow-tie vertices or float32-degenerate faces) or moved
+    # them otherwise: fall back to shelf packing of the charts' bounding boxes, which cannot
+    # overlap
+    fit = np.abs(out[vmap] - packed).max(axis=1) < 1e-4
+    if int(atlas.chart_count) != n_c or not np.all(np.bincount(c_of_new[~fit], minlength=n_c) == 0):
+        log.info("xatlas changed the charts (%d -> %d); using shelf packing", n_c, int(atlas.chart_count))
+        out = shelf_pack(pre, row_comp, comp, padding / float(resolution))
+    return out, uv_faces.copy()
+
+
+def shelf_pack(uv: np.ndarray, row_comp: np.ndarray, comp: np.ndarray, padding: float = 0.002) -> np.ndarray:
+    """Pack charts by their bounding boxes on shelves (tallest first); no overlaps by construction.
+
+    Parameters
+    ----------
+    uv : (k, 2) float array
+    row_comp : (k,) int array, chart of each UV row
+    comp : (m,) int array, chart of each face (defines the number of charts)
+    padding : float
+        Gap between boxes, relative to the final unit square.
+
+    Returns
+    -------
+    (k, 2) float64 ndarray inside [0, 1]^2
+    """
+    n_c = int(comp.max()) + 1
+    lo = np.full((n_c, 2), np.inf)
+    hi = np.full((n_c, 2), -np.inf)
+    np.minimum.at(lo, row_comp, uv)
+    np.maximum.at(hi, row_comp, uv)
+    size = hi - lo
+    pad = padding * float(np.sqrt(np.sum(np.prod(size, axis=1))) or 1.0)
+    size = size + pad
+    width = max(float(np.sqrt(np.sum(np.prod(size, axis=1))) * 1.15), float(size[:, 0].max()))
+    order = np.argsort(-size[:, 1], kind="stable")
+    pos = np.zeros((n_c, 2))
+    x = y = shelf_h = 0.0
+    for c in order:
+        if x + size[c, 0] > width and x > 0:
+            x, y = 0.0, y + shelf_h
+            shelf_h = 0.0
+        pos[c] = (x, y)
+        x += size[c, 0]
+        shelf_h = max(shelf_h, size[c, 1])
+    out = uv - lo[row_comp] + pos[row_comp] + 0.5 * pad
+    extent = float(max(width, y + shelf_h)) or 1.0
+    return out / extent
 
 
 def uv_components(uv_faces: np.ndarray, k: int) -> np.ndarray:

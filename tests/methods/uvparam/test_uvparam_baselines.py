@@ -139,3 +139,18 @@ def test_test_meshes_are_deterministic_and_sized():
     for mid, lo, hi in (("sphere-2k", 1800, 2200), ("blob-30k", 28000, 32000), ("skirt-3k", 2700, 3300)):
         V, _ = make_test_mesh(mid)
         assert lo <= len(V) <= hi, mid
+
+
+def test_shelf_pack_keeps_charts_apart_and_undistorted():
+    from dressmeup.geometry.uv_atlas import shelf_pack, uv_components
+
+    V, F = make_test_mesh("torus-600")
+    ids = normal_cone_segmentation(V, F)
+    uv, uvf = parameterize_charts(V, F, ids, lscm_flatten)
+    comp = uv_components(uvf, len(uv))
+    row_comp = np.zeros(len(uv), dtype=np.int64)
+    row_comp[uvf.reshape(-1)] = np.repeat(comp, 3)
+    out = shelf_pack(uv, row_comp, comp)
+    assert out.min() >= 0 and out.max() <= 1 + 1e-12
+    assert qce(V, F, out, uvf) == pytest.approx(qce(V, F, uv, uvf), rel=1e-9)
+    assert uv_validity(V, F, out, uvf, resolution=512).overlap_fraction == 0.0
