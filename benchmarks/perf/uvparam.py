@@ -50,6 +50,8 @@ def main() -> None:
     ap.add_argument("--config", default="fast", choices=("fast", "reference"))
     ap.add_argument("--threads", type=int, default=2, help="torch threads for neural inference")
     ap.add_argument("--skip-lscm", action="store_true")
+    ap.add_argument("--skip-xatlas", action="store_true",
+                    help="measure the neural inference only (no must-hold verdict)")
     ap.add_argument("--uv-iters", type=int, default=None,
                     help="override the configuration's UV training steps (inference time does not depend on it)")
     args = ap.parse_args()
@@ -68,6 +70,16 @@ def main() -> None:
              stages=", ".join(f"{k[8:]} {v:.2f}" for k, v in res_n.info.items() if k.startswith("seconds_")))
     rows.append(r)
     print(r, flush=True)
+    if args.skip_xatlas:
+        cols = [("method", "method", "{}"), ("wall", "wall time (s) ↓", "{:.2f}"), ("cpu", "CPU time (s) ↓", "{:.2f}"),
+                ("qce", "QCE ↓", "{:.3f}"), ("flipped", "flipped ↓", "{:.2%}"), ("stages", "stages (s)", "{}")]
+        text = (f"# Neural UV inference on {mesh_id} ({args.config} configuration"
+                f"{', ' + str(args.uv_iters) + ' UV steps' if args.uv_iters else ''})\n\n"
+                f"Parameters: {model.n_parameters}; no xatlas run.\n\n" + markdown_table(rows, cols))
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(RESULTS / f"perf_uvparam_{mesh_id}_{args.config}.md", text)
+        print(text)
+        return
     t, c = time.perf_counter(), time.process_time()
     res_x = get_method("xatlas").parameterize(V, F)
     wall_x, cpu_x = time.perf_counter() - t, time.process_time() - c
