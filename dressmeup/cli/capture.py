@@ -8,7 +8,6 @@ skipped, and a re-run skips the samples already in the dataset.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import sys
 from pathlib import Path
@@ -158,113 +157,21 @@ def _fuse(args: argparse.Namespace) -> int:
     return 0
 
 
-def _find_sessions(paths: list[str]) -> list[Path]:
-    out: list[Path] = []
-    for p in map(Path, paths):
-        if (p / "session.json").is_file() or (p / "rig.json").is_file():
-            out.append(p)
-        elif p.is_dir():
-            subs = sorted(q for q in p.iterdir() if (q / "session.json").is_file() or (q / "rig.json").is_file())
-            out.extend(subs if subs else [p])
-        else:
-            out.append(p)  # reported as missing when processed
-    return out
-
-
-def _body_for(args: argparse.Namespace, session: Any, V: Any, F: Any) -> tuple[Any, Any, str]:
-    """(body params or None, transform to apply to written meshes or None, source name)."""
-    import numpy as np
-
-    modes = ["register", "session", "ground-truth", "none"] if args.body == "auto" else [args.body]
-    errors = []
-    for mode in modes:
-        if mode == "register":
-            try:
-                from dressmeup.body.registration import register as register_body  # type: ignore
-            except ImportError as exc:
-                errors.append(f"registration unavailable ({exc})")
-                continue
-            return register_body((V, F), args.body_model), None, "register"
-        if mode == "session":
-            p = session.root / "body.npz"
-            if p.is_file():
-                from dressmeup.body import BodyParams
-
-                return BodyParams.load(p), None, "session"
-            errors.append(f"{p} absent")
-        if mode == "ground-truth":
-            gt = session.root / "ground_truth"
-            if (gt / "body.npz").is_file():
-                from dressmeup.body import BodyParams
-                from dressmeup.capture.synthetic import load_ground_truth
-
-                T = load_ground_truth(session.root).subject_to_world
-                return BodyParams.load(gt / "body.npz"), np.linalg.inv(T), "ground-truth"
-            errors.append(f"{gt / 'body.npz'} absent")
-        if mode == "none":
-            return None, None, "none"
-    raise ValueError(f"no body for {session.root}: " + "; ".join(errors))
-
-
 def _build_dataset(args: argparse.Namespace) -> int:
-    import numpy as np
+    from dressmeup.data.from_captures import build_dataset_from_sessions
+    from dressmeup.extraction.pipeline import ExtractionConfig
 
-    from dressmeup.capture.session import open_session
-    from dressmeup.data.writer import DatasetWriter
-    from dressmeup.errors import DressmeupError
-    from dressmeup.extraction.pipeline import ExtractionConfig, extract_garments
-    from dressmeup.fusion.pipeline import fuse_session
-    from dressmeup.progress import progress
-
-    sessions = _find_sessions(args.sessions)
-    if not sessions:
-        raise ValueError("sessions: no session folder given")
-    writer = DatasetWriter(args.out, {"name": args.name, "source": "dressmeup build-dataset",
-                                      "body_model": args.body_model})
-    failed: list[tuple[str, str]] = []
-    n_written = n_skipped = 0
-    for sdir in progress(sessions, desc="sessions", total=len(sessions)):
-        try:
-            session = open_session(sdir)
-            info = session.info
-            from dressmeup.data import layout
-
-            ids = [layout.make_sample_id(info.subject_id, g.id, info.pose_id) for g in info.garments]
-            if ids and all(writer.has_sample(i) for i in ids):
-                n_skipped += len(ids)
-                continue
-            result = fuse_session(session, _fusion_config(args))
-            ex = extract_garments(result, info, ExtractionConfig(target_faces=args.target_faces,
-                                                                 texture=not args.no_texture,
-                                                                 texture_size=args.texture_size))
-            body, T, body_src = _body_for(args, session, result.vertices, result.faces)
-
-            def tf(V: np.ndarray, T: Any = T) -> np.ndarray:
-                return V if T is None else V @ T[:3, :3].T + T[:3, 3]
-
-            for g, sid in zip(ex.garments, ids, strict=True):
-                if writer.has_sample(sid):
-                    n_skipped += 1
-                    continue
-                garment = (tf(g.vertices), g.faces) if g.uv is None else (tf(g.vertices), g.faces, g.uv, g.uv_faces)
-                writer.add_sample(subject_id=info.subject_id, garment_id=g.info.id, pose_id=info.pose_id,
-                                  category=g.info.category, garment_type=g.info.garment_type or g.info.category,
-                                  split=args.split, garment=garment, body=body,
-                                  scan=(tf(result.vertices), result.faces), texture=g.texture, sample_id=sid)
-                n_written += 1
-            log.info("%s: %d garment(s), labels from %s, body from %s", sdir, len(ex.garments), ex.method, body_src)
-        except Exception as exc:  # noqa: BLE001 - one bad session must not stop the build
-            msg = str(exc) if isinstance(exc, (DressmeupError, ValueError, OSError)) else f"{type(exc).__name__}: {exc}"
-            failed.append((str(sdir), msg))
-            sys.stderr.write(f"build-dataset: skipped session {sdir}: {msg}\n")
-    writer.finalize()
-    sys.stdout.write(f"{args.out}: {n_written} sample(s) written, {n_skipped} already present, "
-                     f"{len(failed)} session(s) failed\n")
-    if failed:
-        report = Path(args.out) / "build-failures.json"
-        from dressmeup.io.atomic import atomic_write_text
-
-        atomic_write_text(report, json.dumps([{"session": s, "error": e} for s, e in failed], indent=2) + "\n")
-        sys.stdout.write(f"failures listed in {report}\n")
+    report = build_dataset_from_sessions(
+        args.sessions, args.out, fusion_config=_fusion_config(args),
+        extraction_config=ExtractionConfig(target_faces=args.target_faces,
+                                           texture=not args.no_texture,
+                                           texture_size=args.texture_size),
+        body=args.body, body_model=args.body_model, split=args.split, name=args.name)
+    for session, error in report.failed:
+        sys.stderr.write(f"build-dataset: skipped session {session}: {error}\n")
+    sys.stdout.write(f"{args.out}: {report.written} sample(s) written, {report.skipped} already "
+                     f"present, {len(report.failed)} session(s) failed\n")
+    if report.failures_path is not None:
+        sys.stdout.write(f"failures listed in {report.failures_path}\n")
         return 1
     return 0
