@@ -29,6 +29,7 @@ from dressmeup.capture.session import (
     write_frame,
     write_session,
 )
+from dressmeup.capture.visibility import raycasting_scene
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path, atomic_write_text
 
@@ -418,11 +419,9 @@ def subject_from_sample(sample_dir: str | os.PathLike, tolerance: float = 0.004,
                 types = dict(zip(df["garment_id"].astype(str), df["garment_type"].astype(str), strict=False))
         except Exception as exc:  # a damaged manifest only loses the category names
             log.warning("could not read categories from %s: %s", manifest, exc)
-    import open3d as o3d
 
     V, F = np.asarray(scan.vertices, dtype=np.float64), np.asarray(scan.faces, dtype=np.int64)
-    scan_scene = o3d.t.geometry.RaycastingScene()
-    scan_scene.add_triangles(V.astype(np.float32), F.astype(np.uint32))
+    scan_scene = raycasting_scene(V, F)
     meshes, infos = [], []
     siblings = sorted(p for p in subject_dir.iterdir() if p.is_dir()) if with_siblings else [sample_dir.parent]
     for gdir in siblings:
@@ -540,14 +539,6 @@ def camera_rays(camera: Camera) -> np.ndarray:
     return np.concatenate([o, d], axis=1).reshape(camera.height, camera.width, 6).astype(np.float32)
 
 
-def _scene(vertices: np.ndarray, faces: np.ndarray) -> Any:
-    import open3d as o3d
-
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(np.asarray(vertices, dtype=np.float32), np.asarray(faces, dtype=np.uint32))
-    return scene
-
-
 def render_depth(vertices: np.ndarray, faces: np.ndarray, camera: Camera, scene: Any = None
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Exact depth of a mesh seen by one camera.
@@ -566,7 +557,7 @@ def render_depth(vertices: np.ndarray, faces: np.ndarray, camera: Camera, scene:
     rays : (h, w, 6) float32 the rays used.
     """
     if scene is None:
-        scene = _scene(vertices, faces)
+        scene = raycasting_scene(vertices, faces)
     rays = camera_rays(camera)
     ans = scene.cast_rays(rays)
     t = ans["t_hit"].numpy().astype(np.float64)
@@ -596,7 +587,7 @@ def render_frames(subject: SyntheticSubject, rig: Rig, noise: NoiseModel | None 
     list of RGBDFrame, one per camera in rig order.
     """
     noise = noise if noise is not None else NoiseModel(enabled=False)
-    scene = _scene(subject.vertices, subject.faces)
+    scene = raycasting_scene(subject.vertices, subject.faces)
     fnorm = np.cross(*(subject.vertices[subject.faces[:, k]] - subject.vertices[subject.faces[:, 0]] for k in (1, 2)))
     fnorm /= np.maximum(np.linalg.norm(fnorm, axis=1, keepdims=True), 1e-20)
     lvec = np.asarray(light if light is not None else rig.up + 0.5 * _perp(rig.up), dtype=np.float64)

@@ -12,6 +12,7 @@ import numpy as np
 
 from dressmeup.capture.rig import Rig
 from dressmeup.capture.session import RGBDFrame
+from dressmeup.capture.visibility import raycasting_scene, visible_from
 
 __all__ = ["LabelConfig", "visible_from", "vote_labels", "smooth_labels", "face_labels_from_vertices",
            "remove_label_islands", "label_mesh", "cluster_colors", "ColorFallbackWarning"]
@@ -56,33 +57,6 @@ def _vertex_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     return vn / np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-20)
 
 
-def _scene(V: np.ndarray, F: np.ndarray):
-    import open3d as o3d
-
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(np.asarray(V, dtype=np.float32), np.asarray(F, dtype=np.uint32))
-    return scene
-
-
-def visible_from(points: np.ndarray, center: np.ndarray, scene, tolerance: float = 0.01) -> np.ndarray:
-    """Which points are not occluded from a camera centre.
-
-    Parameters
-    ----------
-    points : (n, 3) float, center : (3,) float, scene : open3d RaycastingScene of the occluders.
-    tolerance : float, metres.
-
-    Returns
-    -------
-    (n,) bool
-    """
-    d = np.asarray(points, dtype=np.float64) - center
-    dist = np.linalg.norm(d, axis=1)
-    rays = np.concatenate([np.broadcast_to(center, d.shape), d], axis=1).astype(np.float32)
-    t = scene.cast_rays(rays)["t_hit"].numpy().astype(np.float64)
-    return ~np.isfinite(t) | (t * dist >= dist - tolerance)
-
-
 def vote_labels(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFrame], rig: Rig,
                 n_labels: int, config: LabelConfig | None = None) -> np.ndarray:
     """Per-vertex label votes from the views' label masks.
@@ -108,7 +82,7 @@ def vote_labels(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFr
     V = np.asarray(vertices, dtype=np.float64)
     F = np.asarray(faces, dtype=np.int64)
     normals = _vertex_normals(V, F)
-    scene = _scene(V, F)
+    scene = raycasting_scene(V, F)
     votes = np.zeros((len(V), n_labels))
     for fr in frames:
         if fr.labels is None:

@@ -147,7 +147,7 @@ def bake_texture(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, uv_fac
     -------
     texture : (size, size, 3) uint8 RGB, coverage : (size, size) bool (texels seen by a view).
     """
-    from dressmeup.extraction.labels import _scene, visible_from
+    from dressmeup.capture.visibility import raycasting_scene, visible_from
 
     V = np.asarray(vertices, dtype=np.float64)
     F = np.asarray(faces, dtype=np.int64)
@@ -159,7 +159,7 @@ def bake_texture(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, uv_fac
     fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-20)
     nrm = fn[f]
     ov, of = occluders if occluders is not None else (V, F)
-    scene = _scene(ov, of)
+    scene = raycasting_scene(ov, of)
     acc = np.zeros((len(pts), 3))
     wsum = np.zeros(len(pts))
     for fr in frames:

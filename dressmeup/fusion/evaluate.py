@@ -67,7 +67,7 @@ def score_surface(pred_vertices: np.ndarray, pred_faces: np.ndarray, gt_vertices
     -------
     SurfaceScore
     """
-    from dressmeup.extraction.labels import _scene
+    from dressmeup.capture.visibility import raycasting_scene
     from dressmeup.geometry.sampling import sample_surface
     from dressmeup.metrics.distance import distances_to
 
@@ -77,12 +77,12 @@ def score_surface(pred_vertices: np.ndarray, pred_faces: np.ndarray, gt_vertices
     # sample the target part of the GT; visibility against the whole GT mesh
     sub_f = GF[mask]
     pts, _, _ = sample_surface(GV, sub_f, n_samples, seed=seed + 1)
-    scene = _scene(GV, GF)
+    scene = raycasting_scene(GV, GF)
     fn_all = np.cross(GV[GF[:, 1]] - GV[GF[:, 0]], GV[GF[:, 2]] - GV[GF[:, 0]])
     fn_all /= np.maximum(np.linalg.norm(fn_all, axis=1, keepdims=True), 1e-20)
     cp = scene.compute_closest_points(pts.astype(np.float32))
     nrm = fn_all[cp["primitive_ids"].numpy().astype(np.int64)]
-    from dressmeup.extraction.labels import visible_from
+    from dressmeup.capture.visibility import visible_from
 
     vis = np.zeros(len(pts), dtype=bool)
     for cam in rig.cameras:
@@ -115,12 +115,12 @@ def face_label_accuracy(pred_vertices: np.ndarray, pred_faces: np.ndarray, pred_
     -------
     float in [0, 1]
     """
-    from dressmeup.extraction.labels import _scene
+    from dressmeup.capture.visibility import raycasting_scene
 
     PV = np.asarray(pred_vertices, dtype=np.float64)
     PF = np.asarray(pred_faces, dtype=np.int64)
     cent = PV[PF].mean(axis=1)
-    scene = _scene(gt_vertices, gt_faces)
+    scene = raycasting_scene(gt_vertices, gt_faces)
     gid = scene.compute_closest_points(cent.astype(np.float32))["primitive_ids"].numpy().astype(np.int64)
     return float(np.mean(np.asarray(gt_labels)[gid] == np.asarray(pred_labels)))
 
