@@ -35,6 +35,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="steps of the global,pose,shape stages, e.g. 60,160,160")
     p.add_argument("--clothed", action="store_true",
                    help="scan wears clothes: weaker pull of the body towards the scan surface")
+    p.add_argument("--naked", action="store_true",
+                   help="scan is naked: symmetric data term (body inside the scan costs as much "
+                   "as outside)")
     p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
     p.set_defaults(func=_run_register)
 
@@ -102,8 +105,12 @@ def _run_register(args: argparse.Namespace) -> int:
                 raise ValueError(f"--iterations: expected three counts like 60,160,160, got "
                                  f"{args.iterations!r}")
             options["iterations"] = its
+        if args.clothed and args.naked:
+            raise ValueError("--clothed and --naked exclude each other")
         if args.clothed:
             options["inside_weight"] = 0.2
+        if args.naked:
+            options.update(inside_weight=1.0, sigma_in=0.15)
     init = import_body_params(args.init, body_model=model) if args.init else None
     keypoints = _load_keypoints(args.keypoints) if args.keypoints else None
     result = fit(scan, model, init=init, keypoints=keypoints, registrar=args.registrar,

@@ -43,3 +43,6 @@ def test_register_command_errors(tmp_path, capsys):
     assert main(["register", str(tmp_path / "p.npy"), "--model", "procedural",
                  "--iterations", "1,2", "--out", str(tmp_path / "b.npz")]) == 2
     assert "--iterations" in capsys.readouterr().err
+    assert main(["register", str(tmp_path / "p.npy"), "--model", "procedural", "--naked",
+                 "--clothed", "--out", str(tmp_path / "b.npz")]) == 2
+    assert "exclude each other" in capsys.readouterr().err
