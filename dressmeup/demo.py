@@ -1,7 +1,7 @@
 """``dressmeup demo``: the whole journey on built-in synthetic data, in a few minutes.
 
-1. generate a small synthetic DressMeUp-style dataset (the ``synth-retarget-mini-v1``
-   edition's pinned parameters; ``--quick``: ``synth-retarget-tiny-v1``);
+1. generate a small synthetic DressMeUp-style dataset (the ``synth-retarget-mini-v2``
+   edition's pinned parameters; ``--quick``: ``synth-retarget-tiny-v2``);
 2. run every retargeting baseline the toolkit provides into submissions;
 3. validate and score them, and print the leaderboard;
 4. when the UV stage is installed: build the ``synth-uvparam-mini-v1`` mesh set, run the UV
@@ -23,8 +23,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-DEMO_EDITION = "synth-retarget-mini-v1"
-QUICK_EDITION = "synth-retarget-tiny-v1"
+DEMO_EDITION = "synth-retarget-mini-v2"
+QUICK_EDITION = "synth-retarget-tiny-v2"
 UV_EDITION = "synth-uvparam-mini-v1"
 #: UV baselines run by the demo (the neural method trains per mesh: too slow for a demo).
 UV_DEMO_METHODS = ("xatlas", "lscm", "harmonic", "slim")

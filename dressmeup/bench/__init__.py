@@ -2,7 +2,7 @@
 and leaderboards (SPEC.md section 4; docs/benchmark.md).
 
 >>> from dressmeup.bench import load_edition, write_submission, score_submission  # doctest: +SKIP
->>> ed = load_edition("synth-retarget-v1")                                        # doctest: +SKIP
+>>> ed = load_edition("synth-retarget-v2")                                        # doctest: +SKIP
 >>> write_submission("subs/mine", preds, edition=ed, method="Mine")               # doctest: +SKIP
 >>> score_submission("subs/mine", ed, "data/synth", "results/mine")               # doctest: +SKIP
 """

@@ -74,7 +74,7 @@ class Edition:
 
     Attributes
     ----------
-    name : edition name (``synth-retarget-v1``).
+    name : edition name (``synth-retarget-v2``).
     version : integer version of the edition (bumped on any protocol change).
     task : one of :data:`TASKS`.
     dataset : the dataset pin.
@@ -146,7 +146,7 @@ def list_editions() -> list[str]:
 
 
 def load_edition(name_or_path: str | os.PathLike | Edition) -> Edition:
-    """Load an edition by shipped name (``synth-retarget-v1``) or from a JSON file path.
+    """Load an edition by shipped name (``synth-retarget-v2``) or from a JSON file path.
 
     Parameters
     ----------

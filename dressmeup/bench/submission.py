@@ -12,7 +12,7 @@ Method authors write one with :func:`write_submission`::
 
     from dressmeup.bench import write_submission
     write_submission("subs/mymethod", {"S01-G01-P0__to__S01-G01-P1": verts, ...},
-                     edition="synth-retarget-v1", method="MyMethod", authors="A. Author",
+                     edition="synth-retarget-v2", method="MyMethod", authors="A. Author",
                      url="https://example.org", hardware="1x CPU", runtime_per_sample_s=0.8)
 """
 

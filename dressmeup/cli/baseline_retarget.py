@@ -17,7 +17,7 @@ def register(tasks: argparse._SubParsersAction) -> None:
                     "'+detail' and '+penetration' (e.g. isomap-refine+detail).")
     p.add_argument("--method", required=True, help="method name, e.g. skinning or isomap-refine+penetration")
     p.add_argument("--data", required=True, help="dataset root (holds manifest.parquet)")
-    p.add_argument("--edition", required=True, help="edition name (e.g. synth-retarget-v1) or path")
+    p.add_argument("--edition", required=True, help="edition name (e.g. synth-retarget-v2) or path")
     p.add_argument("--out", required=True, help="submission folder to create (must be new or empty)")
     p.add_argument("--weights", default=None, help="isomap-refine checkpoint (.pt) from train-retarget")
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",

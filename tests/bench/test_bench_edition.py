@@ -12,7 +12,7 @@ from dressmeup.errors import InputError
 
 def test_shipped_editions_load():
     names = list_editions()
-    assert "synth-retarget-v1" in names
+    assert "synth-retarget-v2" in names
     for name in names:
         ed = load_edition(name)
         assert ed.name == name and len(ed.hash) == 64
@@ -20,7 +20,7 @@ def test_shipped_editions_load():
 
 
 def test_synth_retarget_defaults():
-    ed = load_edition("synth-retarget-v1")
+    ed = load_edition("synth-retarget-v2")
     assert ed.task == "retarget" and ed.split == "test"
     assert ed.options["n_samples"] == 100_000 and ed.options["size_limit_mb"] == 256
     assert ed.dataset.kind == "generated" and ed.dataset.seed is not None
@@ -58,7 +58,7 @@ def test_invalid_edition_lists_every_problem():
 
 
 def test_unknown_name_lists_shipped(tmp_path):
-    with pytest.raises(InputError, match="synth-retarget-v1"):
+    with pytest.raises(InputError, match="synth-retarget-v2"):
         load_edition("no-such-edition")
     with pytest.raises(InputError, match="does not exist"):
         load_edition(tmp_path / "missing.json")

@@ -231,6 +231,56 @@ def test_split_by_garment():
     two = split_by_garment(["A", "B"], seed=0)
     assert sorted(two.values()) == ["test", "train"]
     assert split_by_garment(["A"]) == {"A": "train"}
+    # without categories the default is the plain shuffle, same as strategy="random"
+    assert s == split_by_garment(ids, seed=3, strategy="random")
+
+
+# the garments of synth-retarget-v1/v2 (3 subjects x 4 garments, seed 0)
+REF_CATS = {"G01": "topwear", "G02": "dress", "G03": "bottomwear", "G04": "bottomwear",
+            "G05": "topwear", "G06": "bottomwear", "G07": "topwear", "G08": "bottomwear",
+            "G09": "bottomwear", "G10": "bottomwear", "G11": "topwear", "G12": "dress"}
+
+
+def test_split_by_garment_stratified_covers_every_category():
+    s = split_by_garment(list(REF_CATS), seed=0, categories=REF_CATS)
+    assert s == split_by_garment(sorted(REF_CATS, reverse=True), seed=0, categories=REF_CATS)
+    for cat in ("topwear", "bottomwear", "dress"):
+        got = [s[g] for g in REF_CATS if REF_CATS[g] == cat]
+        assert got.count("test") == 1 and "train" in got, cat
+    # val: categories with >= 3 garments (topwear 4, bottomwear 6), not the 2 dresses
+    assert sorted(REF_CATS[g] for g in s if s[g] == "val") == ["bottomwear", "topwear"]
+    # the old random split of this seed put only bottomwear (G03 trousers, G10 skirt) in test
+    old = split_by_garment(list(REF_CATS), seed=0, strategy="random")
+    assert sorted(g for g in old if old[g] == "test") == ["G03", "G10"]
+    # frozen for generator 1.1.0 (editions synth-*-v2 pin it)
+    assert sorted(g for g in s if s[g] == "test") == ["G01", "G02", "G10"]
+    assert sorted(g for g in s if s[g] == "val") == ["G05", "G08"]
+    # a category's split does not depend on the other categories' garments
+    tops = {g: c for g, c in REF_CATS.items() if c == "topwear"}
+    s_tops = split_by_garment(list(tops), seed=0, categories=tops)
+    assert s_tops == {g: s[g] for g in tops}
+
+
+def test_split_by_garment_singleton_categories_are_pooled():
+    cats = {"A": "topwear", "B": "dress"}
+    s = split_by_garment(list(cats), seed=0, categories=cats)
+    assert sorted(s.values()) == ["test", "train"]
+    cats = {"A": "topwear", "B": "topwear", "C": "topwear", "D": "dress"}
+    s = split_by_garment(list(cats), seed=1, categories=cats)
+    assert s["D"] == "train"                      # alone: train keeps it
+    assert sorted(s[g] for g in "ABC") == ["test", "train", "val"]
+    assert split_by_garment(["A"], categories={"A": "dress"}) == {"A": "train"}
+
+
+def test_split_by_garment_rejects_bad_input():
+    with pytest.raises(ValueError, match="categories"):
+        split_by_garment(["A", "B"], categories={"A": "topwear"})
+    with pytest.raises(ValueError, match="categories"):
+        split_by_garment(["A", "B"], strategy="stratified")
+    with pytest.raises(ValueError, match="strategy"):
+        split_by_garment(["A", "B"], strategy="balanced")
+    with pytest.raises(ValueError, match="fractions"):
+        split_by_garment(["A", "B"], fractions=(0.5, 0.5, 0.5))
 
 
 def test_fast_ply_path_matches_general_reader(tmp_path):

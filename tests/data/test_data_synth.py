@@ -44,6 +44,7 @@ def test_tiny_dataset_is_valid(tiny):
     info = ds.info
     assert info["generator"]["seed"] == 3 and info["generator"]["params"]["poses"] == 2
     assert info["generator"]["version"] == info["version"]
+    assert info["generator"]["params"]["split_strategy"] == "stratified"
     assert len(ds.retarget_pairs()) == 4
     s = ds[0]
     g = s.garment()

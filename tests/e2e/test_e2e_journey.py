@@ -1,6 +1,6 @@
 """The whole journey, tiny: synthetic data -> baselines -> validate -> score -> leaderboard.
 
-Uses the ``synth-retarget-tiny-v1`` edition (procedural body, 2 test pairs). The generated
+Uses the ``synth-retarget-tiny-v2`` edition (procedural body, 2 test pairs). The generated
 data go to the test cache (``$DRESSMEUP_CACHE/e2e/<edition>-<hash>``) and are reused by later
 runs: the generator resumes and is deterministic, so a cached dataset is the same dataset.
 """
@@ -13,7 +13,7 @@ import pandas as pd
 
 from dressmeup.cli import main
 
-EDITION = "synth-retarget-tiny-v1"
+EDITION = "synth-retarget-tiny-v2"
 
 
 def test_synth_to_leaderboard(tmp_path, capsys):

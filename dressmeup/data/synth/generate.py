@@ -4,7 +4,8 @@ Subjects are bodies of varied shape (phenotype drawn per subject); each wears ``
 garments (types from ``garment_types.json``) in ``poses`` poses (from ``poses.json``, jittered
 per subject). Each garment is built once around the subject's rest body, then for every
 pose: skinned, relaxed (:mod:`dressmeup.data.synth.drape`) and written with the posed body's
-true parameters and a clothed "scan" (body + garment merged). Splits go by garment.
+true parameters and a clothed "scan" (body + garment merged). Splits go by garment,
+stratified by garment category.
 Deterministic for a seed; re-running on the same folder resumes.
 
 Besides the dataset layout, the generator writes ``generator/rest/<garment>.ply`` (each
@@ -40,7 +41,9 @@ from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
 
-GENERATOR_VERSION = "1.0.0"
+GENERATOR_VERSION = "1.1.0"
+# 1.1.0: splits stratified by garment category (1.0.0: plain seeded shuffle); garments and
+# drapes are unchanged
 DEFAULT_EDGE_LENGTH = {"anny": 0.02, "procedural": 0.025}
 SKIRT_LIKE = ("skirt", "dress")
 LEG_TO_HIP = {"left_knee": "left_hip", "left_ankle": "left_hip", "left_foot": "left_hip",
@@ -123,7 +126,7 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                      write_scan: bool = True, types: list[str] | None = None,
                      split_fractions: tuple[float, float, float] = (0.6, 0.2, 0.2),
                      drape_settings: DrapeSettings | None = None,
-                     texture_size: int = 256) -> Path:
+                     texture_size: int = 256, split_strategy: str = "stratified") -> Path:
     """Generate (or resume) the synthetic dataset in ``out``.
 
     Parameters
@@ -140,6 +143,9 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
     split_fractions : (train, val, test) fractions of garments.
     drape_settings : cloth material and solver settings.
     texture_size : texture image side in pixels.
+    split_strategy : ``"stratified"`` (by garment category, so test covers every category
+        with two or more garments) or ``"random"`` (generator 1.0.0's plain shuffle); see
+        :func:`dressmeup.data.splits.split_by_garment`. Recorded in ``dataset.json``.
 
     Returns
     -------
@@ -169,11 +175,14 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
     rest0 = model.posed(model.default_params())
     frame0 = BodyFrame.from_joints(rest0.rest_joints, names)
     plan = _plan(subjects, garments, poses, seed, types, model, frame0)
-    splits = split_by_garment(list(plan["garments"]), split_fractions, seed=seed)
+    categories = {g: v["category"] for g, v in plan["garments"].items()}
+    splits = split_by_garment(list(plan["garments"]), split_fractions, seed=seed,
+                              categories=categories, strategy=split_strategy)
     params = {"subjects": subjects, "garments": garments, "poses": poses, "seed": seed,
               "body_model": body_model, "registration_noise": registration_noise,
               "edge_length": edge, "write_scan": write_scan, "types": types,
-              "split_fractions": list(split_fractions), "texture_size": texture_size,
+              "split_fractions": list(split_fractions), "split_strategy": split_strategy,
+              "texture_size": texture_size,
               "drape": settings.to_dict()}
     info = {
         "name": "dressmeup-synthetic",

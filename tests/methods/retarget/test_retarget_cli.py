@@ -11,7 +11,7 @@ def tiny_data(tmp_path_factory):
     pytest.importorskip("dressmeup.bench.runs")
     from dressmeup.bench.runs import build_data
 
-    return build_data("synth-retarget-tiny-v1", tmp_path_factory.mktemp("data") / "tiny")
+    return build_data("synth-retarget-tiny-v2", tmp_path_factory.mktemp("data") / "tiny")
 
 
 @pytest.mark.parametrize("method", ["rigid", "skinning+detail"])
@@ -22,9 +22,9 @@ def test_cli_writes_valid_submission(tiny_data, tmp_path, method):
 
     out = tmp_path / "sub"
     status = main(["baseline", "retarget", "--method", method, "--data", str(tiny_data),
-                   "--edition", "synth-retarget-tiny-v1", "--out", str(out)])
+                   "--edition", "synth-retarget-tiny-v2", "--out", str(out)])
     assert status == 0
-    report = validate_submission(out, "synth-retarget-tiny-v1", tiny_data)
+    report = validate_submission(out, "synth-retarget-tiny-v2", tiny_data)
     assert report.ok, report
     pairs = Dataset(tiny_data).retarget_pairs("test")
     assert sorted(p.name for p in out.glob("*.npz")) == sorted(f"{p.pair_id}.npz" for p in pairs)
@@ -37,6 +37,6 @@ def test_cli_rejects_bad_param(tiny_data, tmp_path, capsys):
     from dressmeup.cli import main
 
     status = main(["baseline", "retarget", "--method", "skinning", "--param", "nope=1", "--data",
-                   str(tiny_data), "--edition", "synth-retarget-tiny-v1", "--out", str(tmp_path / "s")])
+                   str(tiny_data), "--edition", "synth-retarget-tiny-v2", "--out", str(tmp_path / "s")])
     assert status == 2
     assert "unknown hyperparameter" in capsys.readouterr().err
