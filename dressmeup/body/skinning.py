@@ -70,10 +70,17 @@ def transfer_weights(
     faces: np.ndarray | None = None,
     smooth_iterations: int = 0,
     smooth_alpha: float = 0.5,
+    point_normals: np.ndarray | None = None,
+    n_candidates: int = 64,
 ) -> np.ndarray:
     """Transfer skinning weights from a body surface to points near it.
 
     Each point takes the barycentric blend of the weights at its closest body surface point.
+    With ``point_normals``, a closest point on a body surface that faces the other way (an arm
+    or hand resting on the torso under a garment: the garment's outer side meets the arm's
+    underside) is rejected: such a point takes instead the weights of its nearest body vertex
+    among ``n_candidates`` whose normal agrees with its own. The points' normals are flipped
+    first if most of them disagree with the body (inward-oriented garment meshes).
     Optionally the result is smoothed on the points' own mesh (``faces``) with
     ``smooth_iterations`` steps of uniform Laplacian smoothing ``W <- (1-a) W + a mean(W_nbrs)``,
     which removes seams where neighbouring points snap to different body parts.
@@ -87,6 +94,8 @@ def transfer_weights(
     faces : (k, 3) int64 faces over ``points``, needed only for smoothing.
     smooth_iterations : number of smoothing steps (0: none).
     smooth_alpha : smoothing step size in (0, 1].
+    point_normals : (p, 3) float64 normals of ``points`` (e.g. garment vertex normals), or None.
+    n_candidates : body vertices searched for a point whose closest point faces away.
 
     Returns
     -------
@@ -106,6 +115,9 @@ def transfer_weights(
         return np.zeros((0, body_W.shape[1]))
     _, _, fid, bary = closest_surface_points(body_V, body_F, points)
     W = np.einsum("pk,pkj->pj", bary, body_W[body_F[fid]])
+    if point_normals is not None:
+        N = _check(point_normals, "point_normals", (points.shape[0], 3))
+        W = _reject_facing_away(body_V, body_F, body_W, points, N, fid, W, n_candidates)
     if smooth_iterations:
         if faces is None:
             raise ValueError("faces: needed to smooth the transferred weights")
@@ -128,6 +140,35 @@ def transfer_weights(
             W = (1 - smooth_alpha) * W + smooth_alpha * Wn
     W = np.maximum(W, 0.0)
     return W / np.maximum(W.sum(1, keepdims=True), 1e-12)
+
+
+def _reject_facing_away(body_V: np.ndarray, body_F: np.ndarray, body_W: np.ndarray,
+                        points: np.ndarray, normals: np.ndarray, fid: np.ndarray, W: np.ndarray,
+                        n_candidates: int) -> np.ndarray:
+    """Re-assign the points whose closest body face points against their own normal."""
+    from scipy.spatial import cKDTree
+
+    e1 = body_V[body_F[:, 1]] - body_V[body_F[:, 0]]
+    e2 = body_V[body_F[:, 2]] - body_V[body_F[:, 0]]
+    face_n = np.cross(e1, e2)
+    vert_n = np.zeros_like(body_V)
+    for k in range(3):
+        np.add.at(vert_n, body_F[:, k], face_n)
+    dots = np.einsum("pc,pc->p", normals, face_n[fid])
+    if np.count_nonzero(dots < 0) > np.count_nonzero(dots > 0):
+        normals, dots = -normals, -dots
+    bad = np.flatnonzero(dots < 0)
+    if bad.size == 0:
+        return W
+    k = int(min(max(n_candidates, 1), body_V.shape[0]))
+    _, idx = cKDTree(body_V).query(points[bad], k=k)
+    idx = idx.reshape(bad.size, k)
+    agree = np.einsum("bkc,bc->bk", vert_n[idx], normals[bad]) > 0
+    found = agree.any(axis=1)
+    chosen = idx[np.arange(bad.size), np.argmax(agree, axis=1)]
+    W = W.copy()
+    W[bad[found]] = body_W[chosen[found]]
+    return W
 
 
 def _blend(weights: np.ndarray, transforms: np.ndarray, n: int) -> np.ndarray:

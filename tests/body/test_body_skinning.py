@@ -79,3 +79,34 @@ def test_bad_shapes_raise():
         lbs(np.zeros((4, 3)), np.full((4, 2), 0.5), np.zeros((3, 4, 4)))
     with pytest.raises(ValueError, match="points"):
         transfer_weights(np.zeros((3, 3)), np.array([[0, 1, 2]]), np.eye(3), np.zeros((2, 2)))
+
+
+def test_transfer_rejects_a_closest_surface_facing_away():
+    """A garment point on a torso under a resting arm: the arm is nearer, but faces the
+    other way, so with normals the torso's weights win."""
+    import numpy as np
+
+    from dressmeup.body.skinning import transfer_weights
+
+    g = np.linspace(-0.1, 0.1, 6)
+    xx, yy = np.meshgrid(g, g)
+    grid = np.c_[xx.ravel(), yy.ravel()]
+    quads = [(i * 6 + j, i * 6 + j + 1, (i + 1) * 6 + j + 1, (i + 1) * 6 + j)
+             for i in range(5) for j in range(5)]
+    up = np.array([[a, b, c] for a, b, c, d in quads] + [[a, c, d] for a, b, c, d in quads])
+    torso = np.c_[grid, np.zeros(36)]                  # faces +z
+    arm = np.c_[grid, np.full(36, 0.02)]               # faces -z (flipped winding), above it
+    V = np.vstack([torso, arm])
+    F = np.vstack([up, up[:, ::-1] + 36])
+    W = np.zeros((72, 2))
+    W[:36, 0] = 1.0
+    W[36:, 1] = 1.0
+    pts = np.array([[0.01, 0.02, 0.012], [-0.03, 0.0, 0.013],    # nearer to the arm
+                    [0.0, 0.0, 0.003], [0.05, 0.05, 0.004], [-0.05, 0.02, 0.002]])
+    nrm = np.tile([0.0, 0.0, 1.0], (5, 1))                      # garment outside the torso
+    plain = transfer_weights(V, F, W, pts)
+    checked = transfer_weights(V, F, W, pts, point_normals=nrm)
+    np.testing.assert_allclose(plain, [[0, 1], [0, 1], [1, 0], [1, 0], [1, 0]])
+    np.testing.assert_allclose(checked, [[1, 0]] * 5)
+    # inward-oriented garment normals are flipped by the majority rule: same answer
+    np.testing.assert_allclose(transfer_weights(V, F, W, pts, point_normals=-nrm), checked)
