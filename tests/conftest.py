@@ -8,7 +8,9 @@ that the slow first build of the default body model is done once and reused by l
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -18,6 +20,7 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED_MESHES = REPO.parent / "shared" / "data" / "meshes"
 
 _TMP_HOME = Path(tempfile.mkdtemp(prefix="dressmeup-tests-home-"))
+atexit.register(shutil.rmtree, _TMP_HOME, ignore_errors=True)
 os.environ["HOME"] = str(_TMP_HOME)
 os.environ["XDG_CACHE_HOME"] = str(_TMP_HOME / ".cache")
 os.environ["MPLCONFIGDIR"] = str(_TMP_HOME / "mpl")
