@@ -107,3 +107,30 @@ class Task(Protocol):
         """Picklable scoring jobs, one per item (main process: prepares shared caches)."""
 
     score_job: Callable[[dict[str, Any]], dict[str, Any]]
+
+
+def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any) -> Any:
+    """Build a task object (the :class:`Task` protocol) from its four modules.
+
+    Parameters
+    ----------
+    name : task name; config, data, evaluate, render : the task package's modules, providing
+        ``METRICS``/``DEFAULT_OPTIONS``/``EXTRA_COLUMNS``, ``FILE_SUFFIXES``/
+        ``dataset_problems``/``items``/``check_file``, ``jobs``/``score_job`` and
+        ``metric_specs``.
+    """
+    from types import SimpleNamespace
+
+    return SimpleNamespace(
+        name=name,
+        metrics=config.METRICS,
+        default_options=config.DEFAULT_OPTIONS,
+        extra_columns=config.EXTRA_COLUMNS,
+        file_suffixes=data.FILE_SUFFIXES,
+        dataset_problems=data.dataset_problems,
+        items=data.items,
+        check_file=data.check_file,
+        jobs=evaluate.jobs,
+        score_job=evaluate.score_job,
+        metric_specs=render.metric_specs,
+    )

@@ -3,22 +3,9 @@ the target body (SPEC.md section 4)."""
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
+from dressmeup.bench.tasks.base import assemble_task
 from dressmeup.bench.tasks.retarget import config, data, evaluate, render
 
-TASK = SimpleNamespace(
-    name="retarget",
-    metrics=config.METRICS,
-    default_options=config.DEFAULT_OPTIONS,
-    extra_columns=config.EXTRA_COLUMNS,
-    file_suffixes=data.FILE_SUFFIXES,
-    dataset_problems=data.dataset_problems,
-    items=data.items,
-    check_file=data.check_file,
-    jobs=evaluate.jobs,
-    score_job=evaluate.score_job,
-    metric_specs=render.metric_specs,
-)
+TASK = assemble_task("retarget", config, data, evaluate, render)
 
 __all__ = ["TASK", "config", "data", "evaluate", "render"]
