@@ -148,12 +148,10 @@ def _reject_facing_away(body_V: np.ndarray, body_F: np.ndarray, body_W: np.ndarr
     """Re-assign the points whose closest body face points against their own normal."""
     from scipy.spatial import cKDTree
 
-    e1 = body_V[body_F[:, 1]] - body_V[body_F[:, 0]]
-    e2 = body_V[body_F[:, 2]] - body_V[body_F[:, 0]]
-    face_n = np.cross(e1, e2)
-    vert_n = np.zeros_like(body_V)
-    for k in range(3):
-        np.add.at(vert_n, body_F[:, k], face_n)
+    from dressmeup.geometry.mesh import face_normals, vertex_normals
+
+    face_n = face_normals(body_V, body_F)
+    vert_n = vertex_normals(body_V, body_F)
     dots = np.einsum("pc,pc->p", normals, face_n[fid])
     if np.count_nonzero(dots < 0) > np.count_nonzero(dots > 0):
         normals, dots = -normals, -dots
