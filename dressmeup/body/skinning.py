@@ -123,14 +123,12 @@ def transfer_weights(
             raise ValueError("faces: needed to smooth the transferred weights")
         import scipy.sparse as sp
 
+        from dressmeup.geometry.laplacian import adjacency
+
         faces = np.asarray(faces, dtype=np.int64)
         if faces.ndim != 2 or faces.shape[1] != 3 or faces.max() >= points.shape[0]:
             raise ValueError(f"faces: expected (k, 3) indices into points, got {faces.shape}")
-        i = np.concatenate([faces[:, 0], faces[:, 1], faces[:, 2]])
-        k = np.concatenate([faces[:, 1], faces[:, 2], faces[:, 0]])
-        n = points.shape[0]
-        A = sp.coo_matrix((np.ones(2 * i.size), (np.r_[i, k], np.r_[k, i])), shape=(n, n)).tocsr()
-        A.data[:] = 1.0
+        A = adjacency(faces, points.shape[0])
         deg = np.asarray(A.sum(1)).ravel()
         M = sp.diags(1.0 / np.maximum(deg, 1)) @ A
         isolated = deg == 0

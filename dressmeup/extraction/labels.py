@@ -13,6 +13,8 @@ import numpy as np
 from dressmeup.capture.rig import Rig
 from dressmeup.capture.session import RGBDFrame
 from dressmeup.capture.visibility import raycasting_scene, visible_from
+from dressmeup.geometry.laplacian import adjacency
+from dressmeup.geometry.mesh import vertex_normals
 
 __all__ = ["LabelConfig", "visible_from", "vote_labels", "smooth_labels", "face_labels_from_vertices",
            "remove_label_islands", "label_mesh", "cluster_colors", "ColorFallbackWarning"]
@@ -49,14 +51,6 @@ class LabelConfig:
     min_island_faces: int = 200
 
 
-def _vertex_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    vn = np.zeros_like(V)
-    for k in range(3):
-        np.add.at(vn, F[:, k], fn)
-    return vn / np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-20)
-
-
 def vote_labels(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFrame], rig: Rig,
                 n_labels: int, config: LabelConfig | None = None) -> np.ndarray:
     """Per-vertex label votes from the views' label masks.
@@ -81,7 +75,7 @@ def vote_labels(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFr
     cfg = config or LabelConfig()
     V = np.asarray(vertices, dtype=np.float64)
     F = np.asarray(faces, dtype=np.int64)
-    normals = _vertex_normals(V, F)
+    normals = vertex_normals(V, F)
     scene = raycasting_scene(V, F)
     votes = np.zeros((len(V), n_labels))
     for fr in frames:
@@ -115,17 +109,6 @@ def vote_labels(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFr
     return votes
 
 
-def _adjacency(F: np.ndarray, n: int):
-    from scipy.sparse import coo_matrix
-
-    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    e = np.concatenate([e, e[:, ::-1]])
-    A = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n)).tocsr()
-    A.data[:] = 1.0
-    deg = np.asarray(A.sum(axis=1)).ravel()
-    return A, deg
-
-
 def smooth_labels(faces: np.ndarray, scores: np.ndarray, iterations: int = 15, alpha: float = 0.7) -> np.ndarray:
     """Diffuse per-vertex label scores on the mesh graph and return per-vertex labels.
 
@@ -146,7 +129,8 @@ def smooth_labels(faces: np.ndarray, scores: np.ndarray, iterations: int = 15, a
     n = len(S)
     total = S.sum(axis=1, keepdims=True)
     P0 = np.divide(S, total, out=np.zeros_like(S), where=total > 0)
-    A, deg = _adjacency(np.asarray(faces, dtype=np.int64), n)
+    A = adjacency(np.asarray(faces, dtype=np.int64), n)
+    deg = np.asarray(A.sum(axis=1)).ravel()
     dinv = 1.0 / np.maximum(deg, 1)
     P = P0.copy()
     observed = (total[:, 0] > 0)[:, None]

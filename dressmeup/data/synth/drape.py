@@ -26,6 +26,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from dressmeup.geometry.mesh import edges
+
 
 @dataclass
 class DrapeSettings:
@@ -69,11 +71,6 @@ def hinge_pairs(F: np.ndarray) -> np.ndarray:
     i = np.flatnonzero(same)
     del m
     return np.stack([opp[order[i]], opp[order[i + 1]]], axis=1)
-
-
-def _edges(F):
-    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    return np.unique(np.sort(E, axis=1), axis=0)
 
 
 def _vertex_areas(V, F):
@@ -142,7 +139,7 @@ def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings):
     rest_V = np.asarray(rest_V, np.float64)
     x0 = np.asarray(skinned, np.float64)
     up = np.asarray(up, np.float64) / np.linalg.norm(up)
-    E = _edges(F)
+    E = edges(F)
     H = hinge_pairs(F)
     A_v = _vertex_areas(rest_V, F)
     L = np.linalg.norm(rest_V[E[:, 1]] - rest_V[E[:, 0]], axis=1)
