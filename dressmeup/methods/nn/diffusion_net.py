@@ -337,7 +337,12 @@ def _torch_modules():
             self.diffusion_time = nn.Parameter(torch.zeros(channels))
 
         def forward(self, x, ops):
-            t = self.diffusion_time.clamp(min=1e-8)
+            # keep t >= 1e-8 by clamping the parameter's *data*, outside the autograd graph
+            # (as the DiffusionNet authors do): a clamp inside the graph has a zero gradient
+            # at the bound, so times initialised at 0 would never move
+            with torch.no_grad():
+                self.diffusion_time.data.clamp_(min=1e-8)
+            t = self.diffusion_time
             evecs, evals, mass = ops["evecs"], ops["evals"], ops["mass"]
             spec = evecs.transpose(0, 1) @ (mass[:, None] * x)
             coefs = torch.exp(-evals[:, None] * t[None, :])

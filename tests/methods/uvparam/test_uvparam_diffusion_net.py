@@ -92,3 +92,30 @@ def test_operator_cache_round_trip(tmp_path, monkeypatch):
     np.testing.assert_array_equal(a.evecs, b.evecs)
     assert (a.grad_x != b.grad_x).nnz == 0
     assert len(list((tmp_path / "diffusion_net_ops").glob("*.npz"))) == 1
+
+
+def test_diffusion_times_learn_from_their_initial_value():
+    # regression: the times start at 0 and used to be clamped inside the autograd graph,
+    # where the gradient is exactly 0, so they never moved during training
+    V, F = make_test_mesh("blob-600")
+    Vn = normalize_vertices(V)
+    ops = compute_operators(Vn, F, k_eig=16, use_cache=False).to_torch()
+    x = torch.from_numpy(patchnet_inputs(Vn, F)).float()
+    target = torch.from_numpy(Vn[:, :1] ** 2).float()
+    net = DiffusionNet(6, 1, width=8, n_blocks=2, seed=0)
+    times0 = [blk.diffusion.diffusion_time.detach().clone() for blk in net.blocks]
+    opt = torch.optim.Adam(net.parameters(), lr=1e-2)
+    for step in range(5):
+        opt.zero_grad()
+        loss = ((net(x, ops) - target) ** 2).mean()
+        loss.backward()
+        if step == 0:
+            grads = [blk.diffusion.diffusion_time.grad for blk in net.blocks]
+            assert all(g is not None and float(g.abs().max()) > 0 for g in grads)
+        opt.step()
+    for blk, t0 in zip(net.blocks, times0, strict=True):
+        t = blk.diffusion.diffusion_time.detach()
+        assert float((t - t0).abs().max()) > 1e-4
+    with torch.no_grad():
+        net(x, ops)
+    assert all(float(blk.diffusion.diffusion_time.min()) > 0.0 for blk in net.blocks)
