@@ -6,7 +6,11 @@
       per_sample.parquet   one row per item: sample_id, category, each metric (SI units:
                            metres, m² for squared Chamfer, ratios in [0, 1]), status
                            ("ok" / "error"), error, note, seconds, task-specific ids
-      summary.json         means/std per metric and per category, counts, the method
+      summary.json         schema "dressmeup-result/2" (``schema_version`` 2): means/std
+                           and 95 % bootstrap intervals (``ci95``, over the task's unit
+                           column, see dressmeup.bench.intervals) per metric, per category
+                           and per track (``per_track``, when rows carry ``track``), counts,
+                           ``comparable`` (False when scored on other data), the method
                            (submission.json), edition name/version/hash and its full config,
                            dataset manifest hash, submission hash, toolkit version, time, host
       edition.json         the edition config used (for re-scoring)
@@ -29,7 +33,12 @@ import pandas as pd
 
 from dressmeup.errors import InputError
 
-RESULT_SCHEMA = "dressmeup-result/1"
+RESULT_SCHEMA = "dressmeup-result/2"
+#: Integer version of :data:`RESULT_SCHEMA` (stored as ``schema_version``).
+RESULT_SCHEMA_VERSION = 2
+#: Result schemas this toolkit reads. ``/1`` results have no intervals and no tracks;
+#: leaderboards show "–" for them.
+READABLE_SCHEMAS = ("dressmeup-result/1", "dressmeup-result/2")
 PER_SAMPLE = "per_sample.parquet"
 SUMMARY = "summary.json"
 EDITION_JSON = "edition.json"
@@ -61,6 +70,17 @@ class Result:
         return self.summary["edition"]["hash"]
 
     @property
+    def schema_version(self) -> int:
+        """1 for ``dressmeup-result/1`` (no intervals, no tracks), 2 for ``/2``."""
+        return int(str(self.summary.get("schema", "/1")).rsplit("/", 1)[-1] or 1)
+
+    @property
+    def comparable(self) -> bool:
+        """False when the result was scored on data other than the edition pins
+        (``--allow-other-data``); such results are marked "not comparable" in tables."""
+        return bool(self.summary.get("comparable", True))
+
+    @property
     def manifest_hash(self) -> str | None:
         """sha256 of the dataset manifest the result was scored on."""
         return self.summary.get("dataset", {}).get("manifest_sha256")
@@ -90,25 +110,67 @@ def stats(values: np.ndarray) -> dict[str, Any]:
     return {"mean": float(v.mean()), "std": float(v.std()), "n": int(v.size)}
 
 
-def summarise(table: pd.DataFrame, metrics: list[str], extra: list[str]) -> dict[str, Any]:
-    """Means and per-category means of ``metrics`` (and ``extra`` columns) over OK rows."""
+def metric_stats(values: np.ndarray, units: np.ndarray | None = None) -> dict[str, Any]:
+    """:func:`stats` plus, when ``units`` is given, the 95 % cluster-bootstrap interval
+    (``ci95`` [lo, hi], ``n_units``, ``distinct_resamples``, ``degenerate``)."""
+    from dressmeup.bench.intervals import bootstrap_mean
+
+    out = stats(values)
+    if units is not None and out["n"]:
+        iv = bootstrap_mean(values, units)
+        if iv is not None:
+            out.update(iv.to_dict())
+    return out
+
+
+def _group_stats(sub: pd.DataFrame, metrics: list[str], unit: str | None) -> dict[str, Any]:
+    units = sub[unit].to_numpy() if unit and unit in sub else None
+    return {m: metric_stats(sub[m].to_numpy(), units) if m in sub else stats(np.array([]))
+            for m in metrics}
+
+
+def summarise(table: pd.DataFrame, metrics: list[str], extra: list[str],
+              unit_column: str | None = None) -> dict[str, Any]:
+    """Means, intervals and per-category / per-track means of ``metrics`` over OK rows.
+
+    Parameters
+    ----------
+    table : per-item rows (``status``, ``category``, metric columns, optional ``track``).
+    metrics, extra : ranked metric columns and unranked extra columns.
+    unit_column : the independent unit of the bootstrap (task ``UNIT_COLUMN``); None or a
+        missing column: no intervals.
+    """
+    from dressmeup.bench.intervals import LEVEL, N_RESAMPLES, SEED
+
     ok = table[table["status"] == "ok"] if len(table) else table
+    unit = unit_column if unit_column and unit_column in table else None
     out: dict[str, Any] = {
         "counts": {"items": int(len(table)), "ok": int(len(ok)),
                    "failed": int(len(table) - len(ok))},
-        "metrics": {m: stats(ok[m].to_numpy()) if m in ok else stats(np.array([]))
-                    for m in metrics},
+        "metrics": _group_stats(ok, metrics, unit),
         "extra": {c: stats(ok[c].to_numpy()) for c in extra if c in ok},
         "per_category": {},
     }
+    if unit is not None:
+        out["bootstrap"] = {"unit": unit, "n_units": int(ok[unit].nunique()) if len(ok) else 0,
+                            "resamples": N_RESAMPLES, "seed": SEED, "level": LEVEL,
+                            "method": "cluster percentile bootstrap of the item mean"}
     for cat in sorted(table["category"].unique()) if len(table) else []:
         sub_all = table[table["category"] == cat]
         sub = ok[ok["category"] == cat]
         out["per_category"][str(cat)] = {
             "items": int(len(sub_all)), "failed": int(len(sub_all) - len(sub)),
-            "metrics": {m: stats(sub[m].to_numpy()) if m in sub else stats(np.array([]))
-                        for m in metrics},
+            "metrics": _group_stats(sub, metrics, unit),
         }
+    if "track" in table and len(table):
+        out["per_track"] = {}
+        for track in sorted(table["track"].dropna().astype(str).unique()):
+            sub_all = table[table["track"].astype(str) == track]
+            sub = ok[ok["track"].astype(str) == track]
+            out["per_track"][track] = {
+                "items": int(len(sub_all)), "failed": int(len(sub_all) - len(sub)),
+                "metrics": _group_stats(sub, metrics, unit),
+            }
     return out
 
 
@@ -133,15 +195,15 @@ def write_result(out: str | os.PathLike, table: pd.DataFrame, summary: dict[str,
     InputError
         When ``out`` already holds anything.
     """
-    from dressmeup.io.atomic import atomic_path, atomic_write_text
+    from dressmeup.io.atomic import atomic_dir, atomic_write_text
 
     out = check_out_dir(out)
-    out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out / PER_SAMPLE) as tmp:
-        table.to_parquet(tmp, index=False)
-    atomic_write_text(out / EDITION_JSON, json.dumps(edition_dict, indent=2) + "\n")
-    atomic_write_text(out / SUMMARY, json.dumps(_json_clean(summary), indent=2,
-                                                allow_nan=False) + "\n")
+    # built in a hidden sibling and renamed into place: a killed run leaves no folder behind
+    with atomic_dir(out) as tmp:
+        table.to_parquet(tmp / PER_SAMPLE, index=False)
+        atomic_write_text(tmp / EDITION_JSON, json.dumps(edition_dict, indent=2) + "\n")
+        atomic_write_text(tmp / SUMMARY, json.dumps(_json_clean(summary), indent=2,
+                                                    allow_nan=False) + "\n")
     return out
 
 
@@ -164,9 +226,10 @@ def load_result(path: str | os.PathLike, table: bool = True) -> Result:
         summary = json.loads(summary_path.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:
         raise InputError(f"{summary_path} cannot be read: {exc}") from exc
-    if summary.get("schema") != RESULT_SCHEMA:
-        raise InputError(f"{summary_path}: schema {summary.get('schema')!r} is not "
-                         f"{RESULT_SCHEMA!r}")
+    if summary.get("schema") not in READABLE_SCHEMAS:
+        raise InputError(f"{summary_path}: schema {summary.get('schema')!r} is not one of "
+                         f"{', '.join(READABLE_SCHEMAS)} (a newer toolkit wrote it? "
+                         "upgrade dressmeup)")
     df = pd.read_parquet(folder / PER_SAMPLE) if table and (folder / PER_SAMPLE).is_file() \
         else None
     return Result(path=folder, summary=summary, table=df)

@@ -161,7 +161,7 @@ def write_submission(out: str | os.PathLike, predictions: Mapping[str, Any], *,
         folder without ``overwrite``.
     """
     from dressmeup.bench.edition import Edition, load_edition
-    from dressmeup.io.atomic import atomic_path, atomic_write_text
+    from dressmeup.io.atomic import atomic_dir, atomic_write_text
 
     if isinstance(edition, Edition):
         ed_name, ed_task = edition.name, edition.task
@@ -173,11 +173,43 @@ def write_submission(out: str | os.PathLike, predictions: Mapping[str, Any], *,
             if task is None:
                 raise
             ed_name, ed_task = str(edition), task
+    out = check_submission_out(out, overwrite, flag="overwrite=True")
+    with atomic_dir(out, merge=overwrite) as tmp:
+        _write_predictions(tmp, predictions)
+        info = SubmissionInfo(task=task or ed_task, edition=ed_name, method=method,
+                              authors=authors, url=url, hardware=hardware,
+                              runtime_per_sample_s=(None if runtime_per_sample_s is None
+                                                    else float(runtime_per_sample_s)),
+                              extra=dict(extra) if extra else None)
+        atomic_write_text(tmp / SUBMISSION_JSON, json.dumps(info.to_dict(), indent=2) + "\n")
+    return out
+
+
+def check_submission_out(out: str | os.PathLike, overwrite: bool = False,
+                         flag: str = "--overwrite") -> Path:
+    """Refuse a submission folder that is a file, or non-empty without ``overwrite``.
+
+    Call it before the work (a CLI passes ``flag="--overwrite"`` so the message names the
+    option the user can give). Returns ``out`` as a Path.
+
+    Raises
+    ------
+    InputError
+        ``out`` is a file, or a non-empty folder and ``overwrite`` is false.
+    """
     out = Path(out)
-    if out.exists() and any(out.iterdir()) and not overwrite:
+    if out.exists() and not out.is_dir():
+        raise InputError(f"submission folder {out} is an existing file; choose a folder path")
+    if out.is_dir() and any(out.iterdir()) and not overwrite:
         raise InputError(f"submission folder {out} is not empty; choose a new folder or pass "
-                         "overwrite=True")
-    out.mkdir(parents=True, exist_ok=True)
+                         f"{flag}")
+    return out
+
+
+def _write_predictions(out: Path, predictions: Mapping[str, Any]) -> None:
+    """Write one ``<item_id>.npz`` per prediction into ``out``."""
+    from dressmeup.io.atomic import atomic_path
+
     for item_id, pred in predictions.items():
         if not isinstance(item_id, str) or not ITEM_ID_RE.match(item_id):
             raise InputError(f"predictions: item id {item_id!r} must use letters, digits, "
@@ -197,10 +229,3 @@ def write_submission(out: str | os.PathLike, predictions: Mapping[str, Any], *,
                              "without pickle")
         with atomic_path(out / f"{item_id}.npz") as tmp:
             np.savez(tmp, **arrays)
-    info = SubmissionInfo(task=task or ed_task, edition=ed_name, method=method,
-                          authors=authors, url=url, hardware=hardware,
-                          runtime_per_sample_s=(None if runtime_per_sample_s is None
-                                                else float(runtime_per_sample_s)),
-                          extra=dict(extra) if extra else None)
-    atomic_write_text(out / SUBMISSION_JSON, json.dumps(info.to_dict(), indent=2) + "\n")
-    return out

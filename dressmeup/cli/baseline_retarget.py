@@ -60,10 +60,12 @@ def _run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from dressmeup.bench import load_edition, write_submission
+    from dressmeup.bench.submission import check_submission_out
     from dressmeup.data import Dataset
     from dressmeup.methods.retarget import get_method
     from dressmeup.methods.retarget.run import predict_pairs
 
+    check_submission_out(args.out, args.overwrite)  # before the work, naming --overwrite
     edition = load_edition(args.edition)
     if edition.task != "retarget":
         raise ValueError(f"--edition: {edition.name} is a {edition.task!r} edition, expected a retarget one")

@@ -107,10 +107,12 @@ def _run_uvparam(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from dressmeup.bench.submission import check_submission_out
     from dressmeup.methods.uvparam import get_method
     from dressmeup.methods.uvparam.shapes import DEFAULT_MESH_IDS
     from dressmeup.progress import progress
 
+    check_submission_out(args.out, args.overwrite)  # before the work, naming --overwrite
     params = _parse_params(args.param)
     if args.method == "neural":
         params.setdefault("config", args.config)
