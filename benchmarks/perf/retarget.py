@@ -108,12 +108,12 @@ def main() -> None:
         rows.append(("  alternative: eq. 4.4 by torch brute force", t_kd))
 
     if args.weights:
-        method._ensure_network(model)  # hyperparameters of the checkpoint, before preparing
+        method.ensure_network(model)  # hyperparameters of the checkpoint, before preparing
     else:
-        method.network_ = method._new_network().eval()
+        method.network_ = method.new_network().eval()
         method.body_model_name_ = model.name
     sample = method.prepare(V, F, src, tgt, model)
-    feats, gp, bp = method._features(sample)
+    feats, gp, bp = method.features(sample)
 
     def forward():
         with torch.no_grad():

@@ -56,7 +56,7 @@ def skin_of(body_model) -> tuple[np.ndarray, np.ndarray]:
 
     Memoised per model object.
     """
-    from dressmeup.methods.retarget.isomap import skin_component
+    from dressmeup.methods.retarget.embedding import skin_component
 
     key = id(body_model)
     if key not in _SKIN_MEMO:

@@ -18,8 +18,10 @@ Self-supervised losses on the refined garment ``v'_i = x_i + dx_i``:
   weights; neighbour sets are recomputed without gradient each step and restricted to the
   64 target vertices nearest to ``v'_i``, see :func:`correspondence_points`);
 - bending: mean over interior edges of ``1 - n_1 . n_2`` (adjacent face normals);
-- penetration: mean of ``relu(margin - (v'_i - p_i) . n_i)`` with ``p_i`` the nearest target
-  skin vertex and ``n_i`` its normal.
+- penetration (not in the thesis; added here): mean of ``relu(margin - (v'_i - p_i) . n_i)``
+  with ``p_i`` the nearest target skin vertex and ``n_i`` its normal.
+
+The sample and the losses live in :mod:`dressmeup.methods.retarget.refine_losses`.
 
 Training is self-supervised on (garment, source body, target body) triplets (no ground
 truth), on CPU; inference is one forward pass.
@@ -29,7 +31,6 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +40,15 @@ from scipy.spatial import cKDTree
 from dressmeup.errors import MissingModelError
 from dressmeup.geometry.mesh import edges as mesh_edges
 from dressmeup.methods.retarget.isomap import IsomapRetarget
+from dressmeup.methods.retarget.refine_losses import (  # noqa: F401  (re-exported)
+    MASK_JOINTS,
+    RefineSample,
+    correspondence_points,
+    face_pairs,
+    joint_mask,
+    refine_losses,
+    subsample,
+)
 
 log = logging.getLogger(__name__)
 
@@ -46,189 +56,7 @@ __all__ = ["IsomapRefine", "RefineSample", "refine_losses", "joint_mask",
            "correspondence_points", "WEIGHTS_DIR", "MASK_JOINTS"]
 
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
-MASK_JOINTS = ("left_elbow", "right_elbow", "left_shoulder", "right_shoulder", "pelvis", "spine1",
-               "left_knee", "right_knee")
 _FORMAT = "dressmeup-isomap-refine-v1"
-
-
-# --------------------------------------------------------------------------------------------
-# per-sample preparation
-# --------------------------------------------------------------------------------------------
-@dataclass
-class RefineSample:
-    """Everything the network and the losses need for one (garment, source, target) triplet.
-
-    Coordinates are relative to ``center`` (the target root joint); arrays are float32
-    unless stated.
-
-    Attributes
-    ----------
-    x : (n, 3) coarse positions; phi : (n, d) garment embedding; neighbors : (n, 3k) offsets of
-    the k nearest target vertices; garment_points : (p, 3) input garment points (relative to
-    the source root); body_points : (p, 3) target skin points; input_V : (n, 3) float64 input
-    garment; faces : (m, 3) int64; edges : (e, 2) int64; edge_weights : (e,) joint mask;
-    face_pairs : (b, 2) int64 faces sharing an interior edge; target_V : (t, 3) target skin;
-    target_N : (t, 3) its normals; target_emb : (t, d); center : (3,) float64;
-    seconds_correspondence : time of the coarse placement and neighbour search.
-    """
-
-    x: np.ndarray
-    phi: np.ndarray
-    neighbors: np.ndarray
-    garment_points: np.ndarray
-    body_points: np.ndarray
-    input_V: np.ndarray
-    faces: np.ndarray
-    edges: np.ndarray
-    edge_weights: np.ndarray
-    face_pairs: np.ndarray
-    target_V: np.ndarray
-    target_N: np.ndarray
-    target_emb: np.ndarray
-    center: np.ndarray
-    seconds_correspondence: float = 0.0
-    _tree: Any = None
-
-    def tree(self) -> cKDTree:
-        """k-d tree over ``target_V`` (built once)."""
-        if self._tree is None:
-            self._tree = cKDTree(self.target_V)
-        return self._tree
-
-
-def joint_mask(points: np.ndarray, joints: np.ndarray, joint_names, radius: float,
-               names=MASK_JOINTS) -> np.ndarray:
-    """Which points lie within ``radius`` of the masked joints (thesis Fig. 4.16).
-
-    Parameters
-    ----------
-    points : (n, 3) float array (garment vertices, on the source body).
-    joints : (j, 3) float array (source body joints, same frame).
-    joint_names : sequence of j names.
-    radius : float, metres.
-    names : joints to mask (absent ones are skipped).
-
-    Returns
-    -------
-    (n,) bool ndarray.
-    """
-    ids = [i for i, n in enumerate(joint_names) if n in set(names)]
-    if not ids or radius <= 0:
-        return np.zeros(len(points), dtype=bool)
-    d = np.linalg.norm(np.asarray(points)[:, None, :] - np.asarray(joints)[ids][None], axis=2)
-    return (d < radius).any(axis=1)
-
-
-def _face_pairs(F: np.ndarray) -> np.ndarray:
-    """Pairs of faces sharing an edge that exactly two faces hold: (b, 2) int64."""
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=0), axis=1)
-    fid = np.tile(np.arange(len(F)), 3)
-    key = e[:, 0] * (int(F.max()) + 1) + e[:, 1]
-    order = np.argsort(key, kind="stable")
-    _, start, counts = np.unique(key[order], return_index=True, return_counts=True)
-    two = start[counts == 2]
-    return np.stack([fid[order][two], fid[order][two + 1]], axis=1).astype(np.int64)
-
-
-def _subsample(points: np.ndarray, n: int, seed: int) -> np.ndarray:
-    if len(points) <= n:
-        return points
-    return points[np.random.default_rng(seed).choice(len(points), n, replace=False)]
-
-
-# --------------------------------------------------------------------------------------------
-# differentiable losses
-# --------------------------------------------------------------------------------------------
-def correspondence_points(v, sample: RefineSample, k_extrapolate: int = 32, k_place: int = 32,
-                          candidates: int = 64):
-    """Re-run eq. 4.1 + eq. 4.4 from points ``v`` near the target (differentiable in ``v``).
-
-    The embedding of ``v_i`` is the inverse-distance mean of the embeddings of its
-    ``k_extrapolate`` nearest target vertices (eq. 4.1 on the target); its placement is the
-    inverse-distance (in embedding space) mean of the ``k_place`` target vertices nearest to
-    that embedding (eq. 4.4), searched among the ``candidates`` target vertices nearest to
-    ``v_i`` in 3D (the embedding is geodesic, so its nearest neighbours are local). Neighbour
-    sets are found without gradient; distances and weights carry it.
-
-    Parameters
-    ----------
-    v : (n, 3) float torch tensor
-    sample : RefineSample
-
-    Returns
-    -------
-    x : (n, 3) torch tensor, the re-placed points.
-    nearest : (n,) int64 numpy, the nearest target vertex of each ``v_i``.
-    """
-    import torch
-
-    c = int(min(candidates, len(sample.target_V)))
-    _, cand = sample.tree().query(v.detach().cpu().numpy().astype(np.float64), k=c)
-    cand = np.asarray(cand).reshape(len(v), c)
-    T = torch.as_tensor(sample.target_V, dtype=v.dtype)
-    E = torch.as_tensor(sample.target_emb, dtype=v.dtype)
-    ci = torch.as_tensor(cand)
-    Tc = T[ci]  # (n, c, 3)
-    ke = min(k_extrapolate, c)
-    d = (v[:, None, :] - Tc[:, :ke]).norm(dim=2).clamp_min(1e-6)
-    w = 1.0 / d
-    w = w / w.sum(1, keepdim=True)
-    phi = (w[..., None] * E[ci[:, :ke]]).sum(1)  # (n, dim)
-    de = (phi[:, None, :] - E[ci]).norm(dim=2)  # (n, c)
-    kp = min(k_place, c)
-    with torch.no_grad():
-        sel = torch.topk(de, kp, dim=1, largest=False).indices
-    de_sel = torch.gather(de, 1, sel).clamp_min(1e-6)
-    w2 = 1.0 / de_sel
-    w2 = w2 / w2.sum(1, keepdim=True)
-    x = (w2[..., None] * torch.gather(Tc, 1, sel[..., None].expand(-1, -1, 3))).sum(1)
-    return x, cand[:, 0]
-
-
-def refine_losses(v, sample: RefineSample, margin: float = 0.003, use_joint_mask: bool = True,
-                  k_extrapolate: int = 32, k_place: int = 32) -> dict[str, Any]:
-    """The four self-supervised losses on a refined garment.
-
-    Parameters
-    ----------
-    v : (n, 3) float torch tensor, refined vertices (same frame as ``sample.x``).
-    sample : RefineSample
-    margin : float, metres the penetration term wants between garment and skin.
-    use_joint_mask : bool, zero the edge-length weight of edges near the masked joints.
-
-    Returns
-    -------
-    dict of scalar tensors: ``length``, ``corres``, ``bend``, ``penetration``.
-    """
-    import torch
-
-    dtype = v.dtype
-    E = torch.as_tensor(sample.edges)
-    rest = torch.as_tensor(np.linalg.norm(sample.input_V[sample.edges[:, 0]] - sample.input_V[sample.edges[:, 1]],
-                                          axis=1), dtype=dtype)
-    cur = (v[E[:, 0]] - v[E[:, 1]]).norm(dim=1)
-    w = torch.as_tensor(sample.edge_weights if use_joint_mask else np.ones(len(sample.edges)), dtype=dtype)
-    length = (w * (cur - rest).abs()).mean()
-
-    x = torch.as_tensor(sample.x, dtype=dtype)
-    xp, nearest = correspondence_points(v, sample, k_extrapolate, k_place)
-    corres = (x - xp).norm(dim=1).mean()
-
-    if len(sample.face_pairs):
-        F = torch.as_tensor(sample.faces)
-        a, b, c = v[F[:, 0]], v[F[:, 1]], v[F[:, 2]]
-        n = torch.linalg.cross(b - a, c - a)
-        n = n / n.norm(dim=1, keepdim=True).clamp_min(1e-12)
-        P = torch.as_tensor(sample.face_pairs)
-        bend = (1.0 - (n[P[:, 0]] * n[P[:, 1]]).sum(1)).mean()
-    else:
-        bend = v.sum() * 0.0
-
-    p = torch.as_tensor(sample.target_V[nearest], dtype=dtype)
-    nrm = torch.as_tensor(sample.target_N[nearest], dtype=dtype)
-    sd = ((v - p) * nrm).sum(1)
-    penetration = torch.relu(margin - sd).mean()
-    return {"length": length, "corres": corres, "bend": bend, "penetration": penetration}
 
 
 # --------------------------------------------------------------------------------------------
@@ -359,13 +187,14 @@ class IsomapRefine(IsomapRetarget):
         return RefineSample(
             x=x.astype(np.float32), phi=res.garment_embedding.astype(np.float32),
             neighbors=neighbors.astype(np.float32),
-            garment_points=_subsample(V - s.joints[0], self.n_points, self.seed).astype(np.float32),
-            body_points=_subsample(TV, self.n_points, self.seed + 1).astype(np.float32),
-            input_V=V, faces=F, edges=E, edge_weights=ew, face_pairs=_face_pairs(F),
+            garment_points=subsample(V - s.joints[0], self.n_points, self.seed).astype(np.float32),
+            body_points=subsample(TV, self.n_points, self.seed + 1).astype(np.float32),
+            input_V=V, faces=F, edges=E, edge_weights=ew, face_pairs=face_pairs(F),
             target_V=TV, target_N=t.skin_normals(), target_emb=emb.embedding, center=center,
             seconds_correspondence=seconds, _tree=tree)
 
-    def _features(self, sample: RefineSample):
+    def features(self, sample: RefineSample):
+        """Network inputs of a sample: per-vertex features (n, 3 + d + 3k), garment points, body points."""
         import torch
 
         feats = np.concatenate([sample.x, sample.phi, sample.neighbors], axis=1)
@@ -373,7 +202,8 @@ class IsomapRefine(IsomapRetarget):
         return (torch.as_tensor(feats, device=dev), torch.as_tensor(sample.garment_points, device=dev),
                 torch.as_tensor(sample.body_points, device=dev))
 
-    def _new_network(self):
+    def new_network(self):
+        """A freshly initialised network (seeded) for these hyperparameters."""
         import torch
 
         torch.manual_seed(int(self.seed))
@@ -386,7 +216,7 @@ class IsomapRefine(IsomapRetarget):
         """Weighted total loss of ``net`` on one sample, and its terms as floats."""
         import torch
 
-        feats, gp, bp = self._features(sample)
+        feats, gp, bp = self.features(sample)
         dx = net(feats, gp, bp)
         v = torch.as_tensor(sample.x, device=dx.device) + dx
         terms = refine_losses(v.cpu(), sample, margin=self.margin, use_joint_mask=self.use_joint_mask,
@@ -432,7 +262,7 @@ class IsomapRefine(IsomapRetarget):
 
         if not samples:
             raise ValueError("samples: expected at least one prepared sample")
-        net = self._new_network()
+        net = self.new_network()
         opt = torch.optim.Adam(net.parameters(), lr=float(self.lr))
         rng = np.random.default_rng(int(self.seed))
         order = np.concatenate([rng.permutation(len(samples)) for _ in range(int(self.steps) // len(samples) + 1)])
@@ -489,13 +319,14 @@ class IsomapRefine(IsomapRetarget):
         return obj
 
     def _load_state(self, ckpt: dict) -> None:
-        net = self._new_network()
+        net = self.new_network()
         net.load_state_dict(ckpt["state_dict"])
         net.eval()
         self.network_ = net
         self.body_model_name_ = ckpt.get("body_model", "")
 
-    def _ensure_network(self, body_model) -> None:
+    def ensure_network(self, body_model) -> None:
+        """Load the weights (``weights`` or the shipped file of ``body_model``) unless fitted or loaded."""
         if hasattr(self, "network_"):
             return
         import torch
@@ -522,7 +353,7 @@ class IsomapRefine(IsomapRetarget):
         neighbour search) and of the network forward pass.
         """
 
-        self._ensure_network(body_model)
+        self.ensure_network(body_model)
         sample = self.prepare(garment_V, garment_F, source, target, body_model)
         t0 = time.perf_counter()
         out = self.predict_sample(sample)
@@ -537,6 +368,6 @@ class IsomapRefine(IsomapRetarget):
         if not hasattr(self, "network_"):
             raise ValueError("isomap-refine: no network; call fit() or load() first")
         with torch.no_grad():
-            feats, gp, bp = self._features(sample)
+            feats, gp, bp = self.features(sample)
             dx = self.network_(feats, gp, bp).cpu().numpy().astype(np.float64)
         return sample.x.astype(np.float64) + dx + sample.center
