@@ -1,5 +1,5 @@
 """UV distortion and validity: QCE, ASE (Boundary First Flattening conventions), flipped
-and overlapping UV area.
+and overlapping UV area; seams, charts and packing efficiency (:func:`uv_seams`).
 
 UVs come per vertex (``uv (n, 2)``, ``uv_faces=None``) or per corner as in OBJ files
 (``uv (k, 2)`` with ``uv_faces (m, 3)`` indexing into it; seams are then free).
@@ -23,6 +23,9 @@ __all__ = [
     "ase_details",
     "uv_validity",
     "uv_jacobian_singular_values",
+    "UVSeams",
+    "uv_seams",
+    "seam_edges",
 ]
 
 #: Relative tolerance under which a triangle counts as having zero area (sine of its
@@ -417,3 +420,164 @@ def uv_validity(vertices, faces, uv, uv_faces=None, resolution: int = 1024) -> U
         n_zero_uv_area=int(np.count_nonzero(zero_uv)),
         resolution=int(resolution),
     )
+
+
+@dataclass
+class UVSeams:
+    """Seams, charts and packing of a UV atlas, measured on the original mesh's edges.
+
+    Attributes
+    ----------
+    seam_length : float
+        Sum of the 3D lengths of the seam edges divided by ``sqrt(surface area)`` (scale-free;
+        0 for a seamless map). An interior edge is a seam when its faces give its two end
+        points different UV positions.
+    n_seam_edges : int
+    n_charts : int
+        Connected components of faces across interior edges that are not seams.
+    packing_efficiency : float
+        Total UV triangle area over the area of the square the atlas is normalised to (its
+        bounding box scaled uniformly so that the longer side is 1). In (0, 1] for atlases
+        without overlaps; overlapping area counts twice.
+    """
+
+    seam_length: float
+    n_seam_edges: int
+    n_charts: int
+    packing_efficiency: float
+
+    def as_dict(self) -> dict[str, float]:
+        """``{"seam_length": ..., "charts": ..., "packing": ...}`` (result-table names)."""
+        return {"seam_length": self.seam_length, "charts": float(self.n_charts),
+                "packing": self.packing_efficiency}
+
+
+def _edge_agreement(F: np.ndarray, UF: np.ndarray, UV: np.ndarray, tol: float):
+    """Half-edges grouped by undirected mesh edge, and whether each agrees with its group's
+    first half-edge on the UV positions of both end points.
+
+    Returns
+    -------
+    face : (h,) int64, the face of each half-edge, sorted by edge
+    first : (h,) bool, the first half-edge of its edge
+    group : (h,) int64, index of the group's first half-edge
+    agree : (h,) bool, same UV positions (within ``tol``) as the group's first half-edge
+    count : (h,) int64, half-edges of the edge (1 boundary, 2 interior, > 2 non-manifold)
+    a, b : (h,) int64, the edge's end points (a < b)
+    """
+    m = F.shape[0]
+    n = int(F.max()) + 1 if m else 0
+    k0, k1 = np.array([0, 1, 2]), np.array([1, 2, 0])
+    va, vb = F[:, k0].reshape(-1), F[:, k1].reshape(-1)
+    ua, ub = UF[:, k0].reshape(-1), UF[:, k1].reshape(-1)
+    swap = va > vb
+    va, vb = np.where(swap, vb, va), np.where(swap, va, vb)
+    ua, ub = np.where(swap, ub, ua), np.where(swap, ua, ub)
+    face = np.repeat(np.arange(m), 3)
+    key = va.astype(np.int64) * n + vb
+    order = np.argsort(key, kind="stable")
+    key, face, va, vb, ua, ub = key[order], face[order], va[order], vb[order], ua[order], ub[order]
+    first = np.ones(key.size, dtype=bool)
+    first[1:] = key[1:] != key[:-1]
+    starts = np.flatnonzero(first)
+    group = starts[np.cumsum(first) - 1]
+    count = np.diff(np.r_[starts, key.size])[np.cumsum(first) - 1]
+    # compare positions, not indices: two UV entries at the same place are not a seam
+    da = np.abs(UV[ua] - UV[ua[group]]).max(axis=1)
+    db = np.abs(UV[ub] - UV[ub[group]]).max(axis=1)
+    agree = (da <= tol) & (db <= tol)
+    return face, first, group, agree, count, va, vb
+
+
+def seam_edges(vertices, faces, uv, uv_faces=None, rtol: float = 1e-6) -> np.ndarray:
+    """The seam edges of a UV atlas: interior mesh edges whose faces disagree on the UV
+    positions of its end points.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+    uv : (n, 2) per-vertex or (k, 2) per-corner float array
+    uv_faces : (m, 3) int array, optional (per-corner UVs)
+    rtol : float
+        UV positions closer than ``rtol`` times the atlas' longer side count as equal.
+
+    Returns
+    -------
+    (s, 2) int64 ndarray
+        Vertex pairs (``a < b``), sorted.
+    """
+    V, F = as_arrays(vertices, faces, name="mesh")
+    UV, UF = _uv_arrays(V, F, uv, uv_faces)
+    face, first, group, agree, count, va, vb = _edge_agreement(F, UF, UV, _uv_tol(UV, rtol))
+    bad = ~agree & (count >= 2)
+    seam_group = np.unique(group[bad])
+    return np.stack([va[seam_group], vb[seam_group]], axis=1).astype(np.int64)
+
+
+def _uv_arrays(V, F, uv, uv_faces):
+    UV = as_points(uv, name="uv", dim=2)
+    if uv_faces is None:
+        if UV.shape[0] != V.shape[0]:
+            raise ValueError(f"uv: per-vertex UVs need shape ({V.shape[0]}, 2), got {UV.shape}; "
+                             "pass uv_faces for per-corner UVs")
+        return UV, F
+    UF = as_faces(uv_faces, UV.shape[0], name="uv_faces")
+    if UF.shape != F.shape:
+        raise ValueError(f"uv_faces: expected shape {F.shape} (one row per face), got {UF.shape}")
+    return UV, UF
+
+
+def _uv_tol(UV: np.ndarray, rtol: float) -> float:
+    if UV.shape[0] == 0:
+        return 0.0
+    ext = float((UV.max(axis=0) - UV.min(axis=0)).max())
+    return rtol * ext
+
+
+def uv_seams(vertices, faces, uv, uv_faces=None, rtol: float = 1e-6) -> UVSeams:
+    """Seam length, chart count and packing efficiency of a UV atlas.
+
+    Everything is measured on the original mesh's edges, so a method cannot hide cuts by
+    how it indexes its UVs: an interior edge (two or more faces) is a *seam* when its faces
+    give its end points different UV positions; *charts* are the connected components of
+    faces across the other interior edges.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float array
+    faces : (m, 3) int array
+    uv : (n, 2) per-vertex or (k, 2) per-corner float array
+    uv_faces : (m, 3) int array, optional
+    rtol : float
+        UV positions closer than ``rtol`` times the atlas' longer side count as equal.
+
+    Returns
+    -------
+    UVSeams
+        ``seam_length`` (3D seam length / sqrt(3D area), lower means fewer cuts),
+        ``n_charts``, ``packing_efficiency`` (UV area / normalised square, higher is better).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    V, F = as_arrays(vertices, faces, name="mesh")
+    UV, UF = _uv_arrays(V, F, uv, uv_faces)
+    m = F.shape[0]
+    face, first, group, agree, count, va, vb = _edge_agreement(F, UF, UV, _uv_tol(UV, rtol))
+    interior = count >= 2
+    seam_group = np.unique(group[~agree & interior])
+    lengths = np.linalg.norm(V[va[seam_group]] - V[vb[seam_group]], axis=1)
+    area3 = float(0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]),
+                                       axis=1).sum())
+    seam_len = float(lengths.sum() / np.sqrt(area3)) if area3 > 0 else 0.0
+    link = interior & agree & ~first
+    A = coo_matrix((np.ones(int(link.sum())), (face[link], face[group[link]])), shape=(m, m))
+    n_charts = int(connected_components(A, directed=False)[0]) if m else 0
+    T = UV[UF]
+    auv = 0.5 * np.abs((T[:, 1, 0] - T[:, 0, 0]) * (T[:, 2, 1] - T[:, 0, 1])
+                       - (T[:, 1, 1] - T[:, 0, 1]) * (T[:, 2, 0] - T[:, 0, 0]))
+    used = T.reshape(-1, 2)
+    side = float((used.max(axis=0) - used.min(axis=0)).max()) if used.size else 0.0
+    packing = float(auv.sum() / side**2) if side > 0 else 0.0
+    return UVSeams(seam_len, int(seam_group.size), n_charts, packing)
