@@ -40,6 +40,8 @@ class GarmentMesh:
     uv : (k, 2) float64 or None; per corner when ``uv_faces`` is given, else per vertex.
     uv_faces : (m, 3) int64 or None.
     texture_path : path of the texture image or None.
+    texture_image : (h, w, 3) uint8 texture held in memory (row 0 = top, as in a PNG), for
+        readers whose texture is not an image file (4D-DRESS atlases), or None.
     """
 
     vertices: np.ndarray
@@ -47,6 +49,7 @@ class GarmentMesh:
     uv: np.ndarray | None = None
     uv_faces: np.ndarray | None = None
     texture_path: Path | None = None
+    texture_image: np.ndarray | None = None
 
 
 _PLY_VERTEX = ["property double x", "property double y", "property double z"]

@@ -4,7 +4,9 @@ as :class:`dressmeup.data.Dataset`, and a restricted pickle loader."""
 from __future__ import annotations
 
 import re
+from collections import Counter
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -26,14 +28,65 @@ def load_pickle(path) -> Any:
     return safe_load_pickle(path)
 
 
+@dataclass
+class ReadReport:
+    """What an adapter found and what it skipped, for users to check an import at a glance.
+
+    Attributes
+    ----------
+    dataset : adapter name (``cloth3d``, ``4ddress``, ``thuman``).
+    root : folder read.
+    skipped : ``(what, why)`` for every sequence, frame or garment left out.
+    notes : conventions applied that a user should know (e.g. a gender assumed).
+    """
+
+    dataset: str
+    root: str
+    skipped: list[tuple[str, str]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def skip(self, what: str, why: str) -> None:
+        """Record one thing left out and the reason."""
+        self.skipped.append((str(what), str(why)))
+
+    def note(self, text: str) -> None:
+        """Record a convention applied (each text once)."""
+        if text not in self.notes:
+            self.notes.append(text)
+
+    def summary(self, samples: Sequence[Sample], max_skipped: int = 20) -> str:
+        """Counts per subject / garment / frame, then the skipped items grouped by reason."""
+        subj = Counter(s.subject_id for s in samples)
+        garm = {s.garment_id for s in samples}
+        poses = {(s.garment_id, s.pose_id) for s in samples}
+        cats = Counter(s.category for s in samples)
+        lines = [f"{self.dataset} at {self.root}: {len(samples)} samples, {len(subj)} subjects, "
+                 f"{len(garm)} garments, {len(poses)} garment-frames; categories: "
+                 + (", ".join(f"{k} {v}" for k, v in sorted(cats.items())) or "none")]
+        for sid, n in sorted(subj.items()):
+            g = sorted({s.garment_id for s in samples if s.subject_id == sid})
+            lines.append(f"  subject {sid}: {n} samples, garments {', '.join(g)}")
+        if self.skipped:
+            by_reason = Counter(why for _, why in self.skipped)
+            lines.append(f"skipped {len(self.skipped)}:")
+            for why, n in by_reason.most_common():
+                ex = [w for w, y in self.skipped if y == why][:3]
+                lines.append(f"  {n} x {why} (e.g. {', '.join(ex)})")
+        for n in self.notes:
+            lines.append(f"note: {n}")
+        return "\n".join(lines)
+
+
 class SampleCollection:
     """Samples read by an adapter, with the :class:`~dressmeup.data.Dataset` API
     (``len``, indexing by position or id, iteration, ``filter``, ``retarget_pairs``,
-    ``manifest`` as pandas)."""
+    ``manifest`` as pandas) and the adapter's :class:`ReadReport` as ``report``."""
 
-    def __init__(self, samples: Sequence[Sample], source: str = "") -> None:
+    def __init__(self, samples: Sequence[Sample], source: str = "",
+                 report: ReadReport | None = None) -> None:
         self._samples = list(samples)
         self.source = source
+        self.report = report if report is not None else ReadReport("", source)
 
     def __len__(self) -> int:
         return len(self._samples)
@@ -70,7 +123,7 @@ class SampleCollection:
                 continue
             vals = {val} if isinstance(val, str) else set(val)
             out = [s for s in out if s.row[attr] in vals]
-        return SampleCollection(out, self.source)
+        return SampleCollection(out, self.source, self.report)
 
     def samples(self) -> list[Sample]:
         """All samples."""
