@@ -1,0 +1,131 @@
+"""Registration: fit a body model to a scan (clothed or not) by optimisation in torch.
+
+``register(scan, model, init=None, keypoints=None, ...) -> BodyParams``. The
+``optimization`` registrar (:class:`OptimizationRegistrar`) works in stages with Adam on
+axis-angle pose, translation and shape (``scale`` stays fixed, 1 by default):
+
+0. **initialisation** (:mod:`.init`): the body placed on the scan, turned by a yaw search;
+1. **global**: root orientation and translation, fitting the torso, hips and head;
+2. **pose**: all joint rotations and translation, shape at half rate;
+3. **shape**: shape, pose and translation together.
+
+The objective (:mod:`.terms`, :mod:`.problem`): a one-sided robust data term in both
+directions (clothes may sit outside the body, the body should not poke out of the scan),
+pose priors with soft joint limits, a shape regulariser, optional 3D keypoints pulling the
+joints. Registrars are looked up by name (:func:`get_registrar`): ``optimization`` and
+``from-file`` (imports precomputed parameters); external tools add theirs with
+:func:`add_registrar`.
+
+Modules: :mod:`.scan` (inputs), :mod:`.terms` (cost functions and constants),
+:mod:`.problem` (parameters + objective), :mod:`.stages` (optimiser loops), :mod:`.init`
+(starting poses), :mod:`.optimizer` (the registrar).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from dressmeup.body.params import BodyParams
+from dressmeup.body.registration.optimizer import OptimizationRegistrar, RegistrationResult
+from dressmeup.body.registration.scan import prepare_scan
+from dressmeup.body.registration.terms import JOINT_LIMITS
+from dressmeup.body.skeleton import SMPL22_JOINT_NAMES
+from dressmeup.errors import InputError
+
+
+@dataclass
+class FromFileRegistrar:
+    """A registrar that imports precomputed parameters (another tool's fit).
+
+    Parameters
+    ----------
+    path : the parameter file; format : importer name or ``auto``
+        (see :func:`dressmeup.body.importers.import_body_params`).
+    """
+
+    path: str | os.PathLike | None = None
+    format: str = "auto"
+
+    def fit(self, scan, model, init: BodyParams | None = None, keypoints=None) -> RegistrationResult:
+        """Return the imported parameters (the scan is not used)."""
+        from dressmeup.body.importers import import_body_params
+
+        if self.path is None:
+            raise InputError("from-file registrar: pass path= to the parameter file")
+        t0 = time.perf_counter()
+        params = import_body_params(Path(self.path), format=self.format, body_model=model)
+        return RegistrationResult(params=params, seconds=time.perf_counter() - t0)
+
+
+_REGISTRARS: dict[str, Callable[..., object]] = {
+    "optimization": OptimizationRegistrar,
+    "from-file": FromFileRegistrar,
+}
+
+
+def add_registrar(name: str, factory: Callable[..., object]) -> None:
+    """Register ``factory(**options)`` returning an object with ``fit(scan, model, init,
+    keypoints) -> RegistrationResult`` (or ``BodyParams``) under ``name``."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name: expected a non-empty string, got {name!r}")
+    _REGISTRARS[name] = factory
+
+
+def available_registrars() -> list[str]:
+    """Names accepted by :func:`get_registrar`."""
+    return sorted(_REGISTRARS)
+
+
+def get_registrar(name: str = "optimization", **options):
+    """Return the registrar ``name`` built with ``options``."""
+    if name not in _REGISTRARS:
+        raise ValueError(f"registrar: unknown {name!r}; known: {available_registrars()}")
+    return _REGISTRARS[name](**options)
+
+
+def register(scan, model, init: BodyParams | None = None, keypoints=None,
+             registrar: str = "optimization", return_result: bool = False, **options):
+    """Fit a body model to a scan and return its parameters.
+
+    Parameters
+    ----------
+    scan : ``(V (n,3), F (m,3))``, a trimesh, or points ``(p, 3)`` in metres.
+    model : a BodyModel (e.g. ``get_body_model("anny")``) or its name.
+    init : optional starting parameters (else zero pose, average shape, centred, yaw search).
+    keypoints : optional 3D joint positions: ``(j, 3)`` in the model's joint order with NaN
+        rows for missing joints, or ``{joint_name: (3,)}``.
+    registrar : registrar name (``optimization``, ``from-file``, or one added with
+        :func:`add_registrar`).
+    return_result : return the :class:`RegistrationResult` (timing, losses) instead.
+    **options : registrar options (see :class:`OptimizationRegistrar`).
+
+    Returns
+    -------
+    BodyParams (vertices = scale * model(shape, pose) + transl), or RegistrationResult.
+    """
+    if isinstance(model, str):
+        from dressmeup.body.models import get_body_model
+
+        model = get_body_model(model)
+    result = get_registrar(registrar, **options).fit(scan, model, init=init, keypoints=keypoints)
+    if isinstance(result, BodyParams):
+        result = RegistrationResult(params=result, seconds=float("nan"))
+    return result if return_result else result.params
+
+
+__all__ = [
+    "JOINT_LIMITS",
+    "SMPL22_JOINT_NAMES",
+    "FromFileRegistrar",
+    "OptimizationRegistrar",
+    "RegistrationResult",
+    "add_registrar",
+    "available_registrars",
+    "get_registrar",
+    "prepare_scan",
+    "register",
+]

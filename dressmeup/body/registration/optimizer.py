@@ -1,0 +1,152 @@
+"""The ``optimization`` registrar: initialisation, then global, pose and shape stages."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from dressmeup.body.params import BodyParams
+from dressmeup.body.registration.init import place_on_scan, yaw_search
+from dressmeup.body.registration.problem import FitProblem
+from dressmeup.body.registration.scan import keypoint_arrays, prepare_scan
+from dressmeup.body.registration.stages import run_adam, run_lbfgs
+
+
+@dataclass
+class RegistrationResult:
+    """What a fit returns besides the parameters: per-stage losses and timing (s)."""
+
+    params: BodyParams
+    seconds: float
+    losses: dict[str, float] = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
+
+
+@dataclass
+class OptimizationRegistrar:
+    """Fit by optimisation (see :mod:`dressmeup.body.registration`). Keyword options.
+
+    Parameters
+    ----------
+    iterations : steps for the (global, pose, shape) stages.
+    shape_in_pose_stage : let the shape move (at half rate) already in the pose stage, so
+        limb lengths adapt before the pose settles (avoids tip-toe / bent-leg minima).
+    refine_rounds, lbfgs_steps : optional final ICP-like L-BFGS rounds (0: off).
+    inside_weight : weight of body-inside-scan residuals (1 for naked scans gives a
+        symmetric term; the default 0.5 with the saturating ``sigma_in`` suits clothes too).
+    sigma_out, sigma_in : Geman-McClure scales (m) of outside / inside residuals.
+    point_weight : weight of the point-to-point term.
+    hand_weight : data weight of hand vertices (skinned to the wrists); < 1 keeps the many
+        hand vertices from pulling the arm.
+    pose_prior_weight, limit_weight, shape_weight, keypoint_weight : prior weights.
+    n_scan_points, n_body_points : points used by the data term.
+    correspondence_every : recompute scan-to-body nearest neighbours every this many steps.
+    yaw_search : try 4 root yaw angles when no ``init`` is given; each gets
+        ``n_global // 2`` rigid steps fitting the torso, hips and head, the best goes on.
+    optimize_scale : also fit the uniform ``scale`` (else the result has ``scale = 1``).
+    size_init : without ``init``/keypoints, start from a uniform scale matching the scan's
+        vertical extent, refined in the pose stage and handed over to the shape in the
+        shape stage (a penalty pulls it back to 1).
+    seed : sampling seed; device : torch device; verbose : progress bar.
+    num_threads : torch threads during the fit (restored afterwards; None leaves torch's
+        setting). One thread is fastest for these small problems on a shared CPU.
+    """
+
+    iterations: tuple[int, int, int] = (60, 160, 160)
+    inside_weight: float = 0.5
+    sigma_out: float = 0.15
+    sigma_in: float = 0.01
+    point_weight: float = 0.3
+    hand_weight: float = 1.0
+    pose_prior_weight: float = 1e-2
+    limit_weight: float = 1e-2
+    shape_weight: float = 1e-4
+    keypoint_weight: float = 1.0
+    n_scan_points: int = 8000
+    n_body_points: int = 5000
+    correspondence_every: int = 2
+    refine_rounds: int = 0
+    shape_in_pose_stage: bool = True
+    lbfgs_steps: int = 10
+    lr_pose: float = 0.015
+    lr_transl: float = 0.01
+    lr_shape: float = 0.05
+    yaw_search: bool = True
+    optimize_scale: bool = False
+    size_init: bool = True
+    seed: int = 0
+    device: str = "cpu"
+    num_threads: int | None = 1
+    verbose: bool = True
+
+    def fit(self, scan, model, init: BodyParams | None = None, keypoints=None) -> RegistrationResult:
+        """Fit ``model`` to ``scan``; see :func:`~dressmeup.body.registration.register`."""
+        import torch
+
+        previous = torch.get_num_threads()
+        if self.num_threads:
+            torch.set_num_threads(int(self.num_threads))
+        try:
+            return self._fit(scan, model, init, keypoints)
+        finally:
+            torch.set_num_threads(previous)
+
+    # ---------------------------------------------------------------- stages
+    def _initialise(self, problem: FitProblem, init: BodyParams | None) -> dict:
+        """Start parameters: ``init`` if given, else the model's rest pose placed on the
+        scan and turned by the yaw search. Returns info for the result."""
+        n_global = self.iterations[0]
+        if init is not None:
+            init.check_model(problem.model)
+            problem.set_params(shape=np.r_[init.shape, problem.default_shape[init.shape.size:]],
+                               pose=init.pose, transl=init.transl, scale=init.scale)
+            return {"init": "given"}
+        problem.set_params(shape=problem.default_shape)
+        place_on_scan(problem, size_init=self.size_init and problem.kp is None)
+        if self.yaw_search and n_global > 0:
+            yaw_search(problem, max(n_global // 2, 5), self.lr_pose, self.lr_transl,
+                       verbose=self.verbose)
+        return {"init": "rest pose + yaw search" if self.yaw_search else "rest pose"}
+
+    def _fit(self, scan, model, init, keypoints) -> RegistrationResult:
+        t_start = time.perf_counter()
+        P = prepare_scan(scan, self.n_scan_points, self.seed)
+        kp = keypoint_arrays(keypoints, model)
+        problem = FitProblem(self, model, P, kp)
+        info = self._initialise(problem, init)
+        losses = self._refine(problem, fit_size=self.size_init and init is None and kp is None)
+        return RegistrationResult(params=problem.body_params(self.optimize_scale),
+                                  seconds=time.perf_counter() - t_start, losses=losses, info=info)
+
+    def _refine(self, problem: FitProblem, fit_size: bool) -> dict[str, float]:
+        """Global (rigid, core joints), pose, shape and optional L-BFGS stages."""
+        n_global, n_pose, n_shape = self.iterations
+        p = problem
+        v = self.verbose
+        losses: dict[str, float] = {}
+        p.core_only = True
+        losses.update({f"global_{k}": x for k, x in run_adam(
+            p, "global", n_global, [p.pose, p.transl], [self.lr_pose, self.lr_transl],
+            verbose=v).items()})
+        p.core_only = False
+        pose_params, pose_lrs = [p.pose, p.transl], [self.lr_pose, self.lr_transl]
+        if self.shape_in_pose_stage:
+            pose_params.append(p.shape_z)
+            pose_lrs.append(self.lr_shape * 0.5)
+        if fit_size:
+            pose_params.append(p.log_scale)
+            pose_lrs.append(0.003)
+        losses.update({f"pose_{k}": x for k, x in run_adam(
+            p, "pose", n_pose, pose_params, pose_lrs, verbose=v).items()})
+        shape_params = [p.pose, p.transl, p.shape_z]
+        shape_lrs = [self.lr_pose * 0.5, self.lr_transl * 0.5, self.lr_shape]
+        if self.optimize_scale or abs(float(p.log_scale.detach())) > 0:
+            shape_params.append(p.log_scale)
+            shape_lrs.append(0.01)
+        losses.update({f"shape_{k}": x for k, x in run_adam(
+            p, "shape", n_shape, shape_params, shape_lrs, verbose=v).items()})
+        losses.update({f"refine_{k}": x for k, x in run_lbfgs(
+            p, self.refine_rounds, shape_params, self.lbfgs_steps, verbose=v).items()})
+        return losses

@@ -1,0 +1,246 @@
+"""One fit's state: the parameters as torch tensors and the objective over them.
+
+:class:`FitProblem` holds the scan points, the sampled body points, the priors' constants
+and the free parameters (``pose (j, 3)`` axis-angle, ``transl (3,)``, ``shape_z`` (the
+shape, through a sigmoid for phenotype models), ``log_scale``), and evaluates the loss of
+a stage (``global``, ``pose`` or ``shape``). Correspondences are recomputed by k-d tree
+(body -> scan every step, scan -> body every ``correspondence_every`` steps) unless frozen.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from dressmeup.body.params import BodyParams
+from dressmeup.body.registration.terms import (
+    CORE_JOINTS,
+    HAND_JOINTS,
+    JOINT_LIMITS,
+    PRIOR_SCALE,
+    one_sided_cost,
+    pose_prior,
+)
+from dressmeup.body.skeleton import PHENOTYPE_NAMES
+
+
+def joint_skin_mask(model, joints, threshold: float = 0.5) -> np.ndarray:
+    """(n,) bool: vertices whose skinning weights on ``joints`` sum above ``threshold``."""
+    ids = [list(model.joint_names).index(n) for n in joints if n in model.joint_names]
+    if not ids:
+        return np.zeros(model.n_vertices, dtype=bool)
+    return np.asarray(model.skinning_weights)[:, ids].sum(1) > threshold
+
+
+class FitProblem:
+    """Parameters and objective of one registration (see module docstring).
+
+    Parameters
+    ----------
+    opts : the :class:`~dressmeup.body.registration.optimizer.OptimizationRegistrar`
+        (weights, scales, sample counts, seed, device).
+    model : BodyModel.
+    P : (p, 3) float64 scan points.
+    kp : None or (joint ids (k,), targets (k, 3)) keypoints.
+    """
+
+    def __init__(self, opts, model, P: np.ndarray, kp):
+        import torch
+        from scipy.spatial import cKDTree
+
+        self.opts, self.model, self.P, self.kp = opts, model, P, kp
+        self.dev = torch.device(opts.device)
+        self.dt = torch.float32
+        dev, dt = self.dev, self.dt
+        self.tree = cKDTree(P)
+        self.P_t = torch.as_tensor(P, dtype=dt, device=dev)
+        rng = np.random.default_rng(opts.seed)
+        self.body_ids = np.sort(rng.choice(model.n_vertices, min(opts.n_body_points, model.n_vertices),
+                                           replace=False))
+        self.body_ids_t = torch.as_tensor(self.body_ids, device=dev)
+        names = list(model.joint_names)
+        self.n_joints = len(names)
+        self.phenotype = tuple(getattr(model, "shape_names", ())) == PHENOTYPE_NAMES
+        self.default_shape = np.asarray(model.default_shape, dtype=np.float64)
+
+        lim_ids, lim_lo, lim_hi = [], [], []
+        for name, bounds in JOINT_LIMITS.items():
+            if name in names:
+                lim_ids.append(names.index(name))
+                lim_lo.append([b[0] for b in bounds])
+                lim_hi.append([b[1] for b in bounds])
+        self.lim_ids = torch.as_tensor(lim_ids, dtype=torch.long, device=dev)
+        self.lim_lo = torch.as_tensor(lim_lo, dtype=dt, device=dev).reshape(-1, 3)
+        self.lim_hi = torch.as_tensor(lim_hi, dtype=dt, device=dev).reshape(-1, 3)
+        self.shape_mean = torch.as_tensor(self.default_shape, dtype=dt, device=dev)
+        prior_scale = torch.ones(self.n_joints, dtype=dt, device=dev)
+        for name, factor in PRIOR_SCALE.items():
+            if name in names:
+                prior_scale[names.index(name)] = factor
+        self.prior_scale = prior_scale[1:, None]
+        if kp is not None:
+            self.kp_ids = torch.as_tensor(kp[0], dtype=torch.long, device=dev)
+            self.kp_pts = torch.as_tensor(kp[1], dtype=dt, device=dev)
+
+        self.W_sub = torch.as_tensor(np.asarray(model.skinning_weights)[self.body_ids], dtype=dt,
+                                     device=dev)
+        core = joint_skin_mask(model, CORE_JOINTS)[self.body_ids]
+        self.core_t = torch.as_tensor(np.flatnonzero(core) if core.any() else
+                                      np.arange(len(self.body_ids)), device=dev)
+        hand = joint_skin_mask(model, HAND_JOINTS)[self.body_ids]
+        w = np.where(hand, float(opts.hand_weight), 1.0)
+        self.point_weight = None if np.all(w == 1.0) else torch.as_tensor(w, dtype=dt, device=dev)
+        self.distal: list[int] = []
+
+        self.shape_z = torch.zeros(len(self.default_shape), dtype=dt, device=dev, requires_grad=True)
+        self.pose = torch.zeros((self.n_joints, 3), dtype=dt, device=dev, requires_grad=True)
+        self.transl = torch.zeros(3, dtype=dt, device=dev, requires_grad=True)
+        self.log_scale = torch.zeros((), dtype=dt, device=dev, requires_grad=True)
+        # correspondence / stage state
+        self.step = 0
+        self.stage_steps = 1
+        self.rest_normals = None
+        self.nn_s2b = None
+        self.nn_b2s = None
+        self.freeze = False
+        self.core_only = False
+
+    # ------------------------------------------------------------ parameters
+    def set_params(self, shape: np.ndarray | None = None, pose: np.ndarray | None = None,
+                   transl: np.ndarray | None = None, scale: float | None = None) -> None:
+        """Overwrite some parameters (numpy, float64 ok); ``shape`` in model units."""
+        import torch
+
+        with torch.no_grad():
+            if shape is not None:
+                s = np.asarray(shape, dtype=np.float64)
+                if self.phenotype:
+                    s = np.clip(s, 1e-3, 1 - 1e-3)
+                    s = np.log(s / (1 - s))
+                self.shape_z.copy_(torch.as_tensor(s, dtype=self.dt))
+            if pose is not None:
+                self.pose.copy_(torch.as_tensor(np.asarray(pose), dtype=self.dt))
+            if transl is not None:
+                self.transl.copy_(torch.as_tensor(np.asarray(transl), dtype=self.dt))
+            if scale is not None:
+                self.log_scale.fill_(math.log(float(scale)))
+
+    def shape_value(self):
+        """The shape in model units (sigmoid of ``shape_z`` for phenotype models)."""
+        import torch
+
+        return torch.sigmoid(self.shape_z) if self.phenotype else self.shape_z
+
+    def snapshot(self) -> dict[str, Any]:
+        """Copies of the free parameters (restore with :meth:`restore`)."""
+        return {k: getattr(self, k).detach().clone() for k in ("shape_z", "pose", "transl",
+                                                                 "log_scale")}
+
+    def restore(self, snap: dict[str, Any]) -> None:
+        """Set the free parameters back to a :meth:`snapshot`."""
+        import torch
+
+        with torch.no_grad():
+            for k, v in snap.items():
+                getattr(self, k).copy_(v)
+
+    def body_params(self, keep_scale: bool) -> BodyParams:
+        """The current parameters as :class:`BodyParams` (``scale`` 1 unless ``keep_scale``)."""
+        import torch
+
+        with torch.no_grad():
+            shape = self.shape_value().cpu().numpy().astype(np.float64)
+            scale = float(torch.exp(self.log_scale)) if keep_scale else 1.0
+        return BodyParams(model=self.model.name, gender=getattr(self.model, "gender", "neutral"),
+                          shape=shape, pose=self.pose.detach().cpu().numpy().astype(np.float64),
+                          transl=self.transl.detach().cpu().numpy().astype(np.float64),
+                          scale=scale)
+
+    def posed_numpy(self) -> np.ndarray:
+        """(n, 3) float64 vertices of the whole body at the current parameters."""
+        import torch
+
+        with torch.no_grad():
+            out = self.model.forward(self.shape_value()[None], self.pose[None], self.transl[None],
+                                     torch.exp(self.log_scale)[None])
+        return out.vertices[0].cpu().numpy().astype(np.float64)
+
+    # ------------------------------------------------------------ objective
+    def reset_correspondences(self) -> None:
+        """Forget cached correspondences and normals (a new stage starts)."""
+        self.rest_normals, self.nn_s2b, self.nn_b2s, self.step = None, None, None, 0
+
+    def _update_rest_normals(self, rest_vertices) -> None:
+        import torch
+
+        from dressmeup.geometry.mesh import vertex_normals
+
+        Vr = rest_vertices[0].detach().cpu().numpy().astype(np.float64)
+        self.rest_normals = torch.as_tensor(vertex_normals(Vr, self.model.faces)[self.body_ids],
+                                            dtype=self.dt, device=self.dev)
+
+    def loss(self, stage: str):
+        """Loss (torch scalar) and its terms (dict of floats) for ``stage``.
+
+        ``global``: data term only; ``pose``: + pose prior; ``shape``: + shape prior and the
+        pull of the temporary size scale back to 1 (unless the scale is fitted).
+        """
+        import torch
+        from scipy.spatial import cKDTree
+
+        o = self.opts
+        out = self.model.forward(self.shape_value()[None], self.pose[None], self.transl[None],
+                                 torch.exp(self.log_scale)[None], vertex_ids=self.body_ids_t)
+        Vb = out.vertices[0]
+        if self.rest_normals is None or (stage == "shape" and self.step % 10 == 0):
+            self._update_rest_normals(out.rest_vertices)
+        with torch.no_grad():
+            Rb = torch.einsum("kj,jab->kab", self.W_sub, out.transforms[0, :, :3, :3])
+            Nb = (Rb @ self.rest_normals[..., None])[..., 0]
+            Nb = Nb / (Nb.norm(dim=-1, keepdim=True) + 1e-12)
+            Vb_np = Vb.detach().cpu().numpy()
+            if not self.freeze or self.nn_b2s is None:
+                _, nn_b2s = self.tree.query(Vb_np, k=1, workers=1)
+                self.nn_b2s = torch.as_tensor(nn_b2s, device=self.dev)
+            if self.nn_s2b is None or (not self.freeze and self.step % o.correspondence_every == 0):
+                _, nn = cKDTree(Vb_np).query(self.P, k=1, workers=1)
+                self.nn_s2b = torch.as_tensor(nn, device=self.dev)
+        self.step += 1
+        # body -> scan, signed along the body normal (> 0: body outside the scan)
+        d = Vb - self.P_t[self.nn_b2s]
+        r = (d * Nb).sum(-1)
+        # scan -> body: a scan point inside the body means the body is outside it
+        e = Vb[self.nn_s2b] - self.P_t
+        r2 = (e * Nb[self.nn_s2b]).sum(-1)
+        w = self.point_weight
+        if self.core_only:  # rigid stage: torso, hips and head against the scan only
+            pairs = ((r[self.core_t], d[self.core_t], None),)
+        else:
+            pairs = ((r, d, w), (r2, e, None if w is None else w[self.nn_s2b]))
+        data = 0.0
+        for res, diff, wt in pairs:
+            data = data + one_sided_cost(res, diff, wt, o.sigma_out, o.sigma_in, o.inside_weight,
+                                         o.point_weight)
+        loss = data * 1e4  # residuals in metres: scale to ~cm^2
+        terms = {"data": float(data.detach()) * 1e4}
+        if stage != "global":
+            prior = pose_prior(self.pose, self.prior_scale, self.lim_ids, self.lim_lo, self.lim_hi,
+                               o.pose_prior_weight, o.limit_weight)
+            loss = loss + prior
+            terms["prior"] = float(prior.detach())
+        if stage == "shape" and not o.optimize_scale:
+            # pull the temporary size scale back to 1: the shape takes it over
+            frac = min(self.step / max(self.stage_steps, 1), 1.0)
+            loss = loss + 1e3 * frac * self.log_scale ** 2
+        if stage == "shape":
+            reg = o.shape_weight * ((self.shape_value() - self.shape_mean) ** 2).sum()
+            loss = loss + reg
+            terms["shape"] = float(reg.detach())
+        if self.kp is not None:
+            kl = o.keypoint_weight * 1e4 * ((out.joints[0, self.kp_ids] - self.kp_pts) ** 2
+                                            ).sum(-1).mean()
+            loss = loss + kl
+            terms["keypoints"] = float(kl.detach())
+        return loss, terms

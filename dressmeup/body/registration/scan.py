@@ -1,0 +1,75 @@
+"""Inputs of a fit: scans as point sets, keypoints as (joint ids, targets)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dressmeup.errors import InputError
+
+
+def prepare_scan(scan, n_points: int = 8000, seed: int = 0) -> np.ndarray:
+    """Turn a scan into points (p, 3) float64.
+
+    Parameters
+    ----------
+    scan : ``(V, F)`` tuple, an object with ``vertices``/``faces`` (trimesh), or (p, 3)
+        points. Meshes are sampled uniformly by area (``n_points`` samples, seeded).
+    n_points : samples drawn from a mesh, or the cap on a point set (random subset).
+    seed : sampling seed.
+    """
+    if hasattr(scan, "vertices") and hasattr(scan, "faces"):
+        scan = (np.asarray(scan.vertices), np.asarray(scan.faces))
+    if isinstance(scan, (tuple, list)) and len(scan) == 2:
+        V = np.asarray(scan[0], dtype=np.float64)
+        F = np.asarray(scan[1], dtype=np.int64)
+        if V.ndim != 2 or V.shape[1] != 3 or V.shape[0] == 0:
+            raise InputError(f"scan vertices: expected shape (n, 3), got {V.shape}")
+        if F.ndim != 2 or F.shape[1] != 3 or F.size == 0 or F.min() < 0 or F.max() >= len(V):
+            raise InputError(f"scan faces: expected (m, 3) indices into the vertices, got {F.shape}")
+        tri = V[F]
+        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        if area.sum() <= 0:
+            raise InputError("scan: all faces are degenerate")
+        rng = np.random.default_rng(seed)
+        fid = rng.choice(len(F), size=n_points, p=area / area.sum())
+        u, v = rng.uniform(size=(2, n_points))
+        flip = u + v > 1
+        u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
+        t = tri[fid]
+        return t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + v[:, None] * (t[:, 2] - t[:, 0])
+    P = np.asarray(scan, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 3 or P.shape[0] < 10:
+        raise InputError(f"scan: expected a mesh (V, F) or points (p, 3) with p >= 10, got {P.shape}")
+    if not np.all(np.isfinite(P)):
+        raise InputError("scan: contains NaN or infinite coordinates")
+    if P.shape[0] > n_points:
+        P = P[np.random.default_rng(seed).choice(P.shape[0], n_points, replace=False)]
+    return P
+
+
+def keypoint_arrays(keypoints, model) -> tuple[np.ndarray, np.ndarray] | None:
+    """Normalise keypoints to ``(joint ids (k,) int64, targets (k, 3) float64)``.
+
+    Parameters
+    ----------
+    keypoints : None, a ``(j, 3)`` array in the model's joint order with NaN rows for
+        missing joints, or ``{joint_name: xyz}``.
+    model : the body model (its ``joint_names``).
+    """
+    if keypoints is None:
+        return None
+    names = list(model.joint_names)
+    if isinstance(keypoints, dict):
+        ids, pts = [], []
+        for name, xyz in keypoints.items():
+            if name not in names:
+                raise InputError(f"keypoints: unknown joint {name!r}; expected one of {names}")
+            ids.append(names.index(name))
+            pts.append(np.asarray(xyz, dtype=np.float64).reshape(3))
+        return np.array(ids, dtype=np.int64), np.array(pts).reshape(-1, 3)
+    K = np.asarray(keypoints, dtype=np.float64)
+    if K.shape != (len(names), 3):
+        raise InputError(f"keypoints: expected shape ({len(names)}, 3) (NaN rows for missing) or a "
+                         f"dict of joint name -> xyz, got {K.shape}")
+    ok = np.all(np.isfinite(K), axis=1)
+    return np.flatnonzero(ok), K[ok]
