@@ -279,3 +279,45 @@ def test_pickles_cannot_run_code(tmp_path):
     with pytest.raises(InputError, match="refused"):
         read_4ddress(tmp_path)
     assert not (tmp_path / "pwned").exists()
+
+
+def test_import_dataset_cli_writes_a_valid_dataset_with_report_and_pictures(tmp_path, capsys):
+    from dressmeup.cli import main
+    from dressmeup.data import Dataset
+    from dressmeup.data.validate import validate_dataset
+
+    src = tmp_path / "4D-DRESS"
+    _dress4d_take(src, "00122", "Inner", "Take2", ["00011", "00012"],
+                  [["upper", "lower"], ["upper", "lower"]], seed=1)
+    _dress4d_take(src, "00148", "Inner", "Take4", ["00001", "00002"],
+                  [["upper"], ["upper"]], with_cloth=False, colors=False, seed=3)
+    out = tmp_path / "imported"
+    assert main(["import-dataset", "4ddress", str(src), "--out", str(out),
+                 "--pictures", "2"]) == 0
+    text = capsys.readouterr().out
+    assert "6 samples, 2 subjects, 3 garments" in text and "wrote 6 samples" in text
+    ds = Dataset(out)
+    assert len(ds) == 6 and validate_dataset(out).ok
+    assert {s.category for s in ds} == {"topwear", "bottomwear", "dress"}
+    # splits go by garment: every garment's samples share one split
+    for gid in {s.garment_id for s in ds}:
+        assert len({s.split for s in ds.filter(garment=gid)}) == 1
+    pics = sorted((out / "pictures").glob("*.png"))
+    assert len(pics) == 2 and all(p.stat().st_size > 1000 for p in pics)
+    # the atlas-textured garment kept its texture
+    dress = ds.filter(category="dress")[0].garment()
+    assert dress.texture_path is not None and dress.uv is not None
+    # a re-run resumes
+    assert main(["import-dataset", "4ddress", str(src), "--out", str(out)]) == 0
+    assert "wrote 0 samples (6 already there)" in capsys.readouterr().out
+
+
+def test_import_dataset_zero_samples_is_an_error(tmp_path):
+    from dressmeup.data.importing import import_dataset
+
+    take = tmp_path / "src" / "00122" / "Outer" / "Take1"
+    _dress4d_take(tmp_path / "src", "00122", "Outer", "Take1", ["00001"], [["upper"]], seed=5)
+    assert take.is_dir()
+    with pytest.raises(InputError, match="(?s)no samples found.*inner layer of an Outer outfit"):
+        import_dataset("4ddress", tmp_path / "src", tmp_path / "out")
+    assert not (tmp_path / "out").exists()
