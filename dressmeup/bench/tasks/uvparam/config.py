@@ -18,7 +18,23 @@ METRICS: tuple[MetricSpec, ...] = (
                "share of 3D area whose UV triangles have zero area (infinite QCE)"),
     MetricSpec("time", "Time", "s", 1.0, "lower", 2,
                "wall time of the method on the mesh, as reported in the submission file"),
+    MetricSpec("seam_length", "Seams", "", 1.0, "lower", 2,
+               "3D length of the seam edges (interior mesh edges whose faces give their end "
+               "points different UVs) / sqrt(surface area); 0 without cuts"),
+    MetricSpec("charts", "Charts", "", 1.0, "lower", 0,
+               "connected components of faces across the mesh edges that are not seams"),
+    MetricSpec("packing", "Packing", "%", 100.0, "higher", 1,
+               "UV triangle area / area of the square the atlas is scaled into (its bounding "
+               "box with the longer side 1)"),
 )
+
+#: Metrics whose trade-off the leaderboard shows: a method is on the Pareto front when no
+#: other method is at least as good on both and better on one (distortion against cutting).
+PARETO = ("qce", "seam_length")
+
+#: Tracks of editions that have them: ``pretrained`` (the method never saw the test meshes:
+#: no optimisation or training on them) and ``per-mesh`` (optimisation on each mesh allowed).
+TRACKS = ("pretrained", "per-mesh")
 
 DEFAULT_OPTIONS: dict = {
     "size_limit_mb": 256,          # per-file size limit of a submission
@@ -26,3 +42,6 @@ DEFAULT_OPTIONS: dict = {
 }
 
 EXTRA_COLUMNS = ("n_charts",)
+
+#: Result column of the independent unit that bootstrap intervals resample: the mesh (one item per mesh).
+UNIT_COLUMN = "sample_id"

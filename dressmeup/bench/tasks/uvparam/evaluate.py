@@ -1,4 +1,4 @@
-"""UV parameterisation task: score one UV map (QCE, ASE, flips, overlap, time)."""
+"""UV parameterisation task: score one UV map (QCE, ASE, flips, overlap, seams, time)."""
 
 from __future__ import annotations
 
@@ -15,15 +15,49 @@ from dressmeup.bench.tasks.base import STATUS_OK, Item
 
 def jobs(edition: Any, data_root: Path, files: Mapping[str, Path], items: Sequence[Item],
          show_progress: bool | None = None) -> list[dict[str, Any]]:
-    """One job per mesh."""
-    return [{"item_id": it.item_id, "category": it.category, "meta": dict(it.meta),
+    """One job per mesh; in editions with tracks each row also gets the submission's
+    ``track`` (from ``submission.json``)."""
+    meta_extra: dict[str, Any] = {}
+    if getattr(edition, "tracks", None) and files:
+        meta_extra["track"] = submission_track(Path(next(iter(files.values()))).parent,
+                                               edition.tracks)
+    return [{"item_id": it.item_id, "category": it.category, "meta": {**it.meta, **meta_extra},
              "pred_path": str(files[it.item_id]), "metrics": list(edition.metrics),
              "options": dict(edition.options)} for it in items]
 
 
+def submission_track(folder: Path, tracks: Sequence[str]) -> str:
+    """The track a submission declares in ``submission.json`` (``"track"``).
+
+    A submission that declares none is ranked in ``per-mesh`` (it may have optimised on the
+    test meshes); ``pretrained`` is a claim that the method never saw them.
+
+    Raises
+    ------
+    InputError
+        The declared track is not one of the edition's.
+    """
+    import json
+
+    from dressmeup.errors import InputError
+
+    path = Path(folder) / "submission.json"
+    try:
+        info = json.loads(path.read_text())
+    except (OSError, ValueError):
+        info = {}
+    track = info.get("track", "per-mesh") if isinstance(info, dict) else "per-mesh"
+    if track not in tracks:
+        raise InputError(f"{path}: field 'track' is {track!r}; expected one of "
+                         f"{', '.join(tracks)} (declare 'pretrained' only when the method "
+                         "never trained or optimised on the test meshes)")
+    return str(track)
+
+
 def evaluate_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np.ndarray | None,
                 metrics: Sequence[str], options: Mapping[str, Any]) -> dict[str, float]:
-    """QCE (mean, max), ASE (|log| mean), flipped/overlap fractions, zero-area share.
+    """QCE (mean, max), ASE (|log| mean), flipped/overlap fractions, zero-area share, seam
+    length, chart count and packing efficiency (each only when ``metrics`` names it).
 
     Parameters
     ----------
@@ -39,6 +73,10 @@ def evaluate_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np.ndarr
                    zero_area=float(q.zero_uv_area_fraction))
     if "ase" in metrics:
         out["ase"] = float(ase_details(V, F, uv, uv_faces).abs_mean)
+    if {"seam_length", "charts", "packing"} & set(metrics):
+        from dressmeup.metrics.uv import uv_seams
+
+        out.update(uv_seams(V, F, uv, uv_faces).as_dict())
     if {"flip", "overlap"} & set(metrics):
         v = uv_validity(V, F, uv, uv_faces,
                         resolution=int(options.get("overlap_resolution", 1024)))
