@@ -226,17 +226,9 @@ class AnnyBody(LBSBodyModel):
         faces = model.get_triangular_faces().cpu().numpy().astype(np.int64)
         n_all = int(model.template_vertices.shape[0])
         # Skin = largest connected component.
-        import scipy.sparse as sp
-        from scipy.sparse.csgraph import connected_components
+        from dressmeup.geometry.topology import largest_component
 
-        A = sp.coo_matrix((np.ones(faces.size), (faces.ravel(), np.roll(faces, 1, 1).ravel())),
-                          shape=(n_all, n_all))
-        _, lab = connected_components(A, directed=False)
-        skin = lab == np.bincount(lab[faces[:, 0]]).argmax()
-        self.skin_vertex_ids = np.flatnonzero(skin)
-        remap = -np.ones(n_all, dtype=np.int64)
-        remap[self.skin_vertex_ids] = np.arange(self.skin_vertex_ids.size)
-        self.faces = remap[faces[skin[faces[:, 0]]]]
+        self.skin_vertex_ids, self.faces = largest_component(faces, n_all)
         # Skinning weights summed per joint.
         bi = model.vertex_bone_indices.cpu().numpy().astype(np.int64)[self.skin_vertex_ids]
         bw = model.vertex_bone_weights.cpu().numpy().astype(np.float64)[self.skin_vertex_ids]

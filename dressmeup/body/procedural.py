@@ -167,17 +167,9 @@ def _build(voxel: float) -> tuple[np.ndarray, ...]:
     V, F, _ = igl.marching_cubes(S, GV, int(n[0]), int(n[1]), int(n[2]), 0.0)
     # Drop duplicate vertices (marching cubes shares them by edge key already) and keep the
     # largest connected component.
-    F = np.asarray(F, dtype=np.int64)
-    nv = V.shape[0]
-    A = sp.coo_matrix((np.ones(F.size), (np.repeat(F, 3, axis=0).ravel()[: F.size],
-                                         np.roll(F, 1, axis=1).ravel())), shape=(nv, nv))
-    from scipy.sparse.csgraph import connected_components
+    from dressmeup.geometry.topology import largest_component
 
-    _, lab = connected_components(A, directed=False)
-    keep = lab == np.bincount(lab[F[:, 0]]).argmax()
-    remap = -np.ones(nv, dtype=np.int64)
-    remap[keep] = np.arange(keep.sum())
-    F = remap[F[keep[F[:, 0]]]]
+    keep, F = largest_component(np.asarray(F, dtype=np.int64), V.shape[0])
     V = np.asarray(V)[keep]
     # A few Taubin smoothing steps (uniform Laplacian) to remove marching-cubes stairs.
     L = igl.adjacency_matrix(F).astype(np.float64)

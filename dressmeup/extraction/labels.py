@@ -167,16 +167,6 @@ def face_labels_from_vertices(faces: np.ndarray, vertex_labels: np.ndarray, n_la
     return np.where(counts.max(axis=1) == 1, L[:, 0], out)
 
 
-def _face_adjacency(F: np.ndarray):
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    fid = np.tile(np.arange(len(F)), 3)
-    key = e[:, 0] * (F.max() + 1) + e[:, 1]
-    order = np.argsort(key, kind="stable")
-    ks, fs = key[order], fid[order]
-    same = ks[1:] == ks[:-1]
-    return np.stack([fs[:-1][same], fs[1:][same]], axis=1)
-
-
 def remove_label_islands(faces: np.ndarray, face_labels: np.ndarray, min_faces: int = 200,
                          max_rounds: int = 5) -> np.ndarray:
     """Merge connected same-label face regions smaller than ``min_faces`` into their neighbours.
@@ -196,7 +186,9 @@ def remove_label_islands(faces: np.ndarray, face_labels: np.ndarray, min_faces: 
     lab = np.asarray(face_labels, dtype=np.int64).copy()
     if len(F) == 0 or min_faces <= 1:
         return lab
-    adj = _face_adjacency(F)
+    from dressmeup.geometry.topology import face_adjacency
+
+    adj = face_adjacency(F, order="corner")  # votes break ties in pair order
     for _ in range(max_rounds):
         same = lab[adj[:, 0]] == lab[adj[:, 1]]
         a = adj[same]

@@ -30,19 +30,13 @@ def uv_atlas(vertices: np.ndarray, faces: np.ndarray, resolution: int = 1024, pa
     uv : (k, 2) float64 in [0, 1] (v up, OBJ convention), uv_faces : (m, 3) int64 into ``uv``,
     same face order as ``faces``.
     """
-    import xatlas
+    from dressmeup.geometry.uv_atlas import xatlas_atlas
 
-    V = np.ascontiguousarray(vertices, dtype=np.float32)
-    F = np.ascontiguousarray(faces, dtype=np.uint32)
-    atlas = xatlas.Atlas()
-    atlas.add_mesh(V, F)
-    pack = xatlas.PackOptions()
-    pack.resolution = int(resolution)
-    pack.padding = int(padding)
-    pack.bilinear = True
-    atlas.generate(xatlas.ChartOptions(), pack)
-    _vmap, idx, uvs = atlas[0]
-    return np.asarray(uvs, dtype=np.float64), np.asarray(idx, dtype=np.int64)
+    # Raw xatlas UVs (square_texels=False): they fill the square texture even when xatlas
+    # packs a non-square atlas (texels then slightly anisotropic), as extraction always did.
+    atlas = xatlas_atlas(vertices, faces, resolution=resolution, padding=padding, bilinear=True,
+                         square_texels=False)
+    return atlas.uv, atlas.uv_faces
 
 
 def rasterize_uv(uv: np.ndarray, uv_faces: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:

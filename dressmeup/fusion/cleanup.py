@@ -46,19 +46,9 @@ def largest_components(faces: np.ndarray, n_vertices: int, min_fraction: float) 
     -------
     (m,) bool
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
+    from dressmeup.geometry.topology import large_components
 
-    F = np.asarray(faces, dtype=np.int64)
-    if len(F) == 0:
-        return np.zeros(0, dtype=bool)
-    rows = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
-    cols = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
-    g = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_vertices, n_vertices))
-    _, comp = connected_components(g, directed=False)
-    fc = comp[F[:, 0]]
-    sizes = np.bincount(fc)
-    return sizes[fc] >= min_fraction * sizes.max()
+    return large_components(faces, n_vertices, min_fraction)
 
 
 def cleanup_mesh(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray | None = None,

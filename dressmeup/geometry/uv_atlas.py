@@ -24,6 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dressmeup.geometry.mesh import as_arrays, face_areas
+from dressmeup.geometry.topology import face_adjacency  # re-exported (its home is topology)
 
 __all__ = [
     "Chart",
@@ -41,6 +42,8 @@ __all__ = [
     "orient_charts",
     "uv_components",
     "shelf_pack",
+    "xatlas_atlas",
+    "XatlasAtlas",
 ]
 
 log = logging.getLogger(__name__)
@@ -65,32 +68,6 @@ class Chart:
     faces: np.ndarray
     vertices: np.ndarray
     local_faces: np.ndarray
-
-
-def face_adjacency(F: np.ndarray) -> np.ndarray:
-    """Pairs of faces that share an edge.
-
-    Parameters
-    ----------
-    F : (m, 3) int array
-
-    Returns
-    -------
-    (p, 2) int64 ndarray of face index pairs (each shared edge once; on a non-manifold edge
-    with ``j`` faces, consecutive faces in index order are paired).
-    """
-    F = np.asarray(F, dtype=np.int64)
-    m = F.shape[0]
-    n = int(F.max()) + 1 if m else 0
-    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=0)
-    e = np.sort(e, axis=1)
-    key = e[:, 0] * n + e[:, 1]
-    fid = np.tile(np.arange(m), 3)
-    order = np.lexsort((fid, key))
-    key, fid = key[order], fid[order]
-    same = key[1:] == key[:-1]
-    pairs = np.stack([fid[:-1][same], fid[1:][same]], axis=1)
-    return pairs[pairs[:, 0] != pairs[:, 1]]
 
 
 def relabel(chart_ids: np.ndarray) -> np.ndarray:
@@ -411,11 +388,7 @@ def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resoluti
     po.bilinear = True
     atlas.generate(pack_options=po)
     vmapping, indices, uvs = atlas[0]
-    packed = np.asarray(uvs, dtype=np.float64)
-    # xatlas normalises u by the atlas width and v by its height: undo the anisotropy
-    w, h = float(atlas.width), float(atlas.height)
-    if w > 0 and h > 0:
-        packed = packed * (np.array([w, h]) / max(w, h))
+    packed = _square_texels(np.asarray(uvs, dtype=np.float64), atlas)
     # Use xatlas only to place the charts: it drops faces that are degenerate in float32
     # (their corners come back at the origin) and may split a chart there. Each chart keeps
     # its own UVs, moved by one global scale and its own translation, in the input indexing.
@@ -458,6 +431,83 @@ def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resoluti
         log.info("xatlas changed the charts (%d -> %d); using shelf packing", n_c, int(atlas.chart_count))
         out = shelf_pack(pre, row_comp, comp, padding / float(resolution))
     return out, uv_faces.copy()
+
+
+def _square_texels(uv: np.ndarray, atlas) -> np.ndarray:
+    """Undo xatlas' anisotropy: it normalises u by the atlas width and v by its height, so a
+    non-square atlas stretches its charts; rescale to square texels inside [0, 1]^2."""
+    w, h = float(atlas.width), float(atlas.height)
+    if w > 0 and h > 0:
+        uv = uv * (np.array([w, h]) / max(w, h))
+    return uv
+
+
+@dataclass
+class XatlasAtlas:
+    """What :func:`xatlas_atlas` returns.
+
+    Attributes
+    ----------
+    uv : (k, 2) float64, per-corner UVs in [0, 1]^2.
+    uv_faces : (m, 3) int64 into ``uv``, same face order as the input.
+    vertex_map : (k,) int64, input vertex of each UV row.
+    n_charts : int, xatlas' chart count.
+    width, height : int, atlas size in texels.
+    """
+
+    uv: np.ndarray
+    uv_faces: np.ndarray
+    vertex_map: np.ndarray
+    n_charts: int
+    width: int
+    height: int
+
+
+def xatlas_atlas(V: np.ndarray, F: np.ndarray, *, resolution: int | None = None,
+                 padding: int | None = None, bilinear: bool | None = None,
+                 rotate_charts: bool | None = None, max_iterations: int | None = None,
+                 square_texels: bool = True) -> XatlasAtlas:
+    """Segment, flatten and pack a mesh with xatlas: the one entry point to the library for
+    whole meshes (:func:`pack_charts` packs given charts).
+
+    Parameters
+    ----------
+    V : (n, 3) float array (passed to xatlas as float32), F : (m, 3) int array.
+    resolution, padding, bilinear, rotate_charts, max_iterations : xatlas options (texels;
+        ``None`` keeps xatlas' default: resolution 0 = xatlas picks, padding 0, bilinear on,
+        chart rotation on, 1 chart-growing iteration).
+    square_texels : undo xatlas' normalisation of u by the atlas width and v by its height
+        (on a non-square atlas the raw UVs are stretched). ``False`` returns xatlas' raw UVs:
+        only the synthetic garment generator uses it, because its released datasets were made
+        that way (changing it would change every garment's UVs and the dataset hashes).
+
+    Returns
+    -------
+    XatlasAtlas
+    """
+    import xatlas
+
+    atlas = xatlas.Atlas()
+    atlas.add_mesh(np.ascontiguousarray(V, dtype=np.float32), np.ascontiguousarray(F, dtype=np.uint32))
+    co = xatlas.ChartOptions()
+    if max_iterations is not None:
+        co.max_iterations = int(max_iterations)
+    po = xatlas.PackOptions()
+    if resolution is not None:
+        po.resolution = int(resolution)
+    if padding is not None:
+        po.padding = int(padding)
+    if bilinear is not None:
+        po.bilinear = bool(bilinear)
+    if rotate_charts is not None:
+        po.rotate_charts = bool(rotate_charts)
+    atlas.generate(chart_options=co, pack_options=po)
+    vmapping, indices, uvs = atlas[0]
+    uv = np.asarray(uvs, dtype=np.float64)
+    if square_texels:
+        uv = _square_texels(uv, atlas)
+    return XatlasAtlas(uv, np.asarray(indices, dtype=np.int64), np.asarray(vmapping, dtype=np.int64),
+                       int(atlas.chart_count), int(atlas.width), int(atlas.height))
 
 
 def shelf_pack(uv: np.ndarray, row_comp: np.ndarray, comp: np.ndarray, padding: float = 0.002) -> np.ndarray:

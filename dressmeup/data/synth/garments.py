@@ -156,19 +156,9 @@ def _grid_sdf(body_V, body_F, lo, hi, h, level):
 
 
 def _largest_component(F: np.ndarray, n: int) -> np.ndarray:
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
+    from dressmeup.geometry.topology import largest_component_faces
 
-    if len(F) == 0:
-        return F
-    i = np.r_[F[:, 0], F[:, 1], F[:, 2]]
-    j = np.r_[F[:, 1], F[:, 2], F[:, 0]]
-    A = sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
-    _, lab = connected_components(A, directed=False)
-    used = np.zeros(n, bool)
-    used[F.ravel()] = True
-    counts = np.bincount(lab[F[:, 0]], minlength=lab.max() + 1)
-    return F[lab[F[:, 0]] == np.argmax(counts)]
+    return F[largest_component_faces(F, n)]
 
 
 def _compact(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -248,13 +238,15 @@ def _remesh(V, F, edge_length, iterations=6):
 
 
 def _uv(V, F):
-    import xatlas
+    from dressmeup.geometry.uv_atlas import xatlas_atlas
 
-    vmap, idx, uvs = xatlas.parametrize(V.astype(np.float32), F.astype(np.uint32))
-    idx = idx.astype(np.int64)
-    if idx.shape != F.shape or not np.array_equal(vmap[idx], F):
+    # xatlas' defaults and raw (not square-texel) UVs: the released synthetic datasets were
+    # made this way, so the garments' UVs and the dataset hashes stay as they are.
+    atlas = xatlas_atlas(V, F, square_texels=False)
+    idx = atlas.uv_faces
+    if idx.shape != F.shape or not np.array_equal(atlas.vertex_map[idx], F):
         raise RuntimeError("xatlas reordered faces; cannot map UVs back")  # pragma: no cover
-    return uvs.astype(np.float64), idx
+    return atlas.uv, idx
 
 
 def build_garment(garment_type: str, params: dict[str, Any], body_V: np.ndarray,

@@ -52,21 +52,9 @@ LEG_TO_HIP = {"left_knee": "left_hip", "left_ankle": "left_hip", "left_foot": "l
 
 def _skin(model) -> tuple[np.ndarray, np.ndarray]:
     """Vertex indices and faces (re-indexed) of the largest connected component."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
+    from dressmeup.geometry.topology import largest_component
 
-    F = np.asarray(model.faces, np.int64)
-    n = model.n_vertices
-    i = np.r_[F[:, 0], F[:, 1], F[:, 2]]
-    j = np.r_[F[:, 1], F[:, 2], F[:, 0]]
-    _, lab = connected_components(sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(n, n)),
-                                  directed=False)
-    big = np.argmax(np.bincount(lab[F[:, 0]]))
-    keep = np.flatnonzero(lab == big)
-    remap = -np.ones(n, np.int64)
-    remap[keep] = np.arange(len(keep))
-    Fs = remap[F[lab[F[:, 0]] == big]]
-    return keep, Fs
+    return largest_component(np.asarray(model.faces, np.int64), model.n_vertices)
 
 
 def _garment_weights(garment, body_V, body_F, body_W, joint_names, frame):
@@ -126,8 +114,17 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                      write_scan: bool = True, types: list[str] | None = None,
                      split_fractions: tuple[float, float, float] = (0.6, 0.2, 0.2),
                      drape_settings: DrapeSettings | None = None,
-                     texture_size: int = 256, split_strategy: str = "stratified") -> Path:
+                     texture_size: int = 256, split_strategy: str = "stratified",
+                     version: str = GENERATOR_VERSION,
+                     garments_per_split: tuple[int, int, int] | list[int] | None = None,
+                     categories: list[str] | None = None, pose_steps: int = 3) -> Path:
     """Generate (or resume) the synthetic dataset in ``out``.
+
+    ``version="2.0.0"`` runs generator 2.0.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
+    every garment worn by every subject, identical poses; it reads ``subjects``, ``poses``,
+    ``seed``, ``body_model``, ``edge_length``, ``write_scan``, ``texture_size``,
+    ``drape_settings``, ``garments_per_split``, ``categories`` and ``pose_steps``); any other
+    version runs generator 1.1.0 below (the ``*-v2`` editions' data), which ignores those three.
 
     Parameters
     ----------
@@ -153,6 +150,19 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
     """
     from dressmeup.body import BodyParams, get_body_model
 
+    if str(version).startswith("2."):
+        from dressmeup.data.synth.wardrobe import VERSION, generate_v3
+
+        if version != VERSION:
+            raise ValueError(f"version: this toolkit generates 2.x as {VERSION}, got {version!r}")
+        return generate_v3(out, subjects=subjects, poses=poses,
+                           garments_per_split=garments_per_split or (6, 2, 4), seed=seed,
+                           body_model=body_model, categories=categories,
+                           edge_length=edge_length, write_scan=write_scan,
+                           texture_size=texture_size, pose_steps=pose_steps,
+                           drape_settings=drape_settings)
+    if version != GENERATOR_VERSION:
+        raise ValueError(f"version: expected {GENERATOR_VERSION!r} or '2.0.0', got {version!r}")
     for v, n in ((subjects, "subjects"), (garments, "garments"), (poses, "poses")):
         if not isinstance(v, (int, np.integer)) or v < 1:
             raise ValueError(f"{n}: expected a positive integer, got {v!r}")

@@ -4,10 +4,8 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-
 from dressmeup.geometry.mesh import as_arrays
-from dressmeup.geometry.uv_atlas import uv_components
+from dressmeup.geometry.uv_atlas import uv_components, xatlas_atlas
 from dressmeup.methods.uvparam.base import UVResult
 
 __all__ = ["XatlasMethod"]
@@ -52,27 +50,10 @@ class XatlasMethod:
         UVResult
             Per-corner UVs in [0, 1]^2; ``chart_ids`` from xatlas' charts.
         """
-        import xatlas
-
         t0 = time.perf_counter()
         V, F = as_arrays(V, F)
-        atlas = xatlas.Atlas()
-        atlas.add_mesh(V.astype(np.float32), F.astype(np.uint32))
-        co = xatlas.ChartOptions()
-        co.max_iterations = int(self.max_iterations)
-        po = xatlas.PackOptions()
-        po.resolution = int(self.resolution)
-        po.padding = int(self.padding)
-        po.bilinear = True
-        po.rotate_charts = bool(self.rotate_charts)
-        atlas.generate(chart_options=co, pack_options=po)
-        vmapping, indices, uvs = atlas[0]
-        uv = np.asarray(uvs, dtype=np.float64)
-        # xatlas normalises u by the atlas width and v by its height: keep texels square
-        w, h = float(atlas.width), float(atlas.height)
-        if w > 0 and h > 0:
-            uv = uv * (np.array([w, h]) / max(w, h))
-        uv_faces = np.asarray(indices, dtype=np.int64)
-        chart_ids = uv_components(uv_faces, len(uv))
-        return UVResult(uv, uv_faces, chart_ids, time.perf_counter() - t0,
-                        {"n_charts": int(atlas.chart_count)})
+        atlas = xatlas_atlas(V, F, resolution=self.resolution, padding=self.padding, bilinear=True,
+                             rotate_charts=self.rotate_charts, max_iterations=self.max_iterations)
+        chart_ids = uv_components(atlas.uv_faces, len(atlas.uv))
+        return UVResult(atlas.uv, atlas.uv_faces, chart_ids, time.perf_counter() - t0,
+                        {"n_charts": atlas.n_charts})

@@ -33,17 +33,10 @@ from dressmeup.bench.tasks.base import STATUS_OK, Item
 # ------------------------------------------------------------------------ main process side
 def largest_component(F: np.ndarray, n_vertices: int) -> np.ndarray:
     """Faces ``(k, 3)`` of the largest connected component (by face count) of a mesh."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
+    from dressmeup.geometry.topology import largest_component_faces
 
     F = np.asarray(F, dtype=np.int64)
-    rows = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
-    cols = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
-    adj = sp.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n_vertices, n_vertices))
-    _, labels = connected_components(adj, directed=False)
-    face_label = labels[F[:, 0]]
-    best = np.bincount(face_label).argmax()
-    return F[face_label == best]
+    return F[largest_component_faces(F, n_vertices)]
 
 
 def posed_body_file(params: Any, models: dict[str, Any]) -> Path:
