@@ -270,23 +270,29 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                 BV = posed.vertices
                 scan = (np.vstack([BV, res.vertices]),
                         np.vstack([np.asarray(model.faces, np.int64), garment.faces + len(BV)]))
+            # the stats file first: a sample is skipped on resume once its manifest row
+            # exists, so everything else of the sample must be on disk before that row
+            st = {**res.stats, "pose": subj["poses"][pid], "garment_type": g["type"],
+                  "texture": pattern}
+            atomic_write_text(stats_dir / f"{sample_id}.json", json.dumps(st, indent=1) + "\n")
             writer.add_sample(subject_id=sid, garment_id=gid, pose_id=pid,
                               category=garment.category, garment_type=garment.garment_type,
                               split=splits[gid],
                               garment=(res.vertices, garment.faces, garment.uv, garment.uv_faces),
                               body=stored, scan=scan, texture=tex)
-            st = {**res.stats, "pose": subj["poses"][pid], "garment_type": g["type"],
-                  "texture": pattern}
-            atomic_write_text(stats_dir / f"{sample_id}.json", json.dumps(st, indent=1) + "\n")
     for _ in bar:
         pass
-    report = summarize_stats(out)
+    report = summarize_stats(out, sample_ids=[r["sample_id"] for r in writer.rows])
     return writer.finalize(report=report,
                            timings={"last_run_s": round(time.perf_counter() - t_start, 2)})
 
 
-def summarize_stats(root: str | os.PathLike) -> dict[str, Any]:
+def summarize_stats(root: str | os.PathLike,
+                    sample_ids: list[str] | None = None) -> dict[str, Any]:
     """Aggregate the generator's per-sample statistics (``generator/stats/*.json``).
+
+    Hidden files (temporary files of an interrupted atomic write) are ignored; with
+    ``sample_ids`` only those samples' statistics count.
 
     Returns
     -------
@@ -296,7 +302,10 @@ def summarize_stats(root: str | os.PathLike) -> dict[str, Any]:
     ``stretch_mean`` (mean |l/L - 1| of edges after draping), ``skinned_stretch_mean`` and
     per garment type means of the skinning distance.
     """
-    files = sorted((Path(root) / "generator" / "stats").glob("*.json"))
+    files = sorted((Path(root) / "generator" / "stats").glob("[!.]*.json"))
+    if sample_ids is not None:
+        wanted = set(sample_ids)
+        files = [f for f in files if f.stem in wanted]
     rows = [json.loads(f.read_text()) for f in files]
     if not rows:
         return {}
