@@ -15,7 +15,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "dressmeup"
 # Lowest first. A unit may import units of its own layer only when listed together in
 # SIBLINGS_MAY_IMPORT; otherwise only units of lower layers.
 LAYERS: list[set[str]] = [
-    {"dressmeup", "errors", "cache", "progress", "io.atomic"},
+    {"dressmeup", "errors", "cache", "progress", "io.atomic", "io.jsonable"},
     {"geometry"},
     {"metrics", "io.mesh"},
     {"body"},

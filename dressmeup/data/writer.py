@@ -26,6 +26,7 @@ from dressmeup.data import layout
 from dressmeup.data.manifest import MANIFEST_VERSION, read_manifest, write_manifest
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
+from dressmeup.io.jsonable import json_default
 
 log = logging.getLogger(__name__)
 
@@ -47,17 +48,7 @@ def sha256_file(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
 
 
 def _jsonable(obj: Any) -> Any:
-    return json.loads(json.dumps(obj, sort_keys=True, default=_json_default))
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+    return json.loads(json.dumps(obj, sort_keys=True, default=json_default))
 
 
 def _mesh_arrays(mesh: Any, name: str) -> tuple[np.ndarray, np.ndarray, Any, Any]:

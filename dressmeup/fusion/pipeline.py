@@ -6,7 +6,7 @@ import json
 import logging
 import os
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +18,9 @@ from dressmeup.fusion.cleanup import CleanupConfig, cleanup_mesh
 from dressmeup.fusion.filtering import DepthFilterConfig, filter_depth, undistort_frame
 from dressmeup.fusion.icp import ICPConfig, ICPReport, refine_extrinsics
 from dressmeup.fusion.tsdf import integrate_tsdf
-from dressmeup.io.atomic import atomic_path, atomic_write_text
+from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.jsonable import json_default
+from dressmeup.io.mesh import write_ply  # re-exported: its home is io.mesh
 
 __all__ = ["FusionConfig", "FusionResult", "prepare_frames", "fuse_frames", "fuse_session",
            "save_scan", "load_scan", "write_ply"]
@@ -157,42 +159,6 @@ def fuse_session(session: Session | str | os.PathLike, config: FusionConfig | No
     return fuse_frames(frames, session.rig, cfg)
 
 
-def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray,
-              colors: np.ndarray | None = None, face_labels: np.ndarray | None = None) -> Path:
-    """Write a binary PLY (optional vertex colours and a per-face ``label`` property), atomically."""
-    V = np.asarray(vertices, dtype=np.float32)
-    F = np.asarray(faces, dtype=np.int32)
-    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(V)}",
-              "property float x", "property float y", "property float z"]
-    vdt = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
-    if colors is not None:
-        header += ["property uchar red", "property uchar green", "property uchar blue"]
-        vdt += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
-    header += [f"element face {len(F)}", "property list uchar int vertex_indices"]
-    fdt = [("n", "u1"), ("v", "<i4", (3,))]
-    if face_labels is not None:
-        header.append("property uchar label")
-        fdt.append(("label", "u1"))
-    header.append("end_header")
-    va = np.empty(len(V), dtype=vdt)
-    va["x"], va["y"], va["z"] = V[:, 0], V[:, 1], V[:, 2]
-    if colors is not None:
-        c = np.asarray(colors, dtype=np.uint8)
-        va["red"], va["green"], va["blue"] = c[:, 0], c[:, 1], c[:, 2]
-    fa = np.empty(len(F), dtype=fdt)
-    fa["n"] = 3
-    fa["v"] = F
-    if face_labels is not None:
-        fa["label"] = np.asarray(face_labels, dtype=np.uint8)
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            fh.write(("\n".join(header) + "\n").encode("ascii"))
-            fh.write(va.tobytes())
-            fh.write(fa.tobytes())
-    return path
-
-
 def save_scan(result: FusionResult, out_dir: str | os.PathLike, extra: dict[str, Any] | None = None) -> Path:
     """Write a fused scan folder: ``scan.ply`` (coloured), ``rig.json`` (used calibration),
     ``fusion.json`` (timings, ICP report, counts, ``extra``)."""
@@ -206,18 +172,8 @@ def save_scan(result: FusionResult, out_dir: str | os.PathLike, extra: dict[str,
                 "edges": [list(e) for e in result.icp.edges],
                 "corrections_deg_m": {k: list(v) for k, v in result.icp.corrections.items()}},
             **(extra or {})}
-    atomic_write_text(out / "fusion.json", json.dumps(info, indent=2, default=_json_default) + "\n")
+    atomic_write_text(out / "fusion.json", json.dumps(info, indent=2, default=json_default) + "\n")
     return out
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if hasattr(o, "__dataclass_fields__"):
-        return asdict(o)
-    return str(o)
 
 
 def load_scan(scan_dir: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:

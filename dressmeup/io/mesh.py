@@ -31,7 +31,7 @@ import numpy as np
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_bytes, atomic_write_text
 
-__all__ = ["MeshData", "load_mesh", "save_mesh"]
+__all__ = ["MeshData", "load_mesh", "save_mesh", "write_ply"]
 
 log = logging.getLogger(__name__)
 
@@ -477,16 +477,46 @@ def _save_ply(path: Path, V, F, uv, uv_faces, tex_name, vc) -> None:
     atomic_write_bytes(path, data)
 
 
-def copy_mesh(src: str | os.PathLike, dst: str | os.PathLike) -> Path:
-    """Copy a mesh file (and its texture) by loading and saving it; the format follows ``dst``.
+def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray,
+              colors: np.ndarray | None = None, face_labels: np.ndarray | None = None) -> Path:
+    """Write a compact binary PLY (float32 coordinates), atomically: fused scans and labelled
+    meshes. :func:`save_mesh` is the general writer (float64, UVs, textures).
 
     Parameters
     ----------
-    src, dst : path-like
+    path : target ``.ply`` file.
+    vertices : (n, 3) float (stored as float32), faces : (m, 3) int (stored as int32).
+    colors : (n, 3) uint8 or None, per-vertex ``red, green, blue``.
+    face_labels : (m,) int in [0, 255] or None, a per-face ``label`` property.
 
     Returns
     -------
-    pathlib.Path
+    pathlib.Path of the written file.
     """
-    m = load_mesh(src)
-    return save_mesh(dst, m.vertices, m.faces, m.uv, m.uv_faces, m.texture_path, m.vertex_colors)
+    V = np.asarray(vertices, dtype=np.float32)
+    F = np.asarray(faces, dtype=np.int32)
+    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(V)}",
+              "property float x", "property float y", "property float z"]
+    vdt = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
+    if colors is not None:
+        header += ["property uchar red", "property uchar green", "property uchar blue"]
+        vdt += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
+    header += [f"element face {len(F)}", "property list uchar int vertex_indices"]
+    fdt = [("n", "u1"), ("v", "<i4", (3,))]
+    if face_labels is not None:
+        header.append("property uchar label")
+        fdt.append(("label", "u1"))
+    header.append("end_header")
+    va = np.empty(len(V), dtype=vdt)
+    va["x"], va["y"], va["z"] = V[:, 0], V[:, 1], V[:, 2]
+    if colors is not None:
+        c = np.asarray(colors, dtype=np.uint8)
+        va["red"], va["green"], va["blue"] = c[:, 0], c[:, 1], c[:, 2]
+    fa = np.empty(len(F), dtype=fdt)
+    fa["n"] = 3
+    fa["v"] = F
+    if face_labels is not None:
+        fa["label"] = np.asarray(face_labels, dtype=np.uint8)
+    path = Path(path)
+    atomic_write_bytes(path, ("\n".join(header) + "\n").encode("ascii") + va.tobytes() + fa.tobytes())
+    return path

@@ -132,3 +132,33 @@ def test_shared_meshes_load(shared_meshes, tmp_path):
         save_mesh(tmp_path / "spot.obj", spot.vertices, spot.faces, spot.uv, spot.uv_faces)
     )
     np.testing.assert_array_equal(again.uv[again.uv_faces], spot.uv[spot.uv_faces])
+
+
+def test_write_ply_compact_roundtrip_with_colours_and_labels(tmp_path):
+    import json
+    from dataclasses import dataclass
+    from pathlib import Path
+
+    from dressmeup.io.jsonable import json_default
+    from dressmeup.io.mesh import load_mesh, write_ply
+
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
+    F = np.array([[0, 1, 2], [0, 1, 3]])
+    C = np.array([[255, 0, 0], [0, 255, 0], [0, 0, 255], [9, 9, 9]], dtype=np.uint8)
+    p = write_ply(tmp_path / "m.ply", V, F, colors=C, face_labels=np.array([3, 7]))
+    head = p.read_bytes().split(b"end_header")[0].decode()
+    assert "property float x" in head and "property uchar label" in head
+    m = load_mesh(p)
+    np.testing.assert_array_equal(m.vertices, V)
+    np.testing.assert_array_equal(m.faces, F)
+    np.testing.assert_array_equal(m.vertex_colors[:, :3], C)
+
+    @dataclass
+    class Rec:
+        a: int
+
+    s = json.dumps({"n": np.int64(3), "x": np.arange(2.0), "p": Path("a/b"), "r": Rec(1)},
+                   default=json_default)
+    assert json.loads(s) == {"n": 3, "x": [0.0, 1.0], "p": "a/b", "r": {"a": 1}}
+    with pytest.raises(TypeError, match="not JSON serialisable: object"):
+        json.dumps(object(), default=json_default)
