@@ -17,7 +17,13 @@ import pandas as pd
 
 from dressmeup.bench.edition import Edition, load_edition
 from dressmeup.bench.executor import Executor, LocalExecutor
-from dressmeup.bench.results import RESULT_SCHEMA, check_out_dir, summarise, write_result
+from dressmeup.bench.results import (
+    RESULT_SCHEMA,
+    RESULT_SCHEMA_VERSION,
+    check_out_dir,
+    summarise,
+    write_result,
+)
 from dressmeup.bench.submission import submission_hash
 from dressmeup.bench.tasks import get_task
 from dressmeup.bench.tasks.base import STATUS_ERROR
@@ -107,12 +113,18 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
                          "status": STATUS_ERROR, "error": msg[:2000], "note": "",
                          "seconds": float("nan")})
         else:
+            # ids of the item (unit columns of the bootstrap: subject, session, garment)
+            for key, value in jobs[i].get("meta", {}).items():
+                if key != "data_root" and not key.endswith("_path"):
+                    res.setdefault(key, value)
             rows.append(res)
     table = _to_table(rows, list(ed.metrics), list(getattr(task, "extra_columns", ())))
-    stats = summarise(table, list(ed.metrics), list(getattr(task, "extra_columns", ())))
+    stats = summarise(table, list(ed.metrics), list(getattr(task, "extra_columns", ())),
+                      unit_column=getattr(task, "unit_column", None))
     info = report.info or {}
     summary: dict[str, Any] = {
         "schema": RESULT_SCHEMA,
+        "schema_version": RESULT_SCHEMA_VERSION,
         "task": ed.task,
         "edition": {"name": ed.name, "version": ed.version, "hash": ed.hash,
                     "source": ed.source},

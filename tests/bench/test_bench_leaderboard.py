@@ -29,9 +29,9 @@ def test_rows_sorted_by_primary_metric_and_best_marked(scored):
               "P2S ↓ [mm] · topwear", "Runtime [s/sample]"):
         assert h in head
     gt_row = md.splitlines()[2]
-    assert gt_row.startswith("| 1 | GT | **") and "**0.00**" in gt_row
+    assert gt_row.startswith("| 1 | GT | **") and "**0.00 [" in gt_row
     # Display units: ED of 2 mm noise prints about 3.17 mm.
-    assert "| 3.17 |" in md.splitlines()[3]
+    assert "| 3.17 [" in md.splitlines()[3]
 
 
 def test_sort_by_and_std(scored):
@@ -53,7 +53,8 @@ def test_csv_latex_html(scored, tmp_path):
     assert r"mm$^2$" in tex and r"\%" in tex
     page = write_leaderboard(_paths(scored), "html")
     assert page.startswith("<!DOCTYPE html>") and "<style>" in page
-    assert "<script" not in page and "src=" not in page and "stylesheet" not in page
+    # self-contained: the only script is the inline sorter; nothing is fetched
+    assert page.count("<script>") == 1 and "src=" not in page and "stylesheet" not in page
     assert 'class="best"' in page and "bench-fixture-v1" in page
 
 

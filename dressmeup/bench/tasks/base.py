@@ -115,7 +115,8 @@ def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any)
     Parameters
     ----------
     name : task name; config, data, evaluate, render : the task package's modules, providing
-        ``METRICS``/``DEFAULT_OPTIONS``/``EXTRA_COLUMNS``, ``FILE_SUFFIXES``/
+        ``METRICS``/``DEFAULT_OPTIONS``/``EXTRA_COLUMNS``/``UNIT_COLUMN`` (the result
+        column naming the independent unit of bootstrap intervals), ``FILE_SUFFIXES``/
         ``dataset_problems``/``items``/``check_file``, ``jobs``/``score_job`` and
         ``metric_specs``.
     """
@@ -126,6 +127,7 @@ def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any)
         metrics=config.METRICS,
         default_options=config.DEFAULT_OPTIONS,
         extra_columns=config.EXTRA_COLUMNS,
+        unit_column=getattr(config, "UNIT_COLUMN", None),
         file_suffixes=data.FILE_SUFFIXES,
         dataset_problems=data.dataset_problems,
         items=data.items,

@@ -30,7 +30,10 @@ def sample_items(edition: Any, data_root: Path, need: str | None = None,
     for row in df.sort_values("sample_id").itertuples():
         items.append(Item(row.sample_id, str(row.category),
                           expect=expect(row) if expect else {},
-                          meta={"data_root": root, "sample_id": row.sample_id}))
+                          meta={"data_root": root, "sample_id": row.sample_id,
+                                "subject_id": str(row.subject_id),
+                                "garment_id": str(row.garment_id),
+                                "session_id": f"{row.subject_id}-{row.pose_id}"}))
     return items
 
 

@@ -15,3 +15,7 @@ DEFAULT_OPTIONS: dict = {
     "size_limit_mb": 256,
 }
 EXTRA_COLUMNS: tuple[str, ...] = ()
+
+#: Result column of the independent unit that bootstrap intervals resample:
+#: the garment.
+UNIT_COLUMN = "garment_id"

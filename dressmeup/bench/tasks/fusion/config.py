@@ -20,3 +20,7 @@ DEFAULT_OPTIONS: dict = {"n_samples": 100_000, "seed": 0, "size_limit_mb": 256}
 EXTRA_COLUMNS: tuple[str, ...] = ()
 THRESHOLDS = {"fscore_1mm": 0.001, "fscore_2mm": 0.002, "fscore_5mm": 0.005,
               "fscore_10mm": 0.01}
+
+#: Result column of the independent unit that bootstrap intervals resample:
+#: the capture session (subject and pose).
+UNIT_COLUMN = "session_id"

@@ -14,3 +14,7 @@ METRICS: tuple[MetricSpec, ...] = (
 )
 DEFAULT_OPTIONS: dict = {"n_samples": 100_000, "seed": 0, "size_limit_mb": 256}
 EXTRA_COLUMNS: tuple[str, ...] = ()
+
+#: Result column of the independent unit that bootstrap intervals resample:
+#: the subject: fits of one body share its shape.
+UNIT_COLUMN = "subject_id"

@@ -31,3 +31,7 @@ DEFAULT_OPTIONS: dict = {
 
 #: Extra per-pair columns written beside the metrics (not ranked).
 EXTRA_COLUMNS = ("ir_gt",)
+
+#: Result column of the independent unit that bootstrap intervals resample:
+#: the source garment: pairs of one garment are correlated.
+UNIT_COLUMN = "garment_id"

@@ -1,0 +1,213 @@
+"""Bootstrap intervals over independent units, paired rank separation, result schema /2,
+tracks, old results and not-comparable results in every leaderboard format."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from dressmeup.bench import build_leaderboard
+from dressmeup.bench.intervals import (
+    bootstrap_mean,
+    describe_resolution,
+    distinct_resamples,
+    paired_difference,
+)
+from dressmeup.bench.results import load_result, summarise
+
+
+def test_distinct_resamples_is_multiset_count():
+    assert [distinct_resamples(n) for n in range(1, 8)] == [1, 3, 10, 35, 126, 462, 1716]
+    # brute force for n = 3: multisets of size 3 from 3 units
+    import itertools
+
+    seen = {tuple(sorted(c)) for c in itertools.product(range(3), repeat=3)}
+    assert len(seen) == distinct_resamples(3)
+
+
+def test_interval_resamples_units_not_items():
+    """3 garments with 20 identical pairs each: the bootstrap can only produce means of unit
+    multisets (<= C(5, 3) = 10 values), so both ends are such means. An item-level bootstrap
+    would give values between them."""
+    units = np.repeat(["g1", "g2", "g3"], 20)
+    values = np.repeat([1.0, 2.0, 6.0], 20)
+    iv = bootstrap_mean(values, units)
+    assert iv.n_units == 3 and iv.n_items == 60 and iv.distinct_resamples == 10
+    import itertools
+
+    possible = {round(float(np.mean(c)), 9)
+                for c in itertools.combinations_with_replacement([1.0, 2.0, 6.0], 3)}
+    assert round(iv.lo, 9) in possible and round(iv.hi, 9) in possible
+    assert iv.lo <= iv.mean <= iv.hi and iv.mean == pytest.approx(3.0)
+    assert iv.lo < 2.0 and iv.hi > 4.0
+    # seeded: the same interval twice
+    assert bootstrap_mean(values, units) == iv
+
+
+def test_single_unit_is_degenerate_and_nan_left_out():
+    iv = bootstrap_mean([1.0, 2.0, np.nan], ["a", "a", "a"])
+    assert iv.degenerate and iv.lo == iv.hi == iv.mean == 1.5 and iv.n_items == 2
+    assert bootstrap_mean([np.nan], ["a"]) is None
+    assert "degenerate" in describe_resolution(1)
+    assert "10 distinct resamples" in describe_resolution(3)
+
+
+def test_paired_difference_separates_a_constant_gap_not_noise():
+    rng = np.random.default_rng(0)
+    units = np.repeat([f"g{i}" for i in range(10)], 5)
+    a = rng.normal(10.0, 3.0, 50)          # large spread between items ...
+    d = paired_difference(a + 0.5, a, units)   # ... but a constant paired gap
+    assert d.separated and d.lo == pytest.approx(0.5) and d.diff == pytest.approx(0.5)
+    noise = paired_difference(a + rng.normal(0, 1.0, 50), a, units)
+    assert not noise.separated and noise.lo < 0 < noise.hi
+    assert not paired_difference([1.0, 2.0], [0.0, 0.0], ["u", "u"]).separated
+
+
+def test_summary_has_intervals_per_category_and_track():
+    table = pd.DataFrame({
+        "sample_id": [f"p{i}" for i in range(12)],
+        "category": ["topwear"] * 6 + ["dress"] * 6,
+        "garment_id": ["G1", "G1", "G2", "G2", "G3", "G3", "G4", "G4", "G5", "G5", "G6",
+                       "G6"],
+        "track": ["cross", "re-pose"] * 6,
+        "p2s": np.linspace(0.001, 0.012, 12),
+        "status": ["ok"] * 11 + ["error"],
+    })
+    s = summarise(table, ["p2s"], [], unit_column="garment_id")
+    st = s["metrics"]["p2s"]
+    assert st["n"] == 11 and st["n_units"] == 6 and st["distinct_resamples"] == 462
+    assert st["ci95"][0] < st["mean"] < st["ci95"][1]
+    assert s["bootstrap"]["unit"] == "garment_id" and s["bootstrap"]["seed"] == 0
+    assert set(s["per_track"]) == {"cross", "re-pose"}
+    assert s["per_track"]["re-pose"]["failed"] == 1
+    assert s["per_track"]["cross"]["metrics"]["p2s"]["n"] == 6
+    assert s["per_category"]["dress"]["metrics"]["p2s"]["n_units"] == 3
+    assert "per_track" not in summarise(table.drop(columns="track"), ["p2s"], [])
+    assert "ci95" not in summarise(table, ["p2s"], [])["metrics"]["p2s"]
+
+
+# --------------------------------------------------------------------- leaderboards
+def _copy(res: Path, dst: Path, *, method: str | None = None, edit=None,
+          table_edit=None) -> Path:
+    shutil.copytree(res, dst)
+    summary = json.loads((dst / "summary.json").read_text())
+    if table_edit is not None:
+        t = pd.read_parquet(dst / "per_sample.parquet")
+        t = table_edit(t)
+        t.to_parquet(dst / "per_sample.parquet", index=False)
+        metrics = list(summary["metrics"])
+        summary.update(summarise(t, metrics, ["ir_gt"], unit_column="garment_id"))
+    if method is not None:
+        summary["method"]["method"] = method
+    if edit is not None:
+        edit(summary)
+    (dst / "summary.json").write_text(json.dumps(summary))
+    return dst
+
+
+def test_scored_result_is_schema_2_with_intervals(scored):
+    r = load_result(scored["noisy"]["res"].path)
+    assert r.summary["schema"] == "dressmeup-result/2" and r.schema_version == 2
+    assert r.comparable
+    st = r.summary["metrics"]["p2s"]
+    assert st["n_units"] == 3 and len(st["ci95"]) == 2 and not st["degenerate"]
+    assert r.summary["bootstrap"]["unit"] == "garment_id"
+
+
+def test_old_results_show_dashes_in_every_format(scored, tmp_path):
+    def to_v1(s):
+        s["schema"] = "dressmeup-result/1"
+        s.pop("schema_version", None)
+        s.pop("bootstrap", None)
+        for st in s["metrics"].values():
+            for k in ("ci95", "n_units", "distinct_resamples", "degenerate"):
+                st.pop(k, None)
+        for cat in s["per_category"].values():
+            for st in cat["metrics"].values():
+                st.pop("ci95", None)
+
+    old = _copy(scored["noisy"]["res"].path, tmp_path / "old", method="OLD", edit=to_v1)
+    paths = [scored["gt"]["res"].path, old]
+    board = build_leaderboard(paths)
+    md = board.render("md")
+    old_row = next(line for line in md.splitlines() if "| OLD |" in line)
+    assert "[–]" in old_row and "| – |" in old_row
+    rows = list(csv.DictReader(io.StringIO(board.render("csv"))))
+    old_csv = next(r for r in rows if r["method"] == "OLD")
+    assert old_csv["P2S ↓ [mm] ci95 lo"] == "" and old_csv["schema_version"] == "1"
+    gt_csv = next(r for r in rows if r["method"] == "GT")
+    assert float(gt_csv["P2S ↓ [mm] ci95 lo"]) <= float(gt_csv["P2S ↓ [mm]"])
+    assert "[--]" in board.render("latex") and "[–]" in board.render("html")
+    # an all-old leaderboard has no interval columns at all
+    plain = build_leaderboard([old]).render("md")
+    assert "[–]" not in plain and "Sep." not in plain
+
+
+def test_tracks_get_columns_in_every_format(scored, tmp_path):
+    def add_tracks(t):
+        t["track"] = np.where(np.arange(len(t)) % 2 == 0, "cross", "re-pose")
+        return t
+
+    a = _copy(scored["gt"]["res"].path, tmp_path / "a", table_edit=add_tracks)
+    b = _copy(scored["noisy"]["res"].path, tmp_path / "b", table_edit=add_tracks)
+    board = build_leaderboard([a, b])
+    assert [c.track for c in board.columns if c.track] == ["cross", "re-pose"]
+    assert "P2S ↓ [mm] · track cross" in board.render("md").splitlines()[0]
+    assert "P2S ↓ [mm] · track re-pose" in board.render("csv").splitlines()[0]
+    assert "track cross" in board.render("latex") and "track re-pose" in board.render("html")
+    col = next(c for c in board.columns if c.track == "cross")
+    assert board.rows[0]["ci"][col.key][0] <= board.rows[0]["values"][col.key][0]
+
+
+def test_rank_separation_marked(scored, tmp_path):
+    """NOISY is worse than GT on every pair by about the noise: the paired bootstrap
+    separates them even though their intervals overlap; a copy of NOISY is not
+    separated from NOISY."""
+    twin = _copy(scored["noisy"]["res"].path, tmp_path / "twin", method="NOISY-TWIN")
+    board = build_leaderboard([scored["gt"]["res"].path, scored["noisy"]["res"].path,
+                               twin], sort_by="ed")
+    seps = {r["method"]: r["separated"] for r in board.rows}
+    assert seps["GT"] is True
+    assert [seps["NOISY"], seps["NOISY-TWIN"]].count(False) == 1
+    assert [seps["NOISY"], seps["NOISY-TWIN"]].count(None) == 1
+    rows = list(csv.DictReader(io.StringIO(board.render("csv"))))
+    assert rows[0]["separated_from_next"] == "true" and rows[2]["separated_from_next"] == ""
+    assert "Sep." in board.render("md") and "Sep." in board.render("latex")
+    assert 'class="sep sep-no"' in board.render("html")
+
+
+def test_not_comparable_marked_in_every_format(scored, tmp_path):
+    def other(s):
+        s["comparable"] = False
+        s["not_comparable_reason"] = "scored with --allow-other-data"
+        s["dataset"]["manifest_sha256"] = "0" * 64
+
+    nc = _copy(scored["gt"]["res"].path, tmp_path / "nc", method="ELSEWHERE", edit=other)
+    board = build_leaderboard([scored["noisy"]["res"].path, nc])
+    assert board.rows[-1]["method"] == "ELSEWHERE"       # last, unranked
+    md = board.render("md")
+    assert "| – | ELSEWHERE (not comparable) |" in md and "Not comparable" in md
+    assert all(r["method"] != "ELSEWHERE" or not any(
+        board.rows.index(r) in v for v in board.best.values()) for r in board.rows)
+    rows = list(csv.DictReader(io.StringIO(board.render("csv"))))
+    assert rows[-1]["comparable"] == "false" and rows[-1]["rank"] == ""
+    assert "ELSEWHERE (not comparable)" in board.render("latex")
+    assert ">not comparable</span>" in board.render("html")
+
+
+def test_html_escapes_method_names_and_sorts(scored, tmp_path):
+    evil = _copy(scored["gt"]["res"].path, tmp_path / "evil",
+                 method='<script>alert("x")</script>')
+    page = build_leaderboard([evil, scored["noisy"]["res"].path]).render("html")
+    assert "<script>alert" not in page and "&lt;script&gt;alert" in page
+    assert page.count("<script>") == 1 and 'data-type="num"' in page
+    first_metric_cell = page.split("</td>", 2)[2]        # rank, method, then P2S
+    assert math.isfinite(float(first_metric_cell.split('data-v="')[1].split('"')[0]))
