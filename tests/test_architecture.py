@@ -15,7 +15,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "dressmeup"
 # Lowest first. A unit may import units of its own layer only when listed together in
 # SIBLINGS_MAY_IMPORT; otherwise only units of lower layers.
 LAYERS: list[set[str]] = [
-    {"dressmeup", "errors", "cache", "progress", "io.atomic", "io.jsonable"},
+    {"dressmeup", "errors", "cache", "progress", "io.atomic", "io.jsonable", "executors"},
     {"geometry"},
     {"metrics", "io.mesh"},
     {"body"},
@@ -30,7 +30,7 @@ LAYERS: list[set[str]] = [
     {"demo"},
     {"cli", "__main__"},
 ]
-SIBLINGS_MAY_IMPORT = {("dressmeup", "errors"), ("cli", "__main__"), ("__main__", "cli")}
+SIBLINGS_MAY_IMPORT = {("dressmeup", "errors"), ("executors", "errors"), ("cli", "__main__"), ("__main__", "cli")}
 
 
 def _unit(module: str) -> str | None:
