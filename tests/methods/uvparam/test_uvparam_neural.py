@@ -122,3 +122,39 @@ def test_cli_writes_a_submission(tmp_path):
         assert z["uv_faces"].shape == F.shape and z["chart_ids"].shape == (len(F),)
         assert z["uv"].shape[1] == 2
     assert main(["baseline", "uvparam", "--method", "lscm", "--meshes", "cube-3k", "--out", str(out)]) == 2
+
+
+def test_converged_rule():
+    from dressmeup.methods.uvparam.neural.train_set import converged
+
+    falling = [(s, 1.0 / s) for s in range(10, 110, 10)]
+    assert not converged(falling)                       # still improving a lot
+    flat = [(s, 1.0 + 0.001 / s) for s in range(10, 110, 10)]
+    assert converged(flat)                              # < 1 % over the last fifth
+    assert not converged(flat[:3])                      # too few evaluations
+
+
+def test_training_on_a_set_and_half_checkpoint(tmp_path):
+    from dressmeup.methods.uvparam.neural.infer import infer
+    from dressmeup.methods.uvparam.neural.train import load_model, save_model
+    from dressmeup.methods.uvparam.neural.train_set import mesh_sha, train_on_set
+
+    train = [make_test_mesh("blob-400"), make_test_mesh("sheet-300")]
+    val = [make_test_mesh("sphere-300")]
+    seen = []
+    model = train_on_set(train, val, "fast", budget_seconds=600, eval_every=10,
+                         on_eval=lambda *a: seen.append(a), **{**TINY, "uv_iters": 60, "patch_iters": 20})
+    h = model.history
+    assert h["train_mesh_sha"] == [mesh_sha(*m) for m in train]
+    assert len(h["val_patch"]) >= 1 and len(h["val_uv"]) >= 1
+    assert set(h["stopped"]) == {"patchnet", "uv"} and h["uv_steps"] <= 60
+    assert {s for s, *_ in seen} == {"patchnet", "uv"}
+    assert np.mean(h["uv_total"][-10:]) < np.mean(h["uv_total"][:10])
+    path = tmp_path / "set.pt"
+    save_model(model, path, half=True)
+    back = load_model(path)
+    assert back.history["stopped"] == h["stopped"] and back.history["val_uv"] == h["val_uv"]
+    V, F = make_test_mesh("torus-300")                  # never seen
+    a, b = infer(model, V, F), infer(back, V, F)
+    assert a.uv_faces.shape == F.shape and np.all(np.isfinite(b.uv))
+    assert np.abs(a.uv - b.uv).max() < 0.05             # float16 weights: close, not equal

@@ -363,18 +363,41 @@ def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool,
     return model
 
 
-def save_model(model: NeuralUVModel, path: str | Path) -> None:
-    """Write a checkpoint (configuration, state dicts, loss history) atomically."""
+def _plain(value: Any) -> Any:
+    """Loss histories as plain Python numbers/strings/lists (loadable with weights_only)."""
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (str, bool, int)) or value is None:
+        return value
+    return float(value)
+
+
+def save_model(model: NeuralUVModel, path: str | Path, half: bool = False) -> None:
+    """Write a checkpoint (configuration, state dicts, loss history) atomically.
+
+    Parameters
+    ----------
+    model : NeuralUVModel
+    path : str or Path
+    half : bool
+        Store the weights as float16 (half the size; :func:`load_model` restores float32).
+        Used for the checkpoints shipped in the package.
+    """
     import io
 
     import torch
 
     from dressmeup.io.atomic import atomic_write_bytes
 
-    hist = {k: (list(map(float, v)) if isinstance(v, list) else v) for k, v in model.history.items()}
+    def weights(module):
+        sd = module.state_dict()
+        return {k: (v.half() if half and v.is_floating_point() else v) for k, v in sd.items()}
+
     state = {"format": "dressmeup-neural-uv-v1", "config": asdict(model.config),
-             "patchnet": model.patchnet.state_dict(), "forward_mlp": model.forward_mlp.state_dict(),
-             "backward_mlp": model.backward_mlp.state_dict(), "history": hist}
+             "patchnet": weights(model.patchnet), "forward_mlp": weights(model.forward_mlp),
+             "backward_mlp": weights(model.backward_mlp), "history": _plain(model.history)}
     buf = io.BytesIO()
     torch.save(state, buf)
     atomic_write_bytes(path, buf.getvalue())
@@ -403,7 +426,10 @@ def load_model(path: str | Path) -> NeuralUVModel:
     c["weights"] = tuple(c["weights"])
     cfg = NeuralConfig(**c)
     patchnet, fwd, bwd = _build_modules(cfg)
-    patchnet.load_state_dict(state["patchnet"])
-    fwd.load_state_dict(state["forward_mlp"])
-    bwd.load_state_dict(state["backward_mlp"])
+    def weights(sd):  # float16 checkpoints (shipped ones) back to float32
+        return {k: (v.float() if v.is_floating_point() else v) for k, v in sd.items()}
+
+    patchnet.load_state_dict(weights(state["patchnet"]))
+    fwd.load_state_dict(weights(state["forward_mlp"]))
+    bwd.load_state_dict(weights(state["backward_mlp"]))
     return NeuralUVModel(cfg, patchnet.eval(), fwd.eval(), bwd.eval(), state.get("history", {}))

@@ -1,0 +1,321 @@
+"""Training on a *set* of meshes (a category of garments, or varied shapes), for inference on
+meshes the networks never saw (the thesis' per-category set-up, Table 3.1).
+
+One PatchNet and one pair of UV MLPs serve the whole set: every step takes one training mesh
+(a shuffled round robin), so the networks must find patches and maps that work across the
+set, and the chart code psi tells the meshes' charts apart. A validation set (other meshes)
+is scored every ``eval_every`` steps; a stage stops when its validation loss improved by less
+than ``tol`` (1 %) over the last fifth of its steps, when its share of the wall-clock budget
+is spent, or at its step limit -- whichever comes first; ``history["stopped"]`` says which.
+
+Meshes are decimated to ``NeuralConfig.train_vertices`` first (the networks are
+discretisation-agnostic, so the trained model runs on any resolution afterwards).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
+from dressmeup.methods.nn.diffusion_net import compute_operators
+from dressmeup.methods.uvparam.neural import losses as L
+from dressmeup.methods.uvparam.neural.patchnet import (
+    assign_charts,
+    normalize_vertices,
+    patchnet_inputs,
+)
+from dressmeup.methods.uvparam.neural.train import (
+    NeuralConfig,
+    NeuralUVModel,
+    _build_modules,
+    _edge_graph,
+    _iso_pairs,
+    chart_codes,
+    chart_rows,
+    get_config,
+)
+
+__all__ = ["train_on_set", "converged", "mesh_sha"]
+
+log = logging.getLogger(__name__)
+
+
+def mesh_sha(V: np.ndarray, F: np.ndarray) -> str:
+    """Hash of a mesh's arrays (float64 vertices, int64 faces): how a checkpoint remembers
+    the meshes it was trained on, so that a benchmark run can tell seen from unseen meshes."""
+    from dressmeup.cache import hash_arrays
+
+    V, F = as_arrays(V, F)
+    return hash_arrays(np.ascontiguousarray(V, dtype=np.float64),
+                       np.ascontiguousarray(F, dtype=np.int64))
+
+
+def converged(val: Sequence[tuple[int, float]], tol: float = 0.01, fraction: float = 0.2,
+              min_evals: int = 5) -> bool:
+    """True when the best validation loss improved by less than ``tol`` (relative) over the
+    last ``fraction`` of the steps so far.
+
+    Parameters
+    ----------
+    val : ``[(step, loss), ...]`` in step order.
+    tol : relative improvement threshold (0.01 = 1 %).
+    fraction : the trailing share of the steps compared (0.2 = the last fifth).
+    min_evals : never converged before this many evaluations.
+    """
+    if len(val) < min_evals:
+        return False
+    steps = np.array([s for s, _ in val], dtype=float)
+    loss = np.array([v for _, v in val], dtype=float)
+    cut = steps[-1] * (1.0 - fraction)
+    before = loss[steps <= cut]
+    if before.size == 0:
+        return False
+    best_before, best_now = float(before.min()), float(loss.min())
+    return (best_before - best_now) < tol * abs(best_before)
+
+
+@dataclass
+class _PatchData:
+    Vn: np.ndarray
+    F: np.ndarray
+    ops: Any
+    tops: dict
+    x: Any
+    Gt: Any
+    mass_lm: Any
+    fn: Any
+    fa: Any
+    Ft: Any
+    lm: Any
+
+
+def _prepare(V, F, cfg: NeuralConfig, rng: np.random.Generator) -> _PatchData:
+    import torch
+    from scipy.sparse.csgraph import dijkstra
+
+    from dressmeup.methods.uvparam.neural.method import decimate_for_training
+
+    V, F = decimate_for_training(*as_arrays(V, F), cfg.train_vertices)
+    Vn = normalize_vertices(V)
+    ops = compute_operators(Vn, F, k_eig=cfg.k_eig)
+    n = len(Vn)
+    lm = np.sort(rng.choice(n, size=min(n, cfg.geo_landmarks), replace=False))
+    G = dijkstra(_edge_graph(Vn, F), directed=False, indices=lm)[:, lm]
+    G = np.where(np.isfinite(G), G, 2.0 * np.nanmax(np.where(np.isfinite(G), G, 0.0)))
+    return _PatchData(Vn, F, ops, ops.to_torch(), torch.from_numpy(patchnet_inputs(Vn, F)),
+                      torch.from_numpy(G.astype(np.float32)),
+                      torch.from_numpy(ops.mass[lm].astype(np.float32)),
+                      torch.from_numpy(face_normals(Vn, F).astype(np.float32)),
+                      torch.from_numpy(face_areas(Vn, F).astype(np.float32)),
+                      torch.from_numpy(F), torch.from_numpy(lm))
+
+
+def _patch_loss(patchnet, d: _PatchData, cfg: NeuralConfig):
+    probs = patchnet(d.x, d.tops)
+    lc = L.cosine_loss(probs[d.Ft].mean(dim=1), d.fn, d.fa)
+    lg = L.geodesic_loss(probs[d.lm], d.mass_lm, d.Gt)
+    return cfg.lambda_cos * lc + cfg.lambda_geo * lg, lc, lg
+
+
+def _uv_data(d: _PatchData, patchnet, cfg: NeuralConfig) -> dict:
+    import torch
+
+    with torch.no_grad():
+        h = patchnet.features(d.x, d.tops)
+        probs = torch.softmax(patchnet.last(h), dim=-1).numpy()
+        feats = h.numpy()
+    chart_ids = assign_charts(d.Vn, d.F, probs, cfg.consolidation_steps, cfg.min_chart_fraction)
+    psi = chart_codes(feats, d.ops.mass, d.F, chart_ids)
+    row_vertex, row_chart, row_faces = chart_rows(d.F, chart_ids)
+    pairs, gdist = _iso_pairs(d.Vn, row_vertex, row_chart, row_faces, cfg.sigma)
+    xr = torch.from_numpy(d.Vn[row_vertex].astype(np.float32))
+    psi_r = torch.from_numpy(psi[row_chart])
+    rf = torch.from_numpy(row_faces)
+    return {"xr": xr, "psi_r": psi_r, "inp": torch.cat([xr, psi_r], dim=1), "rf": rf,
+            "cos3d": L.triangle_cosines(xr, rf).detach(), "area3d": L.triangle_areas_3d(xr, rf).detach(),
+            "pairs": torch.from_numpy(pairs), "gd": torch.from_numpy(gdist.astype(np.float32)),
+            "n_charts": int(chart_ids.max()) + 1}
+
+
+def _uv_loss(fwd, bwd, u: dict, cfg: NeuralConfig, gen):
+    import torch
+
+    uv = fwd(u["inp"])
+    rec = bwd(torch.cat([uv, u["psi_r"]], dim=1))
+    lcyc = L.cycle_loss(u["xr"], rec)
+    pairs, gd = u["pairs"], u["gd"]
+    if len(pairs) > cfg.pairs_per_iter:
+        sel = torch.randint(len(pairs), (cfg.pairs_per_iter,), generator=gen)
+        pairs, gd = pairs[sel], gd[sel]
+    liso = L.isometric_loss(uv, pairs, gd) if len(pairs) else uv.sum() * 0.0
+    lang = L.angle_loss(uv, u["rf"], u["cos3d"])
+    lar = L.area_loss(uv, u["rf"], u["area3d"])
+    w = cfg.weights
+    return w[0] * lcyc + w[1] * liso + w[2] * lang + w[3] * lar, (lcyc, liso, lang, lar)
+
+
+def train_on_set(train_meshes: Sequence[tuple[np.ndarray, np.ndarray]],
+                 val_meshes: Sequence[tuple[np.ndarray, np.ndarray]],
+                 config: str | NeuralConfig = "fast", *, budget_seconds: float = 3600.0,
+                 patch_share: float = 0.25, eval_every: int = 25, tol: float = 0.01,
+                 threads: int | None = 1, progress: bool = False,
+                 on_eval: Callable[[str, int, float], None] | None = None,
+                 **overrides: Any) -> NeuralUVModel:
+    """Train one PatchNet and one pair of UV MLPs on a set of meshes.
+
+    Parameters
+    ----------
+    train_meshes, val_meshes : sequences of ``(V (n, 3) float, F (m, 3) int)``.
+    config : ``"fast"``, ``"reference"`` or a :class:`NeuralConfig`; ``patch_iters`` and
+        ``uv_iters`` are the stages' step *limits* here.
+    budget_seconds : wall-clock budget of the whole run (preparation included).
+    patch_share : share of the budget left after preparation that PatchNet may use.
+    eval_every : steps between validation evaluations.
+    tol : convergence threshold of :func:`converged` (relative, over the last fifth).
+    threads : torch intra-op threads (1 on a shared machine).
+    progress : show progress bars.
+    on_eval : called as ``on_eval(stage, step, val_loss)`` after every evaluation.
+    **overrides : fields of :class:`NeuralConfig`.
+
+    Returns
+    -------
+    NeuralUVModel
+        ``history``: per-step ``patch_total``/``cos``/``geo``/``uv_total``/``cycle``/
+        ``iso``/``angle``/``area``; ``val_patch``/``val_uv`` as ``[[step, loss], ...]``;
+        ``stopped`` (``{"patchnet": ..., "uv": ...}``: ``converged``/``budget``/``max_iters``);
+        ``seconds_*``; ``train_mesh_sha`` (hashes of the training meshes as given).
+
+    Raises
+    ------
+    ValueError
+        No training or no validation meshes, or an invalid configuration.
+    """
+    import torch
+
+    if not train_meshes or not val_meshes:
+        raise ValueError("train_on_set: needs at least one training and one validation mesh")
+    cfg = get_config(config, **overrides)
+    old = torch.get_num_threads()
+    if threads:
+        torch.set_num_threads(int(threads))
+    try:
+        return _train_on_set(train_meshes, val_meshes, cfg, budget_seconds, patch_share,
+                             eval_every, tol, progress, on_eval)
+    finally:
+        torch.set_num_threads(old)
+
+
+def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every, tol,
+                  progress, on_eval) -> NeuralUVModel:
+    import torch
+
+    from dressmeup.progress import progress as bar
+
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(cfg.seed)
+    shas = [mesh_sha(V, F) for V, F in train_meshes]
+    train = [_prepare(V, F, cfg, rng) for V, F in bar(list(train_meshes), desc="operators (train)",
+                                                       disable=not progress or None)]
+    val = [_prepare(V, F, cfg, rng) for V, F in val_meshes]
+    t_prep = time.perf_counter()
+    left = budget - (t_prep - t0)
+    patchnet, fwd, bwd = _build_modules(cfg)
+    hist: dict = {k: [] for k in ("patch_total", "cos", "geo", "uv_total", "cycle", "iso",
+                                  "angle", "area")}
+    hist.update(val_patch=[], val_uv=[], stopped={}, train_mesh_sha=shas,
+                n_train=len(train), n_val=len(val), seconds_prepare=t_prep - t0,
+                budget_seconds=float(budget))
+
+    def order(step: int) -> int:
+        k = step % len(train)
+        if k == 0:
+            order.perm = rng.permutation(len(train))
+        return int(order.perm[k])
+
+    order.perm = rng.permutation(len(train))
+
+    # --- PatchNet over the set ------------------------------------------------------------
+    opt = torch.optim.Adam(patchnet.parameters(), lr=cfg.patch_lr)
+    deadline = t_prep + patch_share * left
+    stop = "max_iters"
+    best_state, best_val = None, np.inf
+    for step in bar(range(1, cfg.patch_iters + 1), desc="PatchNet", disable=not progress or None):
+        loss, lc, lg = _patch_loss(patchnet, train[order(step - 1)], cfg)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        hist["patch_total"].append(float(loss.detach()))
+        hist["cos"].append(float(lc.detach()))
+        hist["geo"].append(float(lg.detach()))
+        if step % eval_every == 0 or step == cfg.patch_iters:
+            with torch.no_grad():
+                v = float(np.mean([float(_patch_loss(patchnet, d, cfg)[0]) for d in val]))
+            hist["val_patch"].append([step, v])
+            if on_eval:
+                on_eval("patchnet", step, v)
+            if v < best_val:
+                best_val, best_state = v, {k: t.clone() for k, t in patchnet.state_dict().items()}
+            if converged(hist["val_patch"], tol):
+                stop = "converged"
+                break
+        if time.perf_counter() > deadline:
+            stop = "budget"
+            break
+    if best_state is not None:
+        patchnet.load_state_dict(best_state)
+    patchnet.eval()
+    hist["stopped"]["patchnet"] = stop
+    hist["patch_steps"] = len(hist["patch_total"])
+    t1 = time.perf_counter()
+    hist["seconds_patchnet"] = t1 - t_prep
+
+    # --- UV MLPs over the set -------------------------------------------------------------
+    train_uv = [_uv_data(d, patchnet, cfg) for d in train]
+    val_uv = [_uv_data(d, patchnet, cfg) for d in val]
+    hist["n_charts_train"] = [u["n_charts"] for u in train_uv]
+    params = list(fwd.parameters()) + list(bwd.parameters())
+    opt = torch.optim.Adam(params, lr=cfg.uv_lr)
+    gen = torch.Generator().manual_seed(cfg.seed)
+    val_gen_seed = cfg.seed + 12345
+    deadline = t0 + budget
+    stop = "max_iters"
+    best_state, best_val = None, np.inf
+    for step in bar(range(1, cfg.uv_iters + 1), desc="UV MLPs", disable=not progress or None):
+        loss, parts = _uv_loss(fwd, bwd, train_uv[order(step - 1)], cfg, gen)
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        hist["uv_total"].append(float(loss.detach()))
+        for k, p in zip(("cycle", "iso", "angle", "area"), parts, strict=True):
+            hist[k].append(float(p.detach()))
+        if step % eval_every == 0 or step == cfg.uv_iters:
+            vg = torch.Generator().manual_seed(val_gen_seed)  # same pairs at every evaluation
+            with torch.no_grad():
+                v = float(np.mean([float(_uv_loss(fwd, bwd, u, cfg, vg)[0]) for u in val_uv]))
+            hist["val_uv"].append([step, v])
+            if on_eval:
+                on_eval("uv", step, v)
+            if v < best_val:
+                best_val = v
+                best_state = ({k: t.clone() for k, t in fwd.state_dict().items()},
+                              {k: t.clone() for k, t in bwd.state_dict().items()})
+            if converged(hist["val_uv"], tol):
+                stop = "converged"
+                break
+        if time.perf_counter() > deadline:
+            stop = "budget"
+            break
+    if best_state is not None:
+        fwd.load_state_dict(best_state[0])
+        bwd.load_state_dict(best_state[1])
+    hist["stopped"]["uv"] = stop
+    hist["uv_steps"] = len(hist["uv_total"])
+    hist["seconds_uv"] = time.perf_counter() - t1
+    hist["seconds_total"] = time.perf_counter() - t0
+    return NeuralUVModel(cfg, patchnet, fwd.eval(), bwd.eval(), hist)
