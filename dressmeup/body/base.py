@@ -69,6 +69,8 @@ class BodyModel(Protocol):
 
     def posed(self, params: BodyParams) -> BodyOutput: ...
 
+    def skin(self) -> tuple[np.ndarray, np.ndarray]: ...
+
 
 class LBSBodyModel:
     """Base class: shape-dependent rest mesh and joints, then linear blend skinning.
@@ -102,6 +104,31 @@ class LBSBodyModel:
     def __repr__(self) -> str:
         return (f"{type(self).__name__}(name={self.name!r}, n_vertices={self.n_vertices}, "
                 f"n_joints={self.n_joints}, shape_dim={self.shape_dim})")
+
+    def skin(self) -> tuple[np.ndarray, np.ndarray]:
+        """The body surface: the largest connected component of the mesh (by vertex count).
+
+        Eyes, teeth or other separate parts are left out; geodesics, closest-point queries on
+        the body and the benchmark's penetration tests use this surface. ``anny`` and the
+        procedural body are one component already (anny drops its other parts when it is
+        built), so their skin is the whole mesh; an SMPL-family mesh is one component too.
+
+        Returns
+        -------
+        vertex_ids : (s,) int64
+            Increasing indices of the skin's vertices into this model's vertices.
+        faces : (f, 3) int64
+            The skin's faces (in model face order) re-indexed into ``vertex_ids``.
+
+        Computed once and kept on the instance: the arrays are shared, do not modify them.
+        """
+        cached = self.__dict__.get("_skin")
+        if cached is None:
+            from dressmeup.geometry.topology import largest_component
+
+            cached = self.__dict__["_skin"] = largest_component(self.faces, self.n_vertices,
+                                                                by="vertices")
+        return cached
 
     # --------------------------------------------------------------- hooks
     def rest(self, shape: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

@@ -41,11 +41,3 @@ SMPL22_PARENTS: np.ndarray = np.array(
 
 #: Phenotype shape vector of the open models, in order; each in [0, 1], 0.5 is average.
 PHENOTYPE_NAMES: tuple[str, ...] = ("gender", "age", "muscle", "weight", "height", "proportions")
-
-
-def joint_index(name: str, names: tuple[str, ...] = SMPL22_JOINT_NAMES) -> int:
-    """Return the index of joint ``name`` in ``names``; raise ``ValueError`` naming it."""
-    try:
-        return names.index(name)
-    except ValueError:
-        raise ValueError(f"unknown joint {name!r}; expected one of {list(names)}") from None

@@ -117,3 +117,20 @@ def test_bad_inputs_name_the_argument(model):
         model.forward(np.full(7, 0.5), np.zeros((22, 3)))
     with pytest.raises(InputError, match="model"):
         model.posed(BodyParams("anny", shape=np.full(6, 0.5), pose=np.zeros((22, 3))))
+
+
+def test_skin_is_kept_on_each_model_instance():
+    from dressmeup.body.procedural import ProceduralBody
+    from dressmeup.geometry.topology import largest_component
+
+    a, b = ProceduralBody(), ProceduralBody()
+    ids, faces = a.skin()
+    assert a.skin()[0] is ids and a.skin()[1] is faces  # computed once per instance
+    want_ids, want_faces = largest_component(a.faces, a.n_vertices, by="vertices")
+    np.testing.assert_array_equal(ids, want_ids)
+    np.testing.assert_array_equal(faces, want_faces)
+    # another instance has its own skin: a different mesh gets a different answer (the old
+    # memo keyed by id() could hand a new model an old model's skin)
+    b.faces = b.faces[: len(b.faces) // 2]
+    assert b.skin()[1].shape[0] < faces.shape[0]
+    assert a.skin()[1] is faces

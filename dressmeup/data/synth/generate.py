@@ -51,10 +51,8 @@ LEG_TO_HIP = {"left_knee": "left_hip", "left_ankle": "left_hip", "left_foot": "l
 
 
 def _skin(model) -> tuple[np.ndarray, np.ndarray]:
-    """Vertex indices and faces (re-indexed) of the largest connected component."""
-    from dressmeup.geometry.topology import largest_component
-
-    return largest_component(np.asarray(model.faces, np.int64), model.n_vertices)
+    """Vertex indices and faces (re-indexed) of the body model's skin."""
+    return model.skin()
 
 
 def _garment_weights(garment, body_V, body_F, body_W, joint_names, frame):

@@ -21,8 +21,6 @@ from dressmeup.geometry.mesh import as_arrays, vertex_normals
 
 __all__ = ["RetargetMethod", "BodyContext", "body_context", "skin_of", "check_garment"]
 
-_SKIN_MEMO: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-
 
 class RetargetMethod:
     """Base class: ``get_params``/``set_params`` over the ``__init__`` keyword arguments."""
@@ -54,14 +52,9 @@ class RetargetMethod:
 def skin_of(body_model) -> tuple[np.ndarray, np.ndarray]:
     """Skin (largest connected component) of a body model: ``(vertex_ids (s,), faces (f, 3))``.
 
-    Memoised per model object.
+    The body model's own :meth:`~dressmeup.body.base.LBSBodyModel.skin` (kept on the model).
     """
-    from dressmeup.methods.retarget.embedding import skin_component
-
-    key = id(body_model)
-    if key not in _SKIN_MEMO:
-        _SKIN_MEMO[key] = skin_component(body_model.template_vertices, body_model.faces)
-    return _SKIN_MEMO[key]
+    return body_model.skin()
 
 
 @dataclass

@@ -17,8 +17,6 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from dressmeup.cache import cache_dir, hash_arrays
 from dressmeup.geometry.mesh import as_arrays
@@ -47,22 +45,10 @@ def skin_component(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray
     faces : (f, 3) int64
         The component's faces re-indexed into ``vertex_ids``.
     """
+    from dressmeup.geometry.topology import largest_component
+
     V, F = as_arrays(V, F, name="template")
-    n = V.shape[0]
-    i = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
-    j = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
-    graph = sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
-    _, labels = connected_components(graph, directed=False)
-    used = np.zeros(n, dtype=bool)
-    used[F.ravel()] = True
-    counts = np.bincount(labels[used])
-    best = int(np.argmax(counts))
-    keep = (labels == best) & used
-    ids = np.flatnonzero(keep).astype(np.int64)
-    remap = -np.ones(n, dtype=np.int64)
-    remap[ids] = np.arange(len(ids))
-    faces = remap[F[keep[F[:, 0]]]]
-    return ids, faces
+    return largest_component(F, V.shape[0], by="vertices")
 
 
 def heat_solver(V: np.ndarray, F: np.ndarray):
