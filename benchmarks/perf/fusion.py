@@ -2,7 +2,7 @@
 
 Renders the built-in mannequin with the default 7-camera ring (640x576 depth) with and
 without sensor noise, fuses it (4 mm voxels), cuts out the garments, and scores everything
-against the exact ground truth (SPEC.md section 1, "Fusion quality": the ground truth is
+against the exact ground truth (docs/spec.md section 1, "Fusion quality": the ground truth is
 restricted to the surface visible from >= 1 camera; completeness against the whole scan is
 printed beside it). Then drifts the calibration (1 degree, 1 cm on every camera but the
 reference) and fuses with and without multiway ICP refinement.

@@ -1,5 +1,5 @@
 """dressmeup.bench: benchmark editions, submissions and their validation, scoring, results
-and leaderboards (SPEC.md section 4; docs/benchmark.md).
+and leaderboards (docs/spec.md section 4; docs/benchmark.md).
 
 >>> from dressmeup.bench import load_edition, write_submission, score_submission  # doctest: +SKIP
 >>> ed = load_edition("synth-retarget-v2")                                        # doctest: +SKIP

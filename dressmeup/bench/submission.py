@@ -1,4 +1,4 @@
-"""Submissions: a folder with ``submission.json`` and one file per item (SPEC.md section 4).
+"""Submissions: a folder with ``submission.json`` and one file per item (docs/spec.md section 4).
 
 ::
 

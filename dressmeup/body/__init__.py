@@ -1,4 +1,4 @@
-"""Body models (SPEC.md section 2): protocol, the open default model, a procedural test
+"""Body models (docs/spec.md section 2): protocol, the open default model, a procedural test
 body, SMPL-family models from user files, body parameter files, registration, skinning.
 
 >>> from dressmeup.body import get_body_model, BodyParams

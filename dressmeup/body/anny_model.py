@@ -9,7 +9,7 @@ What this wrapper exposes
 - **Frame**: anny is Z-up, facing -Y. The wrapper rotates it into the SMPL frame used by
   every model here: Y up, facing +Z, the body's left on +X (``x' = x, y' = z, z' = -y``).
   The origin stays at anny's root (pelvis).
-- **Skeleton**: the 22-joint SMPL-like skeleton of SPEC.md section 2. Each anny bone is
+- **Skeleton**: the 22-joint SMPL-like skeleton of docs/spec.md section 2. Each anny bone is
   assigned to one joint (:data:`BONE_GROUPS`); a joint sits at the rest head of its
   anchor bone (the foot joint at the mean of the first toe-bone heads). Skinning weights
   are anny's per-bone weights summed per joint, so the fingers, toes, eyes and twist bones

@@ -9,7 +9,7 @@ batched, differentiable ``forward`` in torch::
     out.transforms # (b, j, 4, 4) LBS matrices, shaped rest pose -> posed (before scale/transl)
     out.rest_vertices  # (b, n, 3) shaped, unposed (before scale/transl)
 
-Convention (SPEC.md section 2): ``vertices = scale * model(shape, pose) + transl``.
+Convention (docs/spec.md section 2): ``vertices = scale * model(shape, pose) + transl``.
 """
 
 from __future__ import annotations

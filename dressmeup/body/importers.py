@@ -1,4 +1,4 @@
-"""Importers: other tools' body parameters -> :class:`BodyParams` (SPEC.md section 2).
+"""Importers: other tools' body parameters -> :class:`BodyParams` (docs/spec.md section 2).
 
 Every importer returns parameters under our one convention
 ``vertices = scale * model(shape, pose) + transl`` with ``pose[0]`` the global orientation

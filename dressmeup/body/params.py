@@ -1,4 +1,4 @@
-"""Body parameter files (SPEC.md section 2): one ``.npz`` of plain arrays per body.
+"""Body parameter files (docs/spec.md section 2): one ``.npz`` of plain arrays per body.
 
 Fields: ``model`` (e.g. ``anny``, ``procedural``, ``smpl``, ``smplx``), ``gender``,
 ``shape`` (betas or phenotype vector), ``pose`` (axis-angle per joint, model's joint order),

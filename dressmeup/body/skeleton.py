@@ -1,4 +1,4 @@
-"""The 22-joint SMPL-like skeleton shared by the open body models (SPEC.md section 2).
+"""The 22-joint SMPL-like skeleton shared by the open body models (docs/spec.md section 2).
 
 Joint order and parents follow the first 22 joints of SMPL. ``pose`` arrays for the open
 models are ``(22, 3)`` axis-angle vectors, each joint relative to its parent, with

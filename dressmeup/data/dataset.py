@@ -209,7 +209,7 @@ class RetargetPair:
 
 
 def make_pairs(samples: Sequence[Sample]) -> list[RetargetPair]:
-    """Every ordered pair of poses of each garment (SPEC.md section 4), sorted by pair id.
+    """Every ordered pair of poses of each garment (docs/spec.md section 4), sorted by pair id.
 
     Pairs never cross splits: a garment whose samples disagree on the split is an error.
     """
@@ -230,7 +230,7 @@ def make_pairs(samples: Sequence[Sample]) -> list[RetargetPair]:
 
 
 class Dataset:
-    """A DressMeUp-style dataset on disk (SPEC.md section 3).
+    """A DressMeUp-style dataset on disk (docs/spec.md section 3).
 
     Parameters
     ----------

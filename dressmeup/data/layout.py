@@ -1,4 +1,4 @@
-"""The on-disk layout of a DressMeUp-style dataset (SPEC.md section 3).
+"""The on-disk layout of a DressMeUp-style dataset (docs/spec.md section 3).
 
 ::
 

@@ -1,4 +1,4 @@
-"""Splits by garment (SPEC.md section 4): test garments are never seen in training.
+"""Splits by garment (docs/spec.md section 4): test garments are never seen in training.
 
 Two strategies:
 

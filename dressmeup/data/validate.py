@@ -1,4 +1,4 @@
-"""Check a dataset folder against the format (SPEC.md section 3) and report every problem.
+"""Check a dataset folder against the format (docs/spec.md section 3) and report every problem.
 
 :func:`validate_dataset` never stops at the first problem: it collects them all (schema,
 missing files, checksums, mesh sanity, body files, splits, paths outside ROOT, damaged

@@ -87,7 +87,7 @@ def _mesh_arrays(mesh: Any, name: str) -> tuple[np.ndarray, np.ndarray, Any, Any
 
 
 class DatasetWriter:
-    """Write a DressMeUp-style dataset under ``root`` (SPEC.md section 3).
+    """Write a DressMeUp-style dataset under ``root`` (docs/spec.md section 3).
 
     Parameters
     ----------

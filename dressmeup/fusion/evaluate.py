@@ -1,6 +1,6 @@
 """Scoring a fused scan and extracted garments against a synthetic session's ground truth.
 
-SPEC.md section 1 "Fusion quality": accuracy (fused -> GT surface), completeness (GT -> fused),
+docs/spec.md section 1 "Fusion quality": accuracy (fused -> GT surface), completeness (GT -> fused),
 ``chamfer_l1 = (accuracy + completeness) / 2`` and F-scores, with the ground truth restricted
 to the surface visible from at least one camera; completeness against the whole scan is
 reported beside it.

@@ -2,7 +2,7 @@
 
 open3d's ``RaycastingScene`` (a BVH in float32) finds the closest face of every query
 point; the closest point and the distance are then recomputed exactly in float64 against
-that face, so distances are float64 as SPEC.md requires. The coordinates are centred before
+that face, so distances are float64 as docs/spec.md section 1 requires. The coordinates are centred before
 the float32 conversion so that meshes far from the origin keep their precision.
 """
 

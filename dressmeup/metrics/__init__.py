@@ -1,4 +1,4 @@
-"""The standard metrics, exactly as SPEC.md section 1 defines them (docs/metrics.md explains
+"""The standard metrics, exactly as docs/spec.md section 1 defines them (docs/metrics.md explains
 each one, its units and how it differs from other toolkits' conventions).
 
 Every function takes plain arrays or a ``trimesh.Trimesh`` (meshes may also be given as a

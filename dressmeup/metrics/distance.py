@@ -71,7 +71,7 @@ def p2s_details(points: Any, surface: Any) -> np.ndarray:
 
 
 def p2s(points: Any, surface: Any) -> float:
-    """P2S: mean exact point-to-surface distance (SPEC.md section 1).
+    """P2S: mean exact point-to-surface distance (docs/spec.md section 1).
 
     Parameters
     ----------

@@ -92,7 +92,7 @@ def normal_consistency(
     seed: int = 0,
     mode: str = "auto",
 ) -> float:
-    """NC: signed cosine between unit normals of two meshes (SPEC.md section 1).
+    """NC: signed cosine between unit normals of two meshes (docs/spec.md section 1).
 
     Same topology (same vertex count and identical faces): mean over vertices of
     ``n_pred . n_gt`` with area-weighted vertex normals (vertices without a defined normal,

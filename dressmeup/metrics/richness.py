@@ -165,7 +165,7 @@ def richness_details(
 
 
 def richness(geodesic: np.ndarray, embedding: np.ndarray, k: int = 10) -> float:
-    """Richness score of an embedding (thesis eq. 4.15-4.17; SPEC.md section 1).
+    """Richness score of an embedding (thesis eq. 4.15-4.17; docs/spec.md section 1).
 
     For vertex i, all other vertices are ranked by geodesic distance and by Euclidean
     distance in the embedding (1 = nearest; ties broken by vertex index, i.e. a stable sort).

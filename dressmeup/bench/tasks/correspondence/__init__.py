@@ -1,4 +1,4 @@
-"""The ``correspondence`` task (SPEC.md section 4; docs/benchmark.md)."""
+"""The ``correspondence`` task (docs/spec.md section 4; docs/benchmark.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The ``fusion`` task (SPEC.md section 4; docs/benchmark.md)."""
+"""The ``fusion`` task (docs/spec.md section 4; docs/benchmark.md)."""
 
 from __future__ import annotations
 

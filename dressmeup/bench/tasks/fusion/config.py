@@ -1,4 +1,4 @@
-"""Fusion task (capture -> mesh): metrics and default options (SPEC.md section 1)."""
+"""Fusion task (capture -> mesh): metrics and default options (docs/spec.md section 1)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The ``registration`` task (SPEC.md section 4; docs/benchmark.md)."""
+"""The ``registration`` task (docs/spec.md section 4; docs/benchmark.md)."""
 
 from __future__ import annotations
 

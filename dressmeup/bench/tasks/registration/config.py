@@ -1,4 +1,4 @@
-"""Registration task (scan -> body parameters): metrics and options (SPEC.md section 1)."""
+"""Registration task (scan -> body parameters): metrics and options (docs/spec.md section 1)."""
 
 from __future__ import annotations
 

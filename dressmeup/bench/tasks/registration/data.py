@@ -1,5 +1,5 @@
 """Registration task: one item per sample with a body; the submission holds the fitted body
-parameters ``<sample_id>.npz`` in the body-parameter file format (SPEC.md section 2)."""
+parameters ``<sample_id>.npz`` in the body-parameter file format (docs/spec.md section 2)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The ``retarget`` task: garment in a source pose + source body + target body -> garment on
-the target body (SPEC.md section 4)."""
+the target body (docs/spec.md section 4)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Retargeting task: metrics and default options (SPEC.md sections 1 and 4)."""
+"""Retargeting task: metrics and default options (docs/spec.md sections 1 and 4)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Retargeting task: score one pair (runs in worker processes).
 
-Per pair (SPEC.md sections 1 and 4):
+Per pair (docs/spec.md sections 1 and 4):
 
 - ``p2s``: mean distance from ``n_samples`` uniform surface samples of the prediction (seeded)
   to the ground-truth surface; ``p2s_bi`` averages it with ground truth -> prediction.
@@ -43,7 +43,7 @@ def posed_body_file(params: Any, models: dict[str, Any]) -> Path:
     """Pose the body of ``params`` (a ``BodyParams``) once and cache its skin mesh on disk.
 
     The file ``<cache>/bench-bodies/<key>.npz`` holds ``vertices (n, 3) float64`` and
-    ``faces (m, 3) int64`` of the largest connected component (the skin, SPEC.md section 2);
+    ``faces (m, 3) int64`` of the largest connected component (the skin, docs/spec.md section 2);
     the key hashes the model name, gender and every parameter, so it is reused by every pair
     and every later run that shares the target.
 

@@ -1,4 +1,4 @@
-"""The ``uvparam`` task: mesh -> per-vertex or per-corner UV map (SPEC.md section 4)."""
+"""The ``uvparam`` task: mesh -> per-vertex or per-corner UV map (docs/spec.md section 4)."""
 
 from __future__ import annotations
 

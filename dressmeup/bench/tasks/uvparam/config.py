@@ -1,4 +1,4 @@
-"""UV parameterisation task: metrics and default options (SPEC.md section 1)."""
+"""UV parameterisation task: metrics and default options (docs/spec.md section 1)."""
 
 from __future__ import annotations
 
