@@ -143,9 +143,22 @@ def _no_download():
         anny.paths.download_noncommercial_data = original
 
 
+def _quiet_warp() -> None:
+    """Keep warp's initialisation banner (CUDA/devices/kernel cache) off stdout."""
+    try:
+        import warp
+    except ImportError:  # pragma: no cover - warp is a dependency of anny
+        return
+    if hasattr(warp, "LOG_WARNING"):
+        warp.config.log_level = max(warp.config.log_level, warp.LOG_WARNING)
+    else:  # pragma: no cover - warp < 1.12
+        warp.config.quiet = True
+
+
 def _configure_caches():
     from dressmeup.cache import cache_dir
 
+    _quiet_warp()
     if not os.environ.get("WARP_CACHE_PATH"):
         try:
             import warp
