@@ -158,3 +158,16 @@ def test_training_on_a_set_and_half_checkpoint(tmp_path):
     a, b = infer(model, V, F), infer(back, V, F)
     assert a.uv_faces.shape == F.shape and np.all(np.isfinite(b.uv))
     assert np.abs(a.uv - b.uv).max() < 0.05             # float16 weights: close, not equal
+
+
+def test_decimation_for_training_keeps_a_valid_mesh():
+    # regression: libigl 2.6's decimate returns (U, G, J, I), not (success, U, G, J, I); the
+    # faces were read as vertices and the joint indices as faces
+    from dressmeup.geometry.mesh import face_areas
+    from dressmeup.methods.uvparam.neural.method import decimate_for_training
+
+    V, F = make_test_mesh("blob-6k")
+    V2, F2 = decimate_for_training(V, F, 1000)
+    assert V2.shape[1] == 3 and F2.shape[1] == 3 and 700 < len(V2) < 1300
+    assert F2.min() >= 0 and F2.max() == len(V2) - 1
+    assert abs(face_areas(V2, F2).sum() / face_areas(V, F).sum() - 1) < 0.05
