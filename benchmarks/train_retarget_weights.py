@@ -37,11 +37,11 @@ def _check_no_test_garments(ds, split: str, exclude: list[str]) -> None:
     from dressmeup.bench.edition import list_editions
     from dressmeup.data.splits import split_by_garment
     from dressmeup.data.synth.garments import garment_types
-    from dressmeup.data.synth.generate import _plan
+    from dressmeup.data.synth.generate import plan_dataset
 
     gen = ds.info["generator"]
     p = gen["params"]
-    plan = _plan(p["subjects"], p["garments"], p["poses"], gen["seed"], p["types"], None, None)
+    plan = plan_dataset(p["subjects"], p["garments"], p["poses"], gen["seed"], p["types"], None, None)
     used = {g for g, v in ds.info["garments"].items() if v["split"] == split} - set(exclude)
     used_keys = {_garment_key(plan, g): g for g in used}
     checked = []
@@ -53,7 +53,7 @@ def _check_no_test_garments(ds, split: str, exclude: list[str]) -> None:
             continue
         q = {"subjects": 3, "garments": 4, "poses": 5, **pin.params}
         types = sorted(q.get("types") or garment_types())
-        eplan = _plan(q["subjects"], q["garments"], q["poses"], pin.seed, types, None, None)
+        eplan = plan_dataset(q["subjects"], q["garments"], q["poses"], pin.seed, types, None, None)
         cats = {g: v["category"] for g, v in eplan["garments"].items()}
         splits = split_by_garment(list(cats), q.get("split_fractions", (0.6, 0.2, 0.2)),
                                   seed=pin.seed, categories=cats,

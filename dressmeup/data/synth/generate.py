@@ -20,6 +20,7 @@ import json
 import logging
 import os
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -77,8 +78,16 @@ def _garment_weights(garment, body_V, body_F, body_W, joint_names, frame):
     return W
 
 
-def _plan(subjects, garments, poses, seed, types, model, frame0):
-    """Deterministic plan: subject shapes and poses, garment types and parameters."""
+def plan_dataset(subjects: int, garments: int, poses: int, seed: int, types: Sequence[str],
+                 model: Any = None, frame0: Any = None) -> dict[str, Any]:
+    """Deterministic plan of generator 1.x: subject shapes and poses, garment types and
+    parameters, without building anything (cheap; ``model`` and ``frame0`` are unused).
+
+    Returns
+    -------
+    dict with ``subjects`` (id -> ``shape`` list, ``poses`` pose id -> pose name) and
+    ``garments`` (id -> ``subject``, ``type``, ``category``, ``params``).
+    """
     rng = np.random.default_rng(seed)
     names = pose_names()
     plan: dict[str, Any] = {"subjects": {}, "garments": {}}
@@ -182,7 +191,7 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
     labels = np.array(names)[np.asarray(model.skinning_weights)[keep].argmax(1)]
     rest0 = model.posed(model.default_params())
     frame0 = BodyFrame.from_joints(rest0.rest_joints, names)
-    plan = _plan(subjects, garments, poses, seed, types, model, frame0)
+    plan = plan_dataset(subjects, garments, poses, seed, types, model, frame0)
     categories = {g: v["category"] for g, v in plan["garments"].items()}
     splits = split_by_garment(list(plan["garments"]), split_fractions, seed=seed,
                               categories=categories, strategy=split_strategy)
