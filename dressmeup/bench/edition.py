@@ -45,6 +45,9 @@ class DatasetPin:
     seed : generator seed (generated only).
     manifest_sha256 : sha256 hex digest of the manifest file (real only).
     name : optional human name of the dataset.
+    expected_manifest_sha256 : generated only, optional (v3 editions): the sha256 of the
+        manifest the pinned generator writes; scoring refuses data whose manifest differs
+        unless asked to score it as "not comparable".
     """
 
     kind: str
@@ -54,6 +57,12 @@ class DatasetPin:
     seed: int | None = None
     manifest_sha256: str | None = None
     name: str | None = None
+    expected_manifest_sha256: str | None = None
+
+    @property
+    def pinned_manifest_sha256(self) -> str | None:
+        """The manifest sha256 the data must have (real pin or generated expectation)."""
+        return self.manifest_sha256 if self.kind == "real" else self.expected_manifest_sha256
 
     def to_dict(self) -> dict[str, Any]:
         """Serialise (only the fields that apply to ``kind``)."""
@@ -61,6 +70,8 @@ class DatasetPin:
             d: dict[str, Any] = {"kind": "generated", "generator": self.generator,
                                  "generator_version": self.generator_version,
                                  "params": copy.deepcopy(self.params), "seed": self.seed}
+            if self.expected_manifest_sha256:
+                d["expected_manifest_sha256"] = self.expected_manifest_sha256
         else:
             d = {"kind": "real", "manifest_sha256": self.manifest_sha256}
         if self.name:
@@ -83,6 +94,12 @@ class Edition:
     options : metric options, task defaults filled in.
     primary_metric : the metric leaderboards sort by.
     per_category : metrics shown per category in leaderboards.
+    tracks : names of the tracks scored and shown separately (retarget v3: ``re-pose``,
+        ``re-shape``, ``cross``); empty for editions without tracks.
+    primary : ``{"metric": m, "track": t}``, the ranking figure of an edition with tracks, or
+        None (rank by ``primary_metric`` over all items).
+    pairs : retarget pair sampling, ``{"seed": int, "per_track": {track: pairs per source
+        garment}}``; empty: every pair of the split.
     description : free text (not hashed).
     source : where it was loaded from (not hashed).
     """
@@ -98,6 +115,9 @@ class Edition:
     per_category: tuple[str, ...] = ()
     description: str = ""
     source: str = ""
+    tracks: tuple[str, ...] = ()
+    primary: dict[str, str] | None = None
+    pairs: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self, include_description: bool = True) -> dict[str, Any]:
         """Serialise to the JSON structure of the edition file (defaults filled in)."""
@@ -113,6 +133,13 @@ class Edition:
             "primary_metric": self.primary_metric,
             "per_category": list(self.per_category),
         }
+        # optional fields (editions v3): absent from older editions, so their hash is unchanged
+        if self.tracks:
+            d["tracks"] = list(self.tracks)
+        if self.primary:
+            d["primary"] = dict(self.primary)
+        if self.pairs:
+            d["pairs"] = copy.deepcopy(self.pairs)
         if include_description:
             d["description"] = self.description
         return d
@@ -210,7 +237,7 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
         if key not in data:
             problems.append(f"missing field {key!r}")
     known = set(_REQUIRED) | {"schema", "options", "primary_metric", "per_category",
-                              "description"}
+                              "description", "tracks", "primary", "pairs"}
     for key in sorted(set(data) - known):
         problems.append(f"unknown field {key!r}")
     name = data.get("name", "")
@@ -268,12 +295,55 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
     if not isinstance(per_category, list) or any(m not in metrics for m in per_category):
         problems.append(f"per_category must list metrics of the edition, got {per_category!r}")
         per_category = []
+    tracks, primary_track, pairs = _parse_tracks(data, metrics, problems)
     if problems:
         raise InputError(f"edition {source} is invalid:\n  - " + "\n  - ".join(problems))
     return Edition(name=name, version=int(version), task=task_name, dataset=pin,
                    split=split, metrics=tuple(metrics), options=options,
                    primary_metric=primary, per_category=tuple(per_category),
-                   description=str(data.get("description", "")), source=source)
+                   description=str(data.get("description", "")), source=source,
+                   tracks=tracks, primary=primary_track, pairs=pairs)
+
+
+def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]
+                  ) -> tuple[tuple[str, ...], dict[str, str] | None, dict[str, Any]]:
+    """Validate the optional ``tracks``, ``primary`` and ``pairs`` fields (appends problems)."""
+    tracks = data.get("tracks", [])
+    if not isinstance(tracks, list) or not all(isinstance(t, str) and t for t in tracks) \
+            or len(set(tracks)) != len(tracks):
+        problems.append(f"tracks must be a list of distinct names, got {tracks!r}")
+        tracks = []
+    primary = data.get("primary")
+    if primary is not None:
+        if not isinstance(primary, dict) or set(primary) != {"metric", "track"}:
+            problems.append(f"primary must be {{'metric': m, 'track': t}}, got {primary!r}")
+            primary = None
+        else:
+            if primary["metric"] not in metrics:
+                problems.append(f"primary.metric {primary['metric']!r} is not in metrics")
+            if primary["track"] not in tracks:
+                problems.append(f"primary.track {primary['track']!r} is not in tracks {tracks}")
+            primary = {"metric": str(primary["metric"]), "track": str(primary["track"])}
+    pairs = data.get("pairs", {})
+    if not isinstance(pairs, dict):
+        problems.append(f"pairs must be an object, got {type(pairs).__name__}")
+        return tuple(tracks), primary, {}
+    for key in sorted(set(pairs) - {"seed", "per_track"}):
+        problems.append(f"unknown field pairs.{key} (known: seed, per_track)")
+    if pairs:
+        seed = pairs.get("seed")
+        if not isinstance(seed, int) or isinstance(seed, bool):
+            problems.append(f"pairs.seed must be an integer, got {seed!r}")
+        per = pairs.get("per_track")
+        if not isinstance(per, dict) or not per:
+            problems.append(f"pairs.per_track must map tracks to counts, got {per!r}")
+        else:
+            for t, n in per.items():
+                if t not in tracks:
+                    problems.append(f"pairs.per_track names track {t!r}, not in tracks {tracks}")
+                if not isinstance(n, int) or isinstance(n, bool) or n < 1:
+                    problems.append(f"pairs.per_track[{t!r}] must be an integer >= 1, got {n!r}")
+    return tuple(tracks), primary, copy.deepcopy(pairs)
 
 
 def _parse_pin(d: Any) -> tuple[DatasetPin | None, list[str]]:
@@ -290,13 +360,19 @@ def _parse_pin(d: Any) -> tuple[DatasetPin | None, list[str]]:
             problems.append("dataset.params must be an object")
         if "seed" in d and (not isinstance(d["seed"], int) or isinstance(d["seed"], bool)):
             problems.append(f"dataset.seed must be an integer, got {d['seed']!r}")
-        extra = set(d) - {"kind", "generator", "generator_version", "params", "seed", "name"}
+        extra = set(d) - {"kind", "generator", "generator_version", "params", "seed", "name",
+                          "expected_manifest_sha256"}
         problems += [f"unknown field dataset.{k}" for k in sorted(extra)]
+        exp = d.get("expected_manifest_sha256")
+        if exp is not None and (not isinstance(exp, str) or not re.fullmatch(r"[0-9a-f]{64}", exp)):
+            problems.append(f"dataset.expected_manifest_sha256 must be a sha256 hex digest, "
+                            f"got {exp!r}")
         if problems:
             return None, problems
         return DatasetPin(kind="generated", generator=str(d["generator"]),
                           generator_version=str(d["generator_version"]),
-                          params=dict(d["params"]), seed=int(d["seed"]), name=name), []
+                          params=dict(d["params"]), seed=int(d["seed"]), name=name,
+                          expected_manifest_sha256=exp), []
     if kind == "real":
         sha = d.get("manifest_sha256")
         if not isinstance(sha, str) or not re.fullmatch(r"[0-9a-f]{64}", sha):

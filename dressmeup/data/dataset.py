@@ -192,6 +192,22 @@ class Sample:
         return m.vertices, m.faces
 
 
+#: Retargeting tracks (docs/spec.md section 4.2: the three kinds of pairs of a garment worn by several subjects).
+TRACKS = ("re-pose", "re-shape", "cross")
+
+
+def pair_track(source: Sample, target: Sample) -> str:
+    """Track of a pair of samples of one garment.
+
+    ``re-pose``: same subject, other pose; ``re-shape``: other subject, same pose id (the
+    generator gives identical pose arrays to every subject); ``cross``: other subject and other
+    pose.
+    """
+    if source.subject_id == target.subject_id:
+        return "re-pose"
+    return "re-shape" if source.pose_id == target.pose_id else "cross"
+
+
 @dataclass(frozen=True)
 class RetargetPair:
     """A retargeting task: move ``source``'s garment onto ``target``'s body (same garment).
@@ -199,19 +215,27 @@ class RetargetPair:
     Attributes
     ----------
     pair_id : ``f"{source.sample_id}__to__{target.sample_id}"``.
-    source, target : samples of the same garment in two different poses; ``target.garment()``
-        is the ground truth.
+    source, target : two different samples of the same garment (another pose and/or another
+        wearer); ``target.garment()`` is the ground truth.
     """
 
     pair_id: str
     source: Sample
     target: Sample
 
+    @property
+    def track(self) -> str:
+        """``re-pose``, ``re-shape`` or ``cross`` (see :func:`pair_track`)."""
+        return pair_track(self.source, self.target)
+
 
 def make_pairs(samples: Sequence[Sample]) -> list[RetargetPair]:
-    """Every ordered pair of poses of each garment (docs/spec.md section 4), sorted by pair id.
+    """Every ordered pair of distinct samples of each garment, sorted by pair id.
 
-    Pairs never cross splits: a garment whose samples disagree on the split is an error.
+    A garment worn by one subject (DressMeUp, generator 1.x) gives every ordered pair of its
+    poses (docs/spec.md section 4); a garment worn by several subjects (generator 2.x) also gives
+    the re-shape and cross pairs (:attr:`RetargetPair.track`). Pairs never cross splits: a
+    garment whose samples disagree on the split is an error.
     """
     by_garment: dict[str, list[Sample]] = {}
     for s in samples:
@@ -221,10 +245,10 @@ def make_pairs(samples: Sequence[Sample]) -> list[RetargetPair]:
         if len({s.split for s in group}) > 1:
             raise InputError(f"garment {g!r} has samples in several splits "
                              f"{sorted({s.split for s in group})}; splits go by garment")
-        group = sorted(group, key=lambda s: s.pose_id)
+        group = sorted(group, key=lambda s: (s.subject_id, s.pose_id))
         for a in group:
             for b in group:
-                if a.pose_id != b.pose_id:
+                if (a.subject_id, a.pose_id) != (b.subject_id, b.pose_id):
                     pairs.append(RetargetPair(f"{a.sample_id}__to__{b.sample_id}", a, b))
     return sorted(pairs, key=lambda p: p.pair_id)
 

@@ -171,20 +171,23 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
         if sid in seen:
             P.append(f"{where}: duplicate sample_id (also row {seen[sid]})")
         seen.setdefault(sid, i)
-        key = (r.get("garment_id"), r.get("pose_id"))
+        key = (r.get("garment_id"), r.get("subject_id"), r.get("pose_id"))
         if key in garment_pose:
-            P.append(f"{where}: garment {key[0]!r} pose {key[1]!r} also in {garment_pose[key]!r}")
+            P.append(f"{where}: garment {key[0]!r} on subject {key[1]!r} in pose {key[2]!r} "
+                     f"also in {garment_pose[key]!r}")
         garment_pose.setdefault(key, sid)
         split = r.get("split")
         if split not in KNOWN_SPLITS:
             rep.warnings.append(f"{where}: split {split!r} is not one of {KNOWN_SPLITS}")
         g = r.get("garment_id")
-        ref = garment_fields.setdefault(g, {k: r.get(k) for k in ("split", "subject_id",
-                                                                   "category", "garment_type")})
+        # a garment may be worn by several subjects (generator 2.x), but has one split,
+        # category and type
+        ref = garment_fields.setdefault(g, {k: r.get(k) for k in ("split", "category",
+                                                                   "garment_type")})
         for k, v in ref.items():
             if r.get(k) != v:
                 P.append(f"{where}: garment {g!r} has {k} {r.get(k)!r} here but {v!r} in "
-                         "another sample (a garment has one split/subject/category)")
+                         "another sample (a garment has one split/category/type)")
         for col in PATH_COLUMNS:
             rel = r.get(col)
             if rel is None:

@@ -201,10 +201,12 @@ class DatasetWriter:
             if r["sample_id"] == sid:
                 continue
             if r["garment_id"] == garment_id:
-                if r["pose_id"] == pose_id:
+                # a garment may be worn by several subjects (generator 2.x): a (subject,
+                # pose) is unique per garment
+                if r["pose_id"] == pose_id and r["subject_id"] == subject_id:
                     raise InputError(f"garment {garment_id!r} already has pose {pose_id!r} "
-                                     f"(sample {r['sample_id']!r})")
-                for key, val in (("subject_id", subject_id), ("split", split),
+                                     f"on subject {subject_id!r} (sample {r['sample_id']!r})")
+                for key, val in (("split", split),
                                  ("category", category), ("garment_type", garment_type)):
                     if r[key] != val:
                         raise InputError(f"garment {garment_id!r}: {key} {val!r} differs from "

@@ -14,7 +14,10 @@ starting point; the draped garment is a local minimum of
   body along the direction to its closest body point (re-linearised each outer iteration;
   inside/outside by the generalised winding number);
 - support: where the garment rests on the body (shoulders, waistband), a soft spring to the
-  skinned position stands in for friction and elastic bands.
+  skinned position stands in for friction and elastic bands;
+- self-collision (generator 2.x, ``self_stiffness > 0``): a one-sided quadratic penalty
+  keeping vertices that are far apart on the cloth (rest distance over three thicknesses)
+  ``self_thickness`` apart in space (pairs found by a k-d tree each outer iteration).
 
 Minimised with L-BFGS (torch, float64). A final projection puts any vertex still closer than
 ``clearance`` to the body (or inside it) at ``clearance`` outside.
@@ -43,6 +46,9 @@ class DrapeSettings:
     outer_iterations: int = 5
     inner_iterations: int = 60
     clearance: float = 0.001  # m, hard minimum distance outside the body at the end
+    # generator 2.x (0 / off reproduces 1.x exactly):
+    self_stiffness: float = 0.0  # N/m^3 (per unit area), cloth-cloth repulsion; 0: none
+    self_thickness: float = 0.006  # m, cloth layers are kept this far apart
 
     def to_dict(self) -> dict:
         """The settings as a JSON-able dict."""
@@ -102,7 +108,8 @@ def _body_query(body_V, body_F, x):
 
 def drape(rest_V: np.ndarray, faces: np.ndarray, skinned: np.ndarray, support: np.ndarray,
           body_V: np.ndarray, body_F: np.ndarray, up: np.ndarray,
-          settings: DrapeSettings | None = None) -> DrapeResult:
+          settings: DrapeSettings | None = None, start: np.ndarray | None = None
+          ) -> DrapeResult:
     """Relax a skinned garment on a posed body (see module docstring).
 
     Parameters
@@ -114,6 +121,8 @@ def drape(rest_V: np.ndarray, faces: np.ndarray, skinned: np.ndarray, support: n
     body_V : (b, 3) float64 posed body surface; body_F : (c, 3) int64.
     up : (3,) unit vector opposite to gravity.
     settings : material and solver settings.
+    start : (n, 3) float64 start point (default ``skinned``); the pose-continuation path of
+        generator 2.x starts each step from the previous step's drape.
 
     Returns
     -------
@@ -126,12 +135,24 @@ def drape(rest_V: np.ndarray, faces: np.ndarray, skinned: np.ndarray, support: n
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # small problems: one thread is faster and deterministic
     try:
-        return _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings)
+        return _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start)
     finally:
         torch.set_num_threads(threads)
 
 
-def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings):
+def _self_pairs(x: np.ndarray, rest_V: np.ndarray, thickness: float) -> np.ndarray:
+    """Vertex pairs ``(k, 2)`` closer than ``2 thickness`` in ``x`` but far apart on the cloth."""
+    from scipy.spatial import cKDTree
+
+    P = cKDTree(x).query_pairs(2.0 * thickness, output_type="ndarray")
+    if len(P) == 0:
+        return np.zeros((0, 2), np.int64)
+    far = np.linalg.norm(rest_V[P[:, 0]] - rest_V[P[:, 1]], axis=1) > 3.0 * thickness
+    P = P[far].astype(np.int64)
+    return P[np.lexsort((P[:, 1], P[:, 0]))]
+
+
+def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=None):
     import torch
 
     s = settings or DrapeSettings()
@@ -153,8 +174,9 @@ def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings):
     tE, tH = t(E, torch.int64), t(H, torch.int64)
     tL, tLH, tAe, tAh, tAv = t(L), t(LH), t(A_e), t(A_h), t(A_v)
     tm, tup, tsup, tx0 = t(mass), t(up), t(np.asarray(support, np.float64)), t(x0)
+    tpairs = t(np.zeros((0, 2), np.int64), torch.int64)
 
-    def energy(x, p, n, active):
+    def energy(x, p, n, active, pairs=None):
         e = x[tE[:, 1]] - x[tE[:, 0]]
         le = torch.sqrt((e * e).sum(1) + 1e-20)
         es = 0.5 * s.youngs * (tAe * ((le - tL) / tL) ** 2).sum()
@@ -166,31 +188,40 @@ def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings):
         ec = 0.5 * s.collision_stiffness * (tAv * pen ** 2).sum()
         da = x - tx0
         ea = 0.5 * s.support_stiffness * (tAv * tsup * (da * da).sum(1)).sum()
-        return norm * (es + eb + eg + ec + ea)
+        total = es + eb + eg + ec + ea
+        if pairs is not None and len(pairs):
+            d = x[pairs[:, 1]] - x[pairs[:, 0]]
+            gap = torch.relu(s.self_thickness - torch.sqrt((d * d).sum(1) + 1e-20))
+            w = 0.5 * (tAv[pairs[:, 0]] + tAv[pairs[:, 1]])
+            total = total + 0.5 * s.self_stiffness * (w * gap ** 2).sum()
+        return norm * total
 
-    x = tx0.clone().requires_grad_(True)
+    x0_start = x0 if start is None else np.asarray(start, np.float64)
+    x = t(x0_start).clone().requires_grad_(True)
     e_start = e_end = float("nan")
     for it in range(max(1, s.outer_iterations)):
         xn = x.detach().numpy()
         sd, p, n = _body_query(body_V, body_F, xn)
         active = t((sd < s.margin + 0.03).astype(np.float64))
         tp, tn = t(p), t(n)
+        if s.self_stiffness > 0:
+            tpairs = t(_self_pairs(xn, rest_V, s.self_thickness), torch.int64)
         opt = torch.optim.LBFGS([x], lr=1.0, max_iter=s.inner_iterations, history_size=20,
                                 line_search_fn="strong_wolfe", tolerance_grad=1e-9,
                                 tolerance_change=1e-12)
 
-        def closure(opt=opt, tp=tp, tn=tn, active=active):
+        def closure(opt=opt, tp=tp, tn=tn, active=active, pairs=tpairs):
             opt.zero_grad()
-            val = energy(x, tp, tn, active)
+            val = energy(x, tp, tn, active, pairs)
             val.backward()
             return val
 
         if it == 0:
             with torch.no_grad():
-                e_start = float(energy(x, tp, tn, active))
+                e_start = float(energy(x, tp, tn, active, tpairs))
         opt.step(closure)
         with torch.no_grad():
-            e_end = float(energy(x, tp, tn, active))
+            e_end = float(energy(x, tp, tn, active, tpairs))
     xf = x.detach().numpy().copy()
     sd, p, n = _body_query(body_V, body_F, xf)
     fix = sd < s.clearance

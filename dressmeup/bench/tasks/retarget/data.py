@@ -1,9 +1,12 @@
 """Retargeting task: the pairs of an edition and the files a submission holds.
 
 A pair ``<source_id>__to__<target_id>`` asks for the source garment moved onto the target
-body; the ground truth is the same garment captured in the target pose. A prediction keeps
-the source garment's topology: ``<pair_id>.npz`` with ``vertices (n, 3)`` float (or a
-``.ply`` / ``.obj`` with the source's faces).
+body; the ground truth is the same garment captured on the target subject in the target
+pose. Its track (:attr:`dressmeup.data.RetargetPair.track`) is ``re-pose`` (same subject),
+``re-shape`` (other subject, same pose) or ``cross`` (other subject and pose). An edition
+with a ``pairs`` field scores a seeded sample of each track (:func:`edition_pairs`). A
+prediction keeps the source garment's topology: ``<pair_id>.npz`` with ``vertices (n, 3)``
+float (or a ``.ply`` / ``.obj`` with the source's faces).
 """
 
 from __future__ import annotations
@@ -39,28 +42,76 @@ def open_dataset(root: str):
     return Dataset(root)
 
 
+def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
+    """The seeded per-track sample of retargeting pairs an edition scores.
+
+    For every source garment and every track of ``pairs_spec["per_track"]`` (track -> n),
+    ``n`` pairs are drawn without replacement (all when fewer) by a generator seeded with
+    ``(seed, crc32(garment id), track index)``, so the choice for one garment does not
+    depend on the others; tracks not named are dropped.
+
+    Parameters
+    ----------
+    pairs : :class:`dressmeup.data.RetargetPair` list (e.g. ``ds.retarget_pairs(split)``).
+    pairs_spec : the edition's ``pairs`` field (``{"seed": int, "per_track": {...}}``); empty:
+        every pair is kept.
+
+    Returns
+    -------
+    list of pairs sorted by pair id.
+    """
+    import zlib
+
+    if not pairs_spec:
+        return sorted(pairs, key=lambda p: p.pair_id)
+    seed = int(pairs_spec.get("seed", 0))
+    per = dict(pairs_spec["per_track"])
+    order = sorted(per)
+    groups: dict[tuple[str, str], list] = {}
+    for p in pairs:
+        if p.track in per:
+            groups.setdefault((p.source.garment_id, p.track), []).append(p)
+    out = []
+    for (g, track), group in sorted(groups.items()):
+        group = sorted(group, key=lambda p: p.pair_id)
+        rng = np.random.default_rng([seed, zlib.crc32(g.encode()), order.index(track)])
+        n = min(int(per[track]), len(group))
+        out += [group[i] for i in sorted(rng.choice(len(group), size=n, replace=False))]
+    return sorted(out, key=lambda p: p.pair_id)
+
+
+def edition_pairs(edition: Any, dataset: Any) -> list:
+    """The retargeting pairs an edition scores on ``dataset`` (its split, sampled per track
+    when the edition has a ``pairs`` field; see :func:`sample_pairs`)."""
+    return sample_pairs(dataset.retarget_pairs(edition.split), getattr(edition, "pairs", {}))
+
+
 def items(edition: Any, data_root: Path) -> list[Item]:
     """One :class:`Item` per retargeting pair of the edition's split, sorted by pair id.
 
     ``expect["n_vertices"]`` is the source garment's vertex count (from the manifest);
-    ``meta`` carries source/target/garment ids.
+    ``meta`` carries source/target/garment ids and, for editions with tracks, the track
+    and both subjects.
     """
     ds = open_dataset(str(Path(data_root).resolve()))
     manifest = ds.manifest.set_index("sample_id")
-    pairs = ds.retarget_pairs(edition.split)
+    pairs = edition_pairs(edition, ds)
     if not pairs:
         raise InputError(f"dataset {data_root} has no retargeting pairs in split "
                          f"{edition.split!r} (edition {edition.name})")
     out = []
+    with_tracks = bool(getattr(edition, "tracks", ()))  # v2 editions: no track column
     for pair in pairs:
         src, tgt = pair.source.sample_id, pair.target.sample_id
         row = manifest.loc[src]
+        track = {"track": pair.track, "source_subject": pair.source.subject_id,
+                 "target_subject": pair.target.subject_id} if with_tracks else {}
         out.append(Item(
             item_id=pair.pair_id,
             category=str(row["category"]),
             expect={"n_vertices": int(row["garment_vertices"])},
             meta={"source_id": src, "target_id": tgt, "garment_id": str(row["garment_id"]),
-                  "data_root": str(Path(data_root).resolve())},
+                  **track, "data_root": str(Path(data_root).resolve())},
         ))
     out.sort(key=lambda it: it.item_id)
     return out

@@ -213,7 +213,9 @@ def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
                                   gt_points=gt_pts)
     row: dict[str, Any] = {"sample_id": job["item_id"], "category": job["category"],
                            "source_id": meta["source_id"], "target_id": meta["target_id"],
-                           "garment_id": meta["garment_id"], **values}
+                           "garment_id": meta["garment_id"],
+                           **{k: meta[k] for k in ("track", "source_subject", "target_subject")
+                              if k in meta}, **values}
     if "ir" in job["metrics"] and body is not None:
         row["ir_gt"] = _gt_ir(root, meta["target_id"], job["body_path"])
     row["status"] = STATUS_OK
