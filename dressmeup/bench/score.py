@@ -85,6 +85,8 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
         When validation finds any problem (nothing is scored, nothing is written).
     InputError
         When ``out`` already holds anything.
+    dressmeup.data.integrity.ChecksumError
+        When a dataset file the items read differs from the manifest's sha256.
     """
     from dressmeup import __version__
     from dressmeup.progress import progress
@@ -97,6 +99,7 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     report = validate_submission(submission, ed, data_root)
     if not report.ok:
         raise InvalidSubmissionError(report)
+    report.dataset["files_verified"] = _verify_data(Path(data_root), report.items)
     sub_hash = submission_hash(submission)
     jobs = task.jobs(ed, Path(data_root), report.files, report.items,
                      show_progress=show_progress)
@@ -148,6 +151,24 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     }
     path = write_result(out, table, summary, ed.to_dict())
     return ScoreResult(path=path, summary=summary, table=table)
+
+
+def _verify_data(data_root: Path, items: list[Any]) -> int:
+    """sha256 of every manifest file of the samples the items name (refuse on mismatch).
+
+    Items name their samples by id (the item id or a string in ``meta``); a data root
+    without a manifest (a task not scored on a dataset) has nothing to verify.
+    """
+    from dressmeup.data import layout
+    from dressmeup.data.integrity import verify_checksums
+
+    if not (data_root / layout.MANIFEST).is_file():
+        return 0
+    ids = set()
+    for it in items:
+        ids.add(str(it.item_id))
+        ids.update(v for v in (getattr(it, "meta", None) or {}).values() if isinstance(v, str))
+    return verify_checksums(data_root, ids)
 
 
 def _to_table(rows: list[dict[str, Any]], metrics: list[str], extra: list[str]) -> pd.DataFrame:

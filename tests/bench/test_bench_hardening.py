@@ -110,3 +110,26 @@ def test_overwrite_merges_into_an_existing_submission(bench_edition, tmp_path):
                      overwrite=True)
     assert sorted(p.name for p in out.iterdir()) == ["a.npz", "b.npz", "submission.json"]
     assert [p.name for p in tmp_path.iterdir()] == ["sub"]
+
+
+def test_score_refuses_a_moved_ground_truth_garment(bench_data, bench_edition, scored,
+                                                    tmp_path):
+    """A GT garment moved by 5 cm no longer matches the manifest: nothing is scored."""
+    import shutil
+
+    from dressmeup.bench import score_submission
+    from dressmeup.data import Dataset
+    from dressmeup.data.integrity import ChecksumError
+    from dressmeup.io.mesh import load_mesh, save_mesh
+
+    data = tmp_path / "data"
+    shutil.copytree(bench_data, data)
+    row = Dataset(data).manifest.iloc[1]
+    path = data / row["garment_path"]
+    m = load_mesh(path)
+    save_mesh(path, m.vertices + [0.05, 0.0, 0.0], m.faces)
+    with pytest.raises(ChecksumError, match=str(row["garment_path"])):
+        score_submission(scored["gt"]["sub"], bench_edition, data, tmp_path / "res",
+                         workers=1, show_progress=False)
+    assert not (tmp_path / "res").exists()
+    assert scored["gt"]["res"].summary["dataset"]["files_verified"] > 0
