@@ -63,7 +63,7 @@ def named_pose(name: str, yaw: float = 0.0) -> np.ndarray:
 
 def synthetic_scan(model, params: BodyParams, n_points: int = 30000, noise: float = 0.002,
                    n_holes: int = 0, hole_radius: float = 0.06, shell: tuple | None = None,
-                   seed: int = 0):
+                   seed: int = 0, missing_side=None, seat_box: bool = False):
     """Make a scan (points) of a posed body with noise, holes and an optional shell.
 
     Parameters
@@ -76,6 +76,10 @@ def synthetic_scan(model, params: BodyParams, n_points: int = 30000, noise: floa
     shell : ``(min, max)`` offset in metres of a smooth garment shell over the torso
         (:data:`TORSO_JOINTS`), e.g. ``(0.01, 0.03)``; None for a naked scan.
     seed : random seed.
+    missing_side : optional horizontal direction (3,): the surface facing it (normal . dir
+        > 0.2) is missing, as when a capture rig misses one side.
+    seat_box : add a box under the hips (a seat that is part of the scan), from the floor
+        (the body's lowest point) to the underside of the thighs.
 
     Returns
     -------
@@ -100,8 +104,14 @@ def synthetic_scan(model, params: BodyParams, n_points: int = 30000, noise: floa
         normals = trimesh.Trimesh(V, model.faces, process=False).vertex_normals
         V = V + (cover * offset)[:, None] * normals
     mesh = trimesh.Trimesh(V, model.faces, process=False)
-    pts, _ = trimesh.sample.sample_surface(mesh, n_points, seed=int(rng.integers(2**31)))
+    pts, fid = trimesh.sample.sample_surface(mesh, n_points, seed=int(rng.integers(2**31)))
     pts = np.asarray(pts, dtype=np.float64)
+    if missing_side is not None:
+        side = np.asarray(missing_side, dtype=np.float64)
+        side = side / np.linalg.norm(side)
+        pts = pts[mesh.face_normals[fid] @ side <= 0.2]
+    if seat_box:
+        pts = np.vstack([pts, _seat_box_points(model, out, n_points / mesh.area, rng)])
     if n_holes:
         centres = pts[rng.choice(len(pts), n_holes, replace=False)]
         keep = np.ones(len(pts), dtype=bool)
@@ -109,6 +119,33 @@ def synthetic_scan(model, params: BodyParams, n_points: int = 30000, noise: floa
             keep &= np.linalg.norm(pts - c, axis=1) > hole_radius
         pts = pts[keep]
     return pts + rng.normal(0, noise, pts.shape)
+
+
+def _seat_box_points(model, out, density: float, rng) -> np.ndarray:
+    """Points (k, 3) on the top and sides of a box under the hips (see ``seat_box``)."""
+    names = list(model.joint_names)
+    W = np.asarray(model.skinning_weights)
+    thigh = W[:, [names.index(j) for j in ("left_hip", "right_hip") if j in names]].sum(1) > 0.5
+    V = out.vertices
+    top = float(V[thigh, 1].min()) if thigh.any() else float(V[:, 1].mean())
+    floor = float(V[:, 1].min())
+    c = out.joints[0]
+    lo = np.array([c[0] - 0.25, floor, c[2] - 0.25])
+    hi = np.array([c[0] + 0.25, top, c[2] + 0.25])
+    size = hi - lo
+    faces = []  # (axis, value, the other two axes); the bottom face lies on the floor
+    faces.append((1, hi[1], (0, 2)))
+    for axis in (0, 2):
+        faces += [(axis, lo[axis], (1, 2 - axis)), (axis, hi[axis], (1, 2 - axis))]
+    pts = []
+    for axis, value, (a, b) in faces:
+        k = int(density * size[a] * size[b])
+        p = np.empty((k, 3))
+        p[:, axis] = value
+        p[:, a] = lo[a] + rng.uniform(size=k) * size[a]
+        p[:, b] = lo[b] + rng.uniform(size=k) * size[b]
+        pts.append(p)
+    return np.vstack(pts)
 
 
 def vertex_joint_errors(model, fit: BodyParams, truth: BodyParams) -> tuple[float, float]:

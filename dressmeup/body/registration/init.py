@@ -5,6 +5,10 @@
   over in the last stage (limb lengths then need not be faked by bending the knees).
 - :func:`yaw_search`: from the current pose, try 4 root yaw angles with a short rigid
   stage fitting the torso, hips and head, keep the best.
+- :func:`hypothesis_search`: the multi-hypothesis start without keypoints. The best yaws of
+  the yaw search x the canonical poses of :mod:`.hypotheses` each get a short rigid stage
+  on the whole body; the best few get a short pose stage; the best of those goes on.
+  Cost: ``4 * n_yaw + len(poses) * n_yaws_kept * n_rigid + keep * n_pose`` steps.
 """
 
 from __future__ import annotations
@@ -34,9 +38,11 @@ def place_on_scan(problem, size_init: bool) -> None:
 
 
 def yaw_search(problem, n_steps: int, lr_pose: float, lr_transl: float,
-               yaws=(0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi), verbose: bool = False) -> float:
+               yaws=(0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi),
+               verbose: bool = False) -> list[tuple[float, dict]]:
     """Try each root yaw (radians about +y) from the current pose with ``n_steps`` rigid
-    steps on the core joints' skin; keep the best and return its core data cost.
+    steps on the core joints' skin; keep the best and return every candidate as
+    ``(core data cost, snapshot)``, best first.
 
     Candidates are compared on the torso, hips and head only: with the limbs, a wrong yaw
     can win (A-pose arms sideways match a walking scan's legs seen from the side).
@@ -44,7 +50,7 @@ def yaw_search(problem, n_steps: int, lr_pose: float, lr_transl: float,
     import torch
 
     base = problem.snapshot()
-    best = None
+    scored: list[tuple[float, dict]] = []
     problem.core_only = True
     try:
         for yaw in yaws:
@@ -55,9 +61,133 @@ def yaw_search(problem, n_steps: int, lr_pose: float, lr_transl: float,
             terms = run_adam(problem, "global", n_steps, [problem.pose, problem.transl],
                              [lr_pose, lr_transl], label=label, verbose=verbose)
             logger.info("%s: core data %.4f", label, terms["data"])
-            if best is None or terms["data"] < best[0]:
-                best = (terms["data"], problem.snapshot())
+            scored.append((terms["data"], problem.snapshot()))
     finally:
         problem.core_only = False
-    problem.restore(best[1])
-    return best[0]
+    scored.sort(key=lambda t: t[0])
+    problem.restore(scored[0][1])
+    return scored
+
+
+def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, keep: int,
+                      yaws_kept: int, lr_pose: float, lr_transl: float, size_init: bool,
+                      verbose: bool = False) -> dict:
+    """Multi-hypothesis start (see module docstring); leaves the best in ``problem``.
+
+    Parameters
+    ----------
+    poses : names of :data:`~dressmeup.body.registration.hypotheses.CANONICAL_POSES`.
+    n_yaw, n_rigid, n_pose : steps of the yaw candidates, of the whole-body rigid stage of
+        each (pose, yaw) hypothesis, and of the short pose stage of the ``keep`` best.
+    yaws_kept : how many of the 4 yaws go on to the pose hypotheses.
+    size_init : match each hypothesis' vertical extent to the scan with a uniform scale.
+
+    Returns
+    -------
+    info : dict with the ranked hypotheses (name, yaw in degrees, data cost) and step counts.
+    """
+    import torch
+
+    from dressmeup.body.registration.hypotheses import canonical_pose
+
+    model = problem.model
+    rest = model.posed(model.default_params()).joints
+    problem.set_params(pose=canonical_pose("a-pose", model.joint_names, rest))
+    place_on_scan(problem, size_init)
+    yaw_candidates = yaw_search(problem, n_yaw, lr_pose, lr_transl, verbose=verbose)
+    roots = [snap["pose"][0].clone() for _, snap in yaw_candidates[:max(yaws_kept, 1)]]
+    rigid: list[tuple[float, str, float, dict]] = []
+    for name in poses:
+        hyp = canonical_pose(name, model.joint_names, rest)
+        for root in roots:
+            problem.set_params(pose=hyp, scale=1.0)
+            with torch.no_grad():
+                problem.pose[0] = root
+            place_on_scan(problem, size_init)
+            terms = run_adam(problem, "global", n_rigid, [problem.pose, problem.transl],
+                             [lr_pose, lr_transl], label=f"hypothesis {name}", verbose=verbose)
+            yaw = math.degrees(float(root.norm()) * float(torch.sign(root[1]) or 1.0))
+            rigid.append((terms["data"], name, yaw, problem.snapshot()))
+    rigid.sort(key=lambda t: t[0])
+    refined: list[tuple[float, str, float, dict]] = []
+    for _, name, yaw, snap in rigid[:max(keep, 1)]:
+        problem.restore(snap)
+        params = [problem.pose, problem.transl]
+        lrs = [lr_pose, lr_transl]
+        if size_init:
+            params.append(problem.log_scale)
+            lrs.append(0.003)
+        terms = run_adam(problem, "pose", n_pose, params, lrs, label=f"hypothesis {name} pose",
+                         verbose=verbose)
+        refined.append((terms.get("data", float("inf")), name, yaw, problem.snapshot()))
+    refined.sort(key=lambda t: t[0])
+    problem.restore(refined[0][3])
+    logger.info("hypotheses: %s", ", ".join(f"{n}@{y:.0f} {c:.3f}" for c, n, y, _ in refined))
+    return {"init": f"hypothesis {refined[0][1]} (yaw {refined[0][2]:.0f} deg)",
+            "hypotheses_rigid": [(n, round(y), round(c, 4)) for c, n, y, _ in rigid],
+            "hypotheses_refined": [(n, round(y), round(c, 4)) for c, n, y, _ in refined],
+            "init_steps": 4 * n_yaw + len(rigid) * n_rigid + len(refined) * n_pose}
+
+
+def _rigid_similarity(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, float, np.ndarray, float]:
+    """Least-squares ``s R A + t ~ B`` (Umeyama) for (k, 3) point sets; returns
+    (R (3,3), s, t (3,), rms residual)."""
+    ca, cb = A.mean(0), B.mean(0)
+    A0, B0 = A - ca, B - cb
+    U, S, Vt = np.linalg.svd(B0.T @ A0)
+    D = np.eye(3)
+    D[2, 2] = np.sign(np.linalg.det(U @ Vt))
+    R = U @ D @ Vt
+    s = float((S * np.diag(D)).sum() / max((A0 ** 2).sum(), 1e-12))
+    t = cb - s * R @ ca
+    rms = float(np.sqrt((((s * A @ R.T + t) - B) ** 2).sum(1).mean()))
+    return R, s, t, rms
+
+
+def keypoint_start(problem, poses, n_pose: int, lr_pose: float, lr_transl: float,
+                   size_init: bool, verbose: bool = False) -> dict:
+    """Start from 3D keypoints: each canonical pose is aligned to the keypoints by a
+    similarity transform (closed form), the best one is placed (rotation as the root, the
+    scale as the temporary size) and ``n_pose`` pose steps fit keypoints and scan together.
+
+    Returns info like :func:`hypothesis_search`.
+    """
+    import torch
+    from scipy.spatial.transform import Rotation
+
+    from dressmeup.body.registration.hypotheses import canonical_pose
+
+    model = problem.model
+    ids, targets = problem.kp
+    if len(ids) < 4:
+        raise ValueError("keypoint_start: need at least 4 keypoints")
+    rest_params = model.default_params()
+    ranked = []
+    for name in poses:
+        hyp = canonical_pose(name, model.joint_names, model.posed(rest_params).joints)
+        rest_params.pose = hyp
+        J = model.posed(rest_params).joints[ids]
+        R, s, t, rms = _rigid_similarity(J, targets)
+        ranked.append((rms, name, hyp, R, s))
+    ranked.sort(key=lambda r: r[0])
+    rms, name, hyp, R, s = ranked[0]
+    pose = hyp.copy()
+    pose[0] = (Rotation.from_matrix(R) * Rotation.from_rotvec(hyp[0])).as_rotvec()
+    scale = float(np.clip(s, 0.5, 1.5)) if size_init else 1.0
+    problem.set_params(pose=pose, scale=scale)
+    # translation: the posed joints onto the keypoints (mean offset)
+    with torch.no_grad():
+        out = model.forward(problem.shape_value()[None], problem.pose[None], None,
+                            torch.exp(problem.log_scale)[None])
+        J = out.joints[0].cpu().numpy()[ids]
+    problem.set_params(transl=(targets - J).mean(0))
+    params, lrs = [problem.pose, problem.transl], [lr_pose, lr_transl]
+    if size_init:
+        params.append(problem.log_scale)
+        lrs.append(0.003)
+    terms = run_adam(problem, "pose", n_pose, params, lrs, label="keypoint start", verbose=verbose)
+    yaw = math.degrees(Rotation.from_rotvec(problem.pose[0].detach().cpu().numpy()).as_euler("YXZ")[0])
+    logger.info("keypoint start: %s (rms %.3f m)", name, rms)
+    return {"init": f"keypoints + {name} (yaw {yaw:.0f} deg)",
+            "hypotheses_keypoint_rms": [(n, round(r, 4)) for r, n, *_ in ranked],
+            "init_data": terms.get("data"), "init_steps": n_pose}

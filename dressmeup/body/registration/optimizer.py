@@ -2,16 +2,25 @@
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from dressmeup.body.params import BodyParams
-from dressmeup.body.registration.init import place_on_scan, yaw_search
+from dressmeup.body.registration.hypotheses import DEFAULT_HYPOTHESES
+from dressmeup.body.registration.init import (
+    hypothesis_search,
+    keypoint_start,
+    place_on_scan,
+    yaw_search,
+)
 from dressmeup.body.registration.problem import FitProblem
 from dressmeup.body.registration.scan import keypoint_arrays, prepare_scan
 from dressmeup.body.registration.stages import run_adam, run_lbfgs
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass
@@ -45,6 +54,18 @@ class OptimizationRegistrar:
     correspondence_every : recompute scan-to-body nearest neighbours every this many steps.
     yaw_search : try 4 root yaw angles when no ``init`` is given; each gets
         ``n_global // 2`` rigid steps fitting the torso, hips and head, the best goes on.
+    hypotheses : canonical starting poses (:mod:`.hypotheses`) tried when no ``init`` is
+        given; empty: start from the rest pose (yaw search only).
+    hypothesis_steps : steps (yaw, rigid, pose) of the hypothesis search: each of 4 yaws
+        gets the first count on the core joints, each (pose, kept yaw) the second on the
+        whole body, the ``hypothesis_keep`` best the third as a short pose stage.
+    hypothesis_keep, hypothesis_yaws : hypotheses refined, yaws kept after the yaw search.
+    init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
+        search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
+        ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (keypoints when the extra
+        is installed, else hypotheses). Keypoints passed to :meth:`fit` always start the fit.
+    keypoint_refine_weight : keypoint weight after the start when the keypoints were
+        detected on the scan (detectors place joints a few cm off the skeleton's).
     optimize_scale : also fit the uniform ``scale`` (else the result has ``scale = 1``).
     size_init : without ``init``/keypoints, start from a uniform scale matching the scan's
         vertical extent, refined in the pose stage and handed over to the shape in the
@@ -74,6 +95,12 @@ class OptimizationRegistrar:
     lr_transl: float = 0.01
     lr_shape: float = 0.05
     yaw_search: bool = True
+    hypotheses: tuple[str, ...] = DEFAULT_HYPOTHESES
+    hypothesis_steps: tuple[int, int, int] = (20, 15, 40)
+    hypothesis_keep: int = 3
+    hypothesis_yaws: int = 2
+    init_route: str = "hypotheses"
+    keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
     size_init: bool = True
     seed: int = 0
@@ -104,19 +131,60 @@ class OptimizationRegistrar:
                                pose=init.pose, transl=init.transl, scale=init.scale)
             return {"init": "given"}
         problem.set_params(shape=problem.default_shape)
-        place_on_scan(problem, size_init=self.size_init and problem.kp is None)
+        size = self.size_init
+        if problem.kp is not None and len(problem.kp[0]) >= 4:
+            return keypoint_start(problem, self.hypotheses or ("a-pose",), self.hypothesis_steps[2],
+                                  self.lr_pose, self.lr_transl, size, verbose=self.verbose)
+        if self.hypotheses:
+            n_yaw, n_rigid, n_pose = self.hypothesis_steps
+            return hypothesis_search(problem, self.hypotheses, n_yaw, n_rigid, n_pose,
+                                     self.hypothesis_keep, self.hypothesis_yaws, self.lr_pose,
+                                     self.lr_transl, size, verbose=self.verbose)
+        place_on_scan(problem, size_init=size and problem.kp is None)
         if self.yaw_search and n_global > 0:
             yaw_search(problem, max(n_global // 2, 5), self.lr_pose, self.lr_transl,
                        verbose=self.verbose)
         return {"init": "rest pose + yaw search" if self.yaw_search else "rest pose"}
 
+    def _use_keypoints(self) -> bool:
+        """Whether this fit detects keypoints on the scan (see ``init_route``)."""
+        from dressmeup.errors import InputError
+
+        if self.init_route not in ("hypotheses", "keypoints", "auto"):
+            raise InputError(f"init_route: expected hypotheses, keypoints or auto, got "
+                             f"{self.init_route!r}")
+        if self.init_route == "hypotheses":
+            return False
+        from dressmeup.body.registration.keypoints import keypoints_available
+
+        if keypoints_available():
+            return True
+        if self.init_route == "keypoints":
+            raise InputError("init_route='keypoints' needs the [keypoints] extra (mediapipe "
+                             "0.10.14; docs/body-models.md), or use init_route='auto'")
+        logger.info("keypoints extra not installed: multi-hypothesis start")
+        return False
+
     def _fit(self, scan, model, init, keypoints) -> RegistrationResult:
         t_start = time.perf_counter()
         P = prepare_scan(scan, self.n_scan_points, self.seed)
+        detected = None
+        if keypoints is None and init is None and self._use_keypoints():
+            from dressmeup.body.registration.keypoints import detect_keypoints
+
+            detected = detect_keypoints(scan, model)
+            keypoints = detected.joints
         kp = keypoint_arrays(keypoints, model)
+        if kp is not None and len(kp[0]) == 0:
+            kp = None
         problem = FitProblem(self, model, P, kp)
         info = self._initialise(problem, init)
-        losses = self._refine(problem, fit_size=self.size_init and init is None and kp is None)
+        if detected is not None:
+            info.update(keypoint_views=detected.detections, keypoints_found=int(len(kp[0])) if kp
+                        else 0, keypoint_seconds=time.perf_counter() - t_start)
+            problem.kp_weight = self.keypoint_refine_weight
+        fit_size = self.size_init and init is None
+        losses = self._refine(problem, fit_size=fit_size)
         return RegistrationResult(params=problem.body_params(self.optimize_scale),
                                   seconds=time.perf_counter() - t_start, losses=losses, info=info)
 

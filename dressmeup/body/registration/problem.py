@@ -80,6 +80,7 @@ class FitProblem:
             if name in names:
                 prior_scale[names.index(name)] = factor
         self.prior_scale = prior_scale[1:, None]
+        self.kp_weight = float(opts.keypoint_weight)
         if kp is not None:
             self.kp_ids = torch.as_tensor(kp[0], dtype=torch.long, device=dev)
             self.kp_pts = torch.as_tensor(kp[1], dtype=dt, device=dev)
@@ -238,8 +239,8 @@ class FitProblem:
             reg = o.shape_weight * ((self.shape_value() - self.shape_mean) ** 2).sum()
             loss = loss + reg
             terms["shape"] = float(reg.detach())
-        if self.kp is not None:
-            kl = o.keypoint_weight * 1e4 * ((out.joints[0, self.kp_ids] - self.kp_pts) ** 2
+        if self.kp is not None and self.kp_weight > 0:
+            kl = self.kp_weight * 1e4 * ((out.joints[0, self.kp_ids] - self.kp_pts) ** 2
                                             ).sum(-1).mean()
             loss = loss + kl
             terms["keypoints"] = float(kl.detach())

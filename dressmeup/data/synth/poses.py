@@ -23,9 +23,16 @@ def pose_library() -> dict[str, Any]:
     return json.loads(resources.files("dressmeup.data.synth").joinpath("poses.json").read_text())
 
 
-def pose_names() -> list[str]:
-    """Names of the library poses, in library order."""
-    return [p["name"] for p in pose_library()["poses"]]
+def pose_names(pose_set: str = "generator") -> list[str]:
+    """Names of the library poses of ``pose_set``, in library order.
+
+    ``"generator"`` (entries without a ``set``: what the synthetic generator draws from),
+    ``"registration"`` (the hard poses of the registration benchmark) or ``"all"``.
+    """
+    poses = pose_library()["poses"]
+    if pose_set == "all":
+        return [p["name"] for p in poses]
+    return [p["name"] for p in poses if p.get("set", "generator") == pose_set]
 
 
 def _mirror(entry: list) -> list:
@@ -43,7 +50,7 @@ def pose_rotations(name: str) -> list[list]:
             for e in p.get("mirror", []):
                 out += [list(e), _mirror(e)]
             return out + [list(e) for e in p.get("rotations", [])]
-    raise ValueError(f"pose: unknown name {name!r}; known: {pose_names()}")
+    raise ValueError(f"pose: unknown name {name!r}; known: {pose_names('all')}")
 
 
 #: limb roots aligned to the canonical rest pose before applying library angles:

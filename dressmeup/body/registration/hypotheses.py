@@ -1,0 +1,80 @@
+"""Canonical starting poses for the multi-hypothesis initialisation.
+
+A hypothesis is described by anatomical directions, not joint angles, so it poses any
+SMPL-like model whatever its rest pose (anny's arms hang in an A-pose, SMPL's are out
+sideways): the upper arms and thighs are turned from their rest direction onto a target
+direction, then knees, elbows and spine get a bend. Directions are in the model frame
+(y up, facing +z, the body's left on +x); right-side targets mirror the left ones.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: name -> directions and bends. ``arm``: left upper-arm direction (x left, y up, z
+#: forward); ``thigh``: left thigh direction; ``knee``, ``elbow``, ``spine`` bends (degrees:
+#: knees bend the shin back, elbows bend the forearm forward, the spine leans forward).
+CANONICAL_POSES: dict[str, dict] = {
+    "arms-down": {"arm": (0.25, -1.0, 0.0)},
+    "a-pose": {"arm": (1.0, -1.0, 0.0)},
+    "t-pose": {"arm": (1.0, 0.0, 0.0)},
+    "arms-up": {"arm": (0.7, 1.0, 0.0), "elbow": 10},
+    "wide-stance": {"arm": (1.0, -0.3, 0.0), "thigh": (0.45, -1.0, 0.0)},
+    "sitting": {"arm": (0.25, -1.0, 0.35), "thigh": (0.12, -0.05, 1.0), "knee": 90,
+                "elbow": 40},
+    "bending": {"arm": (0.2, -1.0, 0.5), "spine": 50},
+    "arms-forward": {"arm": (0.3, -0.2, 1.0), "elbow": 60},
+}
+
+#: The hypotheses tried by default (all of :data:`CANONICAL_POSES`).
+DEFAULT_HYPOTHESES: tuple[str, ...] = tuple(CANONICAL_POSES)
+
+
+def _align(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Axis-angle (3,) of the shortest rotation turning direction ``a`` onto ``b``."""
+    a = a / np.linalg.norm(a)
+    b = b / np.linalg.norm(b)
+    c = np.cross(a, b)
+    s = np.linalg.norm(c)
+    ang = np.arctan2(s, float(a @ b))
+    if s < 1e-9:
+        return np.zeros(3)
+    return c / s * ang
+
+
+def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarray:
+    """Axis-angle pose ``(j, 3) float64`` of hypothesis ``name`` for a model.
+
+    Parameters
+    ----------
+    name : a key of :data:`CANONICAL_POSES`.
+    joint_names : the model's joint names (SMPL-like names; missing joints are skipped).
+    rest_joints : (j, 3) joint positions of the model's rest pose (model frame).
+    """
+    if name not in CANONICAL_POSES:
+        raise ValueError(f"hypothesis: unknown pose {name!r}; known: {sorted(CANONICAL_POSES)}")
+    spec = CANONICAL_POSES[name]
+    names = list(joint_names)
+    pose = np.zeros((len(names), 3))
+    J = np.asarray(rest_joints, dtype=np.float64)
+
+    def idx(n):
+        return names.index(n) if n in names else None
+
+    for side, sx in (("left", 1.0), ("right", -1.0)):
+        for root, child, key in (("shoulder", "elbow", "arm"), ("hip", "knee", "thigh")):
+            r, c = idx(f"{side}_{root}"), idx(f"{side}_{child}")
+            if key in spec and r is not None and c is not None:
+                target = np.asarray(spec[key], dtype=np.float64) * (sx, 1.0, 1.0)
+                pose[r] = _align(J[c] - J[r], target)
+        k = idx(f"{side}_knee")
+        if k is not None and spec.get("knee"):
+            pose[k] = (np.deg2rad(spec["knee"]), 0.0, 0.0)
+        e = idx(f"{side}_elbow")
+        if e is not None and spec.get("elbow"):
+            pose[e] = (0.0, -sx * np.deg2rad(spec["elbow"]), 0.0)
+    if spec.get("spine"):
+        parts = [n for n in ("spine1", "spine2", "spine3") if n in names]
+        for n in parts:
+            pose[names.index(n)] = (np.deg2rad(spec["spine"]) / len(parts), 0.0, 0.0)
+    return pose
