@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from dressmeup import __version__
 
 # One module per stage; each defines ``register(subparsers) -> None``.
-COMMAND_MODULES = ("metrics", "body", "data", "capture", "baseline", "bench")
+COMMAND_MODULES = ("metrics", "body", "data", "capture", "baseline", "bench", "report")
 
 
 def build_parser() -> argparse.ArgumentParser:

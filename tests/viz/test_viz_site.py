@@ -1,0 +1,91 @@
+"""The report site written without a browser: pages, pictures, reasons, escaping, CLI."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+
+def _pages(site) -> list[Path]:
+    return [site.index, *site.edition_pages, *site.method_pages]
+
+
+def test_site_has_index_edition_and_method_pages(site, site_inputs):
+    assert site.index.is_file() and len(site.edition_pages) == 1
+    assert len(site.method_pages) == len(site_inputs["results"]) == 4
+    index = site.index.read_text()
+    for page in site.method_pages:
+        assert f'{page.parent.name}/{page.name}"' in index      # linked from the index
+    # 2 methods with submissions x (2 best + 2 worst) pictures, plus one category chart
+    # per method page
+    assert site.images >= 3 * 4 + 4
+
+
+def test_pictures_exist_and_nothing_is_fetched(site):
+    for page in _pages(site):
+        text = page.read_text()
+        for src in re.findall(r'src="([^"]+)"', text):
+            assert not src.startswith(("http:", "https:", "//")), src
+            assert (page.parent / src).is_file(), f"{page}: {src} missing"
+        assert 'rel="stylesheet"' not in text and "<script src" not in text
+
+
+def test_missing_submission_says_why(site):
+    gone = next(p for p in site.method_pages if p.stem == "gone")
+    text = gone.read_text()
+    assert "is gone" in text and "<img src=\"img/gone-best" not in text
+    assert "Every item (18)" in text            # the numbers are still there
+    assert any("GONE" in n and "is gone" in n for n in site.notes)
+
+
+def test_method_names_are_escaped(site):
+    for page in _pages(site):
+        text = page.read_text()
+        assert "<script>window.__pwned" not in text
+    assert any("&lt;script&gt;window.__pwned" in p.read_text() for p in site.method_pages)
+
+
+def test_p2s_heat_map_and_penetration_render(tmp_path):
+    """The picture shows the error scale: a prediction 10 mm off is drawn in the top colour
+    of a 10 mm scale, penetrating faces in pure red."""
+    from PIL import Image
+
+    from dressmeup.viz.result_images import (
+        PENETRATION_RGB,
+        face_distances_mm,
+        render_error_pair,
+    )
+
+    u, v = np.meshgrid(np.linspace(0, 1, 12), np.linspace(0, 1.5, 18))
+    V = np.stack([u.ravel(), v.ravel(), np.zeros(u.size)], 1)
+    F = []
+    for j in range(17):
+        for i in range(11):
+            a = j * 12 + i
+            F += [[a, a + 1, a + 12], [a + 1, a + 13, a + 12]]
+    F = np.asarray(F)
+    pred = V + [0.0, 0.0, 0.010]
+    err = face_distances_mm(pred, F, V, F)
+    assert np.allclose(err, 10.0, atol=1e-6)
+    pen = np.zeros(len(F), bool)
+    pen[:40] = True
+    png = render_error_pair(pred, F, V, F, tmp_path / "x.png", face_error_mm=err,
+                            vmax_mm=10.0, penetrating=pen, title="t")
+    img = np.asarray(Image.open(png).convert("RGB")).reshape(-1, 3).astype(int)
+    red = (np.array(PENETRATION_RGB) * 255).astype(int)
+    assert (np.abs(img - red).max(1) < 60).sum() > 50      # shaded red faces present
+
+
+def test_cli_prints_index(site_inputs, tmp_path, capsys):
+    from dressmeup.cli import main
+
+    rc = main(["report", *map(str, site_inputs["results"][:2]), "--data",
+               str(site_inputs["data"]), "--out", str(tmp_path / "s"), "--images-per-side",
+               "1", "--max-images", "2"])
+    out = capsys.readouterr().out
+    assert rc == 0 and str((tmp_path / "s" / "index.html").resolve()) in out
+    # the picture budget ran out for the second method: its page says so
+    pages = sorted((tmp_path / "s").glob("*/*.html"))
+    assert any("picture budget" in p.read_text() for p in pages)
