@@ -211,3 +211,21 @@ def test_html_escapes_method_names_and_sorts(scored, tmp_path):
     assert page.count("<script>") == 1 and 'data-type="num"' in page
     first_metric_cell = page.split("</td>", 2)[2]        # rank, method, then P2S
     assert math.isfinite(float(first_metric_cell.split('data-v="')[1].split('"')[0]))
+
+
+def test_separation_when_the_unit_is_the_item():
+    """uvparam's unit column is sample_id itself (one item per mesh): the paired bootstrap
+    must still find it (it crashed the demo's UV leaderboard once)."""
+    from types import SimpleNamespace
+
+    from dressmeup.bench.leaderboard import _mark_separation
+
+    ids = [f"m{i}" for i in range(6)]
+    rows = []
+    for name, offset in (("A", 0.0), ("B", 1.0)):
+        t = pd.DataFrame({"sample_id": ids, "qce": np.arange(6.0) + offset,
+                          "status": ["ok"] * 6})
+        rows.append({"method": name, "comparable": True, "schema_version": 2,
+                     "_result": SimpleNamespace(table=t)})
+    _mark_separation(rows, "qce", "sample_id")
+    assert rows[0]["separated"] is True and rows[1]["separated"] is None
