@@ -1,24 +1,31 @@
-"""Inference time of ``isomap-refine`` on a ~30k-vertex garment, split into correspondence
-search and network, with side-by-side alternatives.
+"""Per-new-target time of ``isomap-refine`` and of the non-learned path on a ~30k-vertex
+garment: today's general path beside the prepared (precomputed) paths, measured in one run.
 
     python benchmarks/perf/retarget.py --body anny --vertices 30000 --threads 2
 
 The garment is a cut of the body's torso and arms, offset 1 cm along the normals and
-subdivided (midpoint, k times) so that it has about ``--vertices`` vertices. Stages:
+subdivided (midpoint, k times) so that it has about ``--vertices`` vertices. Paths:
 
-- eq. 4.1 (garment embedding by 3D k-NN on the source skin, scipy cKDTree);
-- eq. 4.4 (k-NN in the 128-d embedding over the target skin): scipy cKDTree (the
-  implementation) vs brute force in torch (the named alternative);
-- the k nearest target vertices of each coarse point (cKDTree);
-- the network (6 x 512 MLP + two PointNets), one forward pass, at the requested threads vs 1.
+- old general path (``precompute=False``): per target, eq. 4.1 (3D k-NN on the source skin),
+  eq. 4.4 (128-d k-NN over the template skin), the target neighbours, the whole network; for
+  the non-learned path also the factorisation of the detail-transfer system;
+- prepared path (``precompute=True``, the default): eq. 4.1, the k-NN of eq. 4.4, the garment's
+  PointNet code and its embedding's share of the network's first layer once per garment and
+  source body; per new target a gather, the target neighbours, the body PointNet and the rest
+  of the network; the non-learned path is the gather + one back-substitution of the
+  prefactored Laplacian system (``DetailTransfer``).
 
-The network's weights do not change its cost; a freshly initialised one is timed unless
-``--weights`` is given. Goal (issue 6): under 3 s in total on 2 cores.
+Each per-target figure is the median over ``--targets`` poses (after a warm-up), with the
+1-minute load average beside it (the machine may be shared: figures are pessimistic there).
+Goals (issue 15): ``isomap-refine`` <= 1 s, non-learned <= 50 ms per new target after the
+garment's preparation. The network's weights do not change its cost: without shipped weights
+a freshly initialised network of the same shape is timed.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
@@ -53,93 +60,132 @@ def _garment(model, params, n_min: int):
     return np.asarray(V), np.asarray(F)
 
 
-def _best(fn, repeat: int) -> float:
-    best = np.inf
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t)
-    return best
+def _load() -> str:
+    return f"load {os.getloadavg()[0]:.1f}"
+
+
+def _targets(model, src, n: int):
+    """``n`` target poses: the arms and elbows bent by different seeded angles."""
+    rng = np.random.default_rng(0)
+    out = []
+    for _ in range(n):
+        t = src.copy()
+        t.pose = np.array(t.pose, dtype=np.float64, copy=True)
+        for j, sign in ((16, -1.0), (17, 1.0)):
+            t.pose[j] = [0.0, 0.0, sign * rng.uniform(0.2, 0.9)]
+        for j in (18, 19):
+            t.pose[j] = [0.0, rng.uniform(-0.8, 0.0), 0.0]
+        out.append(t)
+    return out
+
+
+def _median_per_target(fn, targets) -> tuple[float, float]:
+    """Median seconds of ``fn(target)`` over the targets (after one warm-up), and the load."""
+    fn(targets[0])
+    times = []
+    for t in targets:
+        t0 = time.perf_counter()
+        fn(t)
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), os.getloadavg()[0]
 
 
 def main() -> None:
     import torch
-    from scipy.spatial import cKDTree
 
     from dressmeup.body import get_body_model
     from dressmeup.methods.retarget import get_method
-    from dressmeup.methods.retarget import isomap as iso
     from dressmeup.methods.retarget.base import body_context
+    from dressmeup.methods.retarget.detail import DetailTransfer, detail_transfer
+    from dressmeup.methods.retarget.prepared import prepare_garment
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--body", default="anny")
     ap.add_argument("--vertices", type=int, default=30000)
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--weights", default=None)
-    ap.add_argument("--skip-kdtree128", action="store_true", help="skip the slow brute-force alternative")
+    ap.add_argument("--targets", type=int, default=5, help="new targets timed per path (median)")
+    ap.add_argument("--weights", default=None, help="isomap-refine checkpoint (default: shipped, else fresh)")
+    ap.add_argument("--fast-width", type=int, default=256, help="decoder width of the 'fast' network timed too")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
 
     model = get_body_model(args.body)
     src = model.default_params()
-    tgt = src.copy()
-    tgt.pose[16] = [0.0, 0.0, -0.6]
-    tgt.pose[17] = [0.0, 0.0, 0.6]
     V, F = _garment(model, src, args.vertices)
-    print(f"body {args.body}; garment {len(V)} vertices, {len(F)} faces; torch threads {args.threads}")  # noqa: T201
+    targets = _targets(model, src, args.targets)
+    print(f"body {args.body}; garment {len(V)} vertices, {len(F)} faces; torch threads {args.threads}; "  # noqa: T201
+          f"{len(targets)} new targets (median); {_load()}")
+    rows = []
 
-    method = (get_method("isomap-refine", weights=args.weights) if args.weights
-              else get_method("isomap-refine"))
-    emb = method.embedding(model)  # cached; building it is a one-off per template
-    s, t = body_context(model, src), body_context(model, tgt)
-    S, T, E = s.skin_vertices, t.skin_vertices, emb.embedding
+    def row(label, sec, load):
+        rows.append((label, sec, load))
+        print(f"  {label}: {sec:.4f} s (load {load:.1f})", flush=True)  # noqa: T201
 
-    t_ext = _best(lambda: iso.extrapolate(E, S, V, k=32), args.repeat)
-    phi = iso.extrapolate(E, S, V, k=32)
-    t_place = _best(lambda: iso.knn_embedding(phi, E, k=32), args.repeat)
-    x = iso.place(phi, E, T, k=32)
-    t_nbr = _best(lambda: cKDTree(T).query(x, k=32), args.repeat)
-    t_corr = t_ext + t_place + t_nbr
-    rows = [("eq. 4.1 extrapolation (3D kNN, k=32)", t_ext), ("eq. 4.4 placement (128-d kNN, cKDTree)", t_place),
-            ("target neighbours of coarse points (k=32)", t_nbr)]
-    if not args.skip_kdtree128:
-        t_kd = _best(lambda: iso.knn_embedding(phi, E, k=32, method="brute"), 1)
-        rows.append(("  alternative: eq. 4.4 by torch brute force", t_kd))
+    # ---- learned: old general path vs prepared path
+    kw = {"weights": args.weights} if args.weights else {}
+    old = get_method("isomap-refine", precompute=False, **kw)
+    new = get_method("isomap-refine", **kw)
+    try:
+        old.ensure_network(model)
+        new.ensure_network(model)
+        net_label = "trained weights"
+    except Exception:  # noqa: BLE001  (no weights: a fresh network costs the same)
+        for m in (old, new):
+            m.network_ = m.new_network().eval()
+            m.body_model_name_ = model.name
+        net_label = "fresh network"
+    print(f"isomap-refine: width {new.width}, codes {new.code_dim}, PointNet hidden {new.pointnet_hidden} "  # noqa: T201
+          f"({net_label})")
+    new.embedding(model)  # the template embedding is a one-off per template (cached)
+    t_old, l_old = _median_per_target(lambda t: old.retarget(V, F, src, t, model), targets[:2])
+    row("isomap-refine, old general path (both k-NN + whole network per target)", t_old, l_old)
+    t0 = time.perf_counter()
+    new.retarget(V, F, src, targets[0], model)
+    row("isomap-refine, one-time preparation of the garment (first call)", time.perf_counter() - t0,
+        os.getloadavg()[0])
+    t_new, l_new = _median_per_target(lambda t: new.retarget(V, F, src, t, model), targets)
+    row("isomap-refine, prepared path per new target", t_new, l_new)
+    split = new.last_timing_
+    print("    split of the last call: " + ", ".join(f"{k} {v:.3f}" for k, v in split.items()))  # noqa: T201
 
-    if args.weights:
-        method.ensure_network(model)  # hyperparameters of the checkpoint, before preparing
-    else:
-        method.network_ = method.new_network().eval()
-        method.body_model_name_ = model.name
-    sample = method.prepare(V, F, src, tgt, model)
-    feats, gp, bp = method.features(sample)
+    fast = get_method("isomap-refine", width=args.fast_width, code_dim=64, pointnet_hidden=64)
+    fast.network_ = fast.new_network().eval()
+    fast.body_model_name_ = model.name
+    t_fast, l_fast = _median_per_target(lambda t: fast.retarget(V, F, src, t, model), targets)
+    row(f"isomap-refine 'fast' (width {args.fast_width}, codes 64), prepared path per new target", t_fast, l_fast)
 
-    def forward():
-        with torch.no_grad():
-            method.network_(feats, gp, bp)
+    # ---- non-learned: coarse + detail transfer
+    def old_nonlearned(t):
+        x = get_method("isomap", precompute=False).retarget(V, F, src, t, model)
+        return detail_transfer(V, F, x)
 
-    forward()
-    t_net = _best(forward, args.repeat)
-    torch.set_num_threads(1)
-    t_net1 = _best(forward, 1)
-    torch.set_num_threads(args.threads)
-    t_total = _best(lambda: method.retarget(V, F, src, tgt, model), 1)
-    timing = method.last_timing_
+    t_old_nl, l_old_nl = _median_per_target(old_nonlearned, targets[:2])
+    row("isomap+detail, old path (k-NN searches + factorisation per target)", t_old_nl, l_old_nl)
+    emb = new.embedding(model)
+    s = body_context(model, src)
+    t0 = time.perf_counter()
+    prep = prepare_garment(V, F, s.skin_vertices, s.skin_normals(), emb.embedding, use_cache=False)
+    detail = DetailTransfer(V, F)
+    row("non-learned one-time preparation (eq. 4.1, k-NN of eq. 4.4, LU of the detail system)",
+        time.perf_counter() - t0, os.getloadavg()[0])
+    posed = {id(t): body_context(model, t) for t in targets}
+    t_nl, l_nl = _median_per_target(lambda t: detail.apply(prep.coarse(posed[id(t)].skin_vertices)), targets)
+    row("isomap+detail, prepared: gather + back-substitution per new (posed) target", t_nl, l_nl)
+    t_nlo, l_nlo = _median_per_target(
+        lambda t: detail.apply(prep.with_offset(posed[id(t)].skin_vertices, posed[id(t)].skin_normals())), targets)
+    row("isomap-offset+detail, prepared (incl. target skin normals)", t_nlo, l_nlo)
+    t_pose, l_pose = _median_per_target(lambda t: body_context(model, t), targets)
+    row(f"posing the target body ({args.body}; the input of every path, not included above)", t_pose, l_pose)
 
-    print("\n| stage | seconds |\n|---|---:|")  # noqa: T201
-    for label, sec in rows:
-        print(f"| {label} | {sec:.3f} |")  # noqa: T201
-    print(f"| correspondence search (sum) | {t_corr:.3f} |")  # noqa: T201
-    print(f"| network forward ({args.threads} threads) | {t_net:.3f} |")  # noqa: T201
-    print(f"|   alternative: network forward, 1 thread | {t_net1:.3f} |")  # noqa: T201
-    print(f"| end-to-end retarget() (incl. body posing, features) | {t_total:.3f} |")  # noqa: T201
-    print(f"\nretarget() split: correspondence {timing['correspondence']:.3f} s, "  # noqa: T201
-          f"network {timing['network']:.3f} s")
-    if not args.skip_kdtree128:
-        print(f"ratio brute force / cKDTree for eq. 4.4: {rows[3][1] / t_place:.1f}x")  # noqa: T201
-    print(f"ratio network 1 thread / {args.threads} threads: {t_net1 / t_net:.2f}x")  # noqa: T201
-    print(f"goal < 3 s per 30k-vertex garment: {'met' if t_total < 3 else 'NOT met'} ({t_total:.2f} s)")  # noqa: T201
+    print("\n| path | seconds per new target | load (1 min) |\n|---|---:|---:|")  # noqa: T201
+    for label, sec, load in rows:
+        print(f"| {label} | {sec:.4f} | {load:.1f} |")  # noqa: T201
+    print(f"\nratio old / prepared, isomap-refine: {t_old / t_new:.1f}x; "  # noqa: T201
+          f"isomap+detail: {t_old_nl / t_nl:.0f}x")
+    print(f"goal isomap-refine <= 1 s per new target: {'met' if t_new <= 1 else 'NOT met'} ({t_new:.2f} s; "  # noqa: T201
+          f"'fast' {t_fast:.2f} s)")
+    print(f"goal non-learned <= 50 ms per new target: {'met' if t_nl <= 0.05 else 'NOT met'} "  # noqa: T201
+          f"({1000 * t_nl:.1f} ms; with the offset variant {1000 * t_nlo:.1f} ms)")
 
 
 if __name__ == "__main__":

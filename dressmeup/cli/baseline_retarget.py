@@ -29,16 +29,30 @@ def register(tasks: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_run)
 
     t = tasks.add_parser(
-        "train-retarget", help="train the isomap-refine network self-supervised",
-        description="Train isomap-refine on the (garment, source body, target body) triplets of a "
-                    "dataset split (no ground truth is used) and save a checkpoint.")
+        "train-retarget", help="train the isomap-refine network (self-supervised, or supervised: -sup)",
+        description="Train isomap-refine (self-supervised: only the source garment and the two bodies of "
+                    "each training pair are read) or isomap-refine-sup (supervised by the target garment) "
+                    "on a dataset split and save a checkpoint. Refuses training garments that appear, by "
+                    "content, in another split; validation pairs choose the kept step; the test split is "
+                    "never read. Seeded; resumes from the checkpoint OUT.ckpt when it exists.")
     t.add_argument("--data", required=True, help="dataset root")
+    t.add_argument("--method", default="isomap-refine", choices=["isomap-refine", "isomap-refine-sup"],
+                   help="network to train (default isomap-refine)")
     t.add_argument("--split", default="train", help="split to train on (default: train)")
+    t.add_argument("--val-split", default="val", help="validation split ('none': no validation; default val)")
+    t.add_argument("--max-val", type=int, default=16, help="validation pairs used (default 16)")
     t.add_argument("--out", required=True, help="checkpoint path (.pt)")
-    t.add_argument("--steps", type=int, default=300, help="training steps (one triplet each)")
-    t.add_argument("--max-triplets", type=int, default=8, help="triplets used (default 8)")
+    t.add_argument("--steps", type=int, default=300, help="training steps (one pair each)")
+    t.add_argument("--max-triplets", type=int, default=0, help="training pairs used (default 0: all)")
+    t.add_argument("--wall-minutes", type=float, default=None, help="wall budget of this run; training "
+                                                                   "stops there (resume later from OUT.ckpt)")
+    t.add_argument("--val-every", type=int, default=50, help="steps between validations (default 50)")
+    t.add_argument("--checkpoint-every", type=int, default=50, help="steps between checkpoints (default 50)")
+    t.add_argument("--half", action="store_true", help="store the weights as float16 (half the file)")
+    t.add_argument("--curves", default=None, help="write the learning curves to this PNG")
+    t.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's choice)")
     t.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
-                   help="hyperparameter of isomap-refine (repeatable), e.g. --param width=256")
+                   help="hyperparameter of the method (repeatable), e.g. --param width=256")
     t.add_argument("--exclude-garments", default="", help="comma-separated garment ids not to train on")
     t.add_argument("--seed", type=int, default=0)
     t.set_defaults(func=_train)
@@ -74,7 +88,9 @@ def _run(args: argparse.Namespace) -> int:
         params["weights"] = args.weights
     method = get_method(args.method, **params)
     ds = Dataset(args.data)
-    pairs = ds.retarget_pairs(edition.split)
+    from dressmeup.bench.tasks.retarget.data import edition_pairs
+
+    pairs = edition_pairs(edition, ds)
     preds, seconds = predict_pairs(method, pairs, limit=args.limit)
     runtime = float(np.mean(seconds)) if seconds else 0.0
     out = write_submission(args.out, preds, edition=edition, method=args.method,
@@ -89,21 +105,20 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from dressmeup.data import Dataset
-    from dressmeup.methods.retarget import get_method
-    from dressmeup.methods.retarget.run import training_triplets
+    from dressmeup.methods.retarget.train import train_from_dataset
 
-    params = _params(args.param)
-    params.setdefault("steps", args.steps)
-    params.setdefault("seed", args.seed)
-    method = get_method("isomap-refine", **params)
-    triplets, model = training_triplets(
-        Dataset(args.data), args.split, args.max_triplets, seed=args.seed,
-        exclude_garments=[g for g in args.exclude_garments.split(",") if g])
-    method.fit(triplets, model)
-    path = method.save(args.out)
-    first = method.loss_history_[0][0]
-    last = sum(h[0] for h in method.loss_history_[-10:]) / min(10, len(method.loss_history_))
-    sys.stdout.write(f"trained on {len(triplets)} triplets ({model.name}); loss {first:.5f} -> {last:.5f}; "
-                     f"saved {path}\n")
+    if args.threads:
+        import torch
+
+        torch.set_num_threads(int(args.threads))
+    info = train_from_dataset(
+        args.data, args.out, method=args.method, params=_params(args.param), split=args.split,
+        val_split=None if args.val_split.lower() == "none" else args.val_split, steps=args.steps,
+        max_triplets=args.max_triplets or None, max_val=args.max_val, seed=args.seed,
+        wall_minutes=args.wall_minutes, val_every=args.val_every, checkpoint_every=args.checkpoint_every,
+        half=args.half, curves=args.curves, exclude_garments=[g for g in args.exclude_garments.split(",") if g])
+    sys.stdout.write(f"trained {args.method} on {info['train_pairs']} pairs of {len(info['train_garments'])} "
+                     f"garments: {info['steps_done']} of {info['steps_requested']} steps (stopped by "
+                     f"{info['stopped_by']}), {info['wall_seconds']:.0f} s wall, {info['cpu_seconds']:.0f} s CPU; "
+                     f"kept step {info['kept_step']}; saved {args.out} ({info['file_mb']} MB)\n")
     return 0

@@ -24,7 +24,9 @@ METHODS = {
     "rigid": ("dressmeup.methods.retarget.rigid", "RigidRetarget"),
     "skinning": ("dressmeup.methods.retarget.skinning", "SkinningRetarget"),
     "isomap": ("dressmeup.methods.retarget.isomap", "IsomapRetarget"),
+    "isomap-offset": ("dressmeup.methods.retarget.isomap", "IsomapOffset"),
     "isomap-refine": ("dressmeup.methods.retarget.refine", "IsomapRefine"),
+    "isomap-refine-sup": ("dressmeup.methods.retarget.refine_sup", "IsomapRefineSup"),
 }
 POSTPROCESSES = {
     "detail": ("dressmeup.methods.retarget.postprocess", "DetailPost"),

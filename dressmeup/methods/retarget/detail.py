@@ -22,7 +22,7 @@ from scipy.sparse.csgraph import connected_components
 from dressmeup.geometry.laplacian import adjacency, cotan_laplacian, uniform_laplacian
 from dressmeup.geometry.mesh import as_arrays, as_points
 
-__all__ = ["choose_anchors", "detail_transfer", "laplacian_solve"]
+__all__ = ["choose_anchors", "detail_transfer", "laplacian_solve", "DetailTransfer"]
 
 
 def choose_anchors(F: np.ndarray, n_vertices: int, fraction: float = 0.3, seed: int = 0) -> np.ndarray:
@@ -77,6 +77,51 @@ def laplacian_solve(L: sp.spmatrix, delta: np.ndarray, anchors: np.ndarray, anch
     return lu.solve(Atb)
 
 
+class DetailTransfer:
+    """Laplacian detail transfer of one garment, factorised once, applied to any retargeting.
+
+    The normal equations ``(L^T L + S^T W^2 S) X = L^T delta + S^T W^2 R[a]`` have a matrix
+    that depends on the input garment and the anchors only, so it is factorised (sparse LU) at
+    construction; :meth:`apply` builds the right-hand side from the retargeted anchors and
+    back-substitutes (the per-target cost of the non-learned path).
+
+    Parameters
+    ----------
+    input_V : (n, 3) float array, metres; F : (m, 3) int array.
+    laplacian : {"uniform", "cotan"}; anchor_fraction : float; anchor_weight : float; seed : int.
+        See :func:`detail_transfer`.
+    """
+
+    def __init__(self, input_V: np.ndarray, F: np.ndarray, laplacian: str = "uniform",
+                 anchor_fraction: float = 0.3, anchor_weight: float = 1.0, seed: int = 0) -> None:
+        V, F = as_arrays(input_V, F, name="input garment")
+        if laplacian == "uniform":
+            L = uniform_laplacian(F, V.shape[0])
+        elif laplacian == "cotan":
+            L = cotan_laplacian(V, F)
+        else:
+            raise ValueError(f"laplacian: expected 'uniform' or 'cotan', got {laplacian!r}")
+        n = V.shape[0]
+        self.anchors = choose_anchors(F, n, anchor_fraction, seed)
+        self.anchor_weight = float(anchor_weight)
+        w2 = self.anchor_weight ** 2
+        L = L.tocsr()
+        S = sp.csr_matrix((np.ones(len(self.anchors)), (np.arange(len(self.anchors)), self.anchors)),
+                          shape=(len(self.anchors), n))
+        self._lu = spla.splu((L.T @ L + w2 * (S.T @ S)).tocsc())
+        self._rhs_detail = np.asarray(L.T @ (L @ V), dtype=np.float64)
+        self.shape = V.shape
+
+    def apply(self, retargeted_V: np.ndarray) -> np.ndarray:
+        """The retargeted garment with the input's details: (n, 3) float64."""
+        R = as_points(retargeted_V, name="retargeted_V")
+        if R.shape != self.shape:
+            raise ValueError(f"retargeted_V: expected shape {self.shape} (same topology as the input), got {R.shape}")
+        rhs = self._rhs_detail.copy()
+        rhs[self.anchors] += self.anchor_weight ** 2 * R[self.anchors]
+        return self._lu.solve(rhs)
+
+
 def detail_transfer(input_V: np.ndarray, F: np.ndarray, retargeted_V: np.ndarray, laplacian: str = "uniform",
                     anchor_fraction: float = 0.3, anchor_weight: float = 1.0, seed: int = 0) -> np.ndarray:
     """Transfer the input garment's Laplacian coordinates onto a retargeted garment.
@@ -101,17 +146,7 @@ def detail_transfer(input_V: np.ndarray, F: np.ndarray, retargeted_V: np.ndarray
     Returns
     -------
     (n, 3) float64 ndarray. When ``retargeted_V == input_V`` the result equals the input
-    exactly (up to round-off): the identity case.
+    exactly (up to round-off): the identity case. To retarget one garment onto many targets,
+    build a :class:`DetailTransfer` once and call its ``apply``.
     """
-    V, F = as_arrays(input_V, F, name="input garment")
-    R = as_points(retargeted_V, name="retargeted_V")
-    if R.shape != V.shape:
-        raise ValueError(f"retargeted_V: expected shape {V.shape} (same topology as the input), got {R.shape}")
-    if laplacian == "uniform":
-        L = uniform_laplacian(F, V.shape[0])
-    elif laplacian == "cotan":
-        L = cotan_laplacian(V, F)
-    else:
-        raise ValueError(f"laplacian: expected 'uniform' or 'cotan', got {laplacian!r}")
-    anchors = choose_anchors(F, V.shape[0], anchor_fraction, seed)
-    return laplacian_solve(L, L @ V, anchors, R[anchors], anchor_weight)
+    return DetailTransfer(input_V, F, laplacian, anchor_fraction, anchor_weight, seed).apply(retargeted_V)

@@ -9,6 +9,8 @@ from dressmeup.methods.retarget.refine import WEIGHTS_DIR  # noqa: F401  (shippe
 
 __all__ = ["DetailPost", "PenetrationPost", "Pipeline"]
 
+_DETAIL_MEMO: dict = {}
+
 
 class DetailPost(RetargetMethod):
     """``detail``: Laplacian detail transfer from the input garment (thesis 4.3.3.2).
@@ -32,13 +34,25 @@ class DetailPost(RetargetMethod):
         self.anchor_weight = anchor_weight
         self.seed = seed
 
+    def transfer(self, garment_V, garment_F):
+        """The factorised :class:`~dressmeup.methods.retarget.detail.DetailTransfer` of a garment
+        (memoised per garment content and settings: a new target costs a back-substitution)."""
+        from dressmeup.cache import hash_arrays
+        from dressmeup.methods.retarget.detail import DetailTransfer
+
+        key = hash_arrays(np.asarray(garment_V, dtype=np.float64), np.asarray(garment_F, dtype=np.int64),
+                          extra=f"{self.laplacian}|{self.anchor_fraction}|{self.anchor_weight}|{self.seed}")
+        if key not in _DETAIL_MEMO:
+            if len(_DETAIL_MEMO) >= 8:
+                _DETAIL_MEMO.pop(next(iter(_DETAIL_MEMO)))
+            _DETAIL_MEMO[key] = DetailTransfer(garment_V, garment_F, laplacian=self.laplacian,
+                                               anchor_fraction=self.anchor_fraction,
+                                               anchor_weight=self.anchor_weight, seed=self.seed)
+        return _DETAIL_MEMO[key]
+
     def apply(self, garment_V, garment_F, retargeted_V, source, target, body_model) -> np.ndarray:
         """Return the detailed (n, 3) float64 garment."""
-        from dressmeup.methods.retarget.detail import detail_transfer
-
-        return detail_transfer(garment_V, garment_F, retargeted_V, laplacian=self.laplacian,
-                               anchor_fraction=self.anchor_fraction, anchor_weight=self.anchor_weight,
-                               seed=self.seed)
+        return self.transfer(garment_V, garment_F).apply(retargeted_V)
 
 
 class PenetrationPost(RetargetMethod):

@@ -85,6 +85,32 @@ def _build_network(in_dim: int, code_dim: int, width: int, depth: int, pointnet_
     return RefineNet()
 
 
+def _decode_with_partial(decoder, x, neighbors, phi_term, code):
+    """:class:`~dressmeup.methods.nn.mlp.ConditionedMLP` forward with the first layer split by input.
+
+    The first layer's input is ``[x (3), phi (d), neighbours (3k), code]``; ``phi_term`` is
+    ``phi @ W_phi^T`` (per garment, precomputed) and the code's share is one vector per target,
+    so only ``x`` and the neighbours are multiplied per vertex. Same result as
+    ``decoder(cat([x, phi, neighbours]), code)`` up to float round-off (tested).
+    """
+    import torch
+    from torch import nn
+
+    first = decoder.layers[0]
+    W, b = first.weight, first.bias
+    nk = neighbors.shape[1]
+    d = W.shape[1] - 3 - nk - decoder.code_dim
+    h = x @ W[:, :3].T + neighbors @ W[:, 3 + d:3 + d + nk].T + phi_term + (W[:, 3 + d + nk:] @ code + b)
+    mod = decoder.film(code).view(len(decoder.layers), 2, decoder.width)
+    for i in range(len(decoder.layers)):
+        if i > 0:
+            h = decoder.layers[i](h)
+        h = nn.functional.layer_norm(h, (decoder.width,))
+        h = (1.0 + mod[i, 0]) * h + mod[i, 1]
+        h = decoder.act(h)
+    return decoder.out_scale * torch.tanh(decoder.out(h))
+
+
 class IsomapRefine(IsomapRetarget):
     """``isomap-refine``: Isomap coarse placement + self-supervised refinement network.
 
@@ -121,11 +147,18 @@ class IsomapRefine(IsomapRetarget):
         ``weights/isomap_refine_<body model>.pt``.
     device : str
         Torch device ("cpu"; CUDA when asked and available).
+    carry_offset : bool
+        Feed the network the ``isomap-offset`` coarse placement (the loose-garment variant)
+        instead of the thesis' eq. 4.4 one.
+    precompute : bool
+        Per-garment preparation of the coarse stage (see ``isomap``); ``False``: general path.
     seed : int
         Network initialisation, sample order and point subsampling.
     """
 
     name = "isomap-refine"
+    _format = _FORMAT
+    weights_stem = "isomap_refine"
 
     def __init__(self, dim: int = 128, k_extrapolate: int = 32, k_place: int = 32,
                  embedding_method: str = "auto", n_landmarks: int = 2000, correspondence_noise: float = 0.0,
@@ -134,7 +167,9 @@ class IsomapRefine(IsomapRetarget):
                  steps: int = 300, lr: float = 3e-4, w_length: float = 1.0, w_corres: float = 1.0,
                  w_bend: float = 0.01, w_penetration: float = 1.0, use_joint_mask: bool = True,
                  margin: float = 0.003, joint_mask_radius: float = 0.08, weights: str | None = None,
-                 device: str = "cpu", seed: int = 0) -> None:
+                 device: str = "cpu", carry_offset: bool = False, precompute: bool = True, seed: int = 0) -> None:
+        self.carry_offset = carry_offset
+        self.precompute = precompute
         self.dim = dim
         self.k_extrapolate = k_extrapolate
         self.k_place = k_place
@@ -166,8 +201,12 @@ class IsomapRefine(IsomapRetarget):
     smooth_iterations = 0
 
     # ----------------------------------------------------------------------------------------
-    def prepare(self, garment_V, garment_F, source, target, body_model) -> RefineSample:
-        """Coarse placement and every fixed per-sample input (see :class:`RefineSample`)."""
+    def prepare(self, garment_V, garment_F, source, target, body_model, truth=None) -> RefineSample:
+        """Coarse placement and every fixed per-sample input (see :class:`RefineSample`).
+
+        ``truth`` : (n, 3) float array, optional: the ground-truth garment on the target (world
+        frame), kept (in the sample's frame) for validation and the supervised variant.
+        """
         t0 = time.perf_counter()
         res, s, t, emb = self.coarse(garment_V, garment_F, source, target, body_model)
         V = np.asarray(garment_V, dtype=np.float64)
@@ -191,7 +230,8 @@ class IsomapRefine(IsomapRetarget):
             body_points=subsample(TV, self.n_points, self.seed + 1).astype(np.float32),
             input_V=V, faces=F, edges=E, edge_weights=ew, face_pairs=face_pairs(F),
             target_V=TV, target_N=t.skin_normals(), target_emb=emb.embedding, center=center,
-            seconds_correspondence=seconds, _tree=tree)
+            seconds_correspondence=seconds, _tree=tree,
+            truth=None if truth is None else np.asarray(truth, dtype=np.float64) - center)
 
     def features(self, sample: RefineSample):
         """Network inputs of a sample: per-vertex features (n, 3 + d + 3k), garment points, body points."""
@@ -225,66 +265,71 @@ class IsomapRefine(IsomapRetarget):
                  + self.w_bend * terms["bend"] + self.w_penetration * terms["penetration"])
         return total, {k: float(t.detach()) for k, t in terms.items()}
 
-    def fit(self, triplets, body_model, callback=None) -> IsomapRefine:
-        """Train self-supervised on ``triplets``.
+    def fit(self, triplets, body_model, callback=None, val_triplets=None, wall_seconds: float | None = None,
+            checkpoint=None, val_every: int = 50, checkpoint_every: int = 50) -> IsomapRefine:
+        """Train on ``triplets`` (self-supervised: no ground truth is used for the loss).
 
         Parameters
         ----------
         triplets : sequence of (garment_V (n, 3), garment_F (m, 3), source BodyParams,
-            target BodyParams) - no ground truth is used.
+            target BodyParams[, truth (n, 3)]) - a fifth element (the target garment) is used
+            only by the supervised variant.
         body_model : BodyModel
         callback : callable(step, total_loss, terms), optional, called every step.
+        val_triplets : same form, optional: the validation split (its ground truth, when given,
+            scores the validation curve and chooses the kept step).
+        wall_seconds, checkpoint, val_every, checkpoint_every : see
+            :func:`dressmeup.methods.retarget.train.train_network`.
 
         Returns
         -------
-        self, with ``network_`` and ``loss_history_`` (list of (total, terms) per step).
+        self, with ``network_``, ``loss_history_`` (list of (total, terms) per step) and
+        ``history_`` (:class:`~dressmeup.methods.retarget.train.TrainHistory`).
         """
+        samples = self.prepare_many(triplets, body_model, "preparing training samples")
+        val = self.prepare_many(val_triplets or [], body_model, "preparing validation samples")
+        return self.fit_samples(samples, getattr(body_model, "name", ""), callback=callback, val_samples=val,
+                                wall_seconds=wall_seconds, checkpoint=checkpoint, val_every=val_every,
+                                checkpoint_every=checkpoint_every)
+
+    def prepare_many(self, triplets, body_model, desc: str = "preparing") -> list[RefineSample]:
+        """:meth:`prepare` of every (garment_V, garment_F, source, target[, truth]) tuple."""
         from dressmeup.progress import progress
 
         triplets = list(triplets)
-        if not triplets:
-            raise ValueError("triplets: expected at least one (garment_V, garment_F, source, target) triplet")
-        samples = [self.prepare(gv, gf, s, t, body_model)
-                   for gv, gf, s, t in progress(triplets, desc="preparing", total=len(triplets))]
-        return self.fit_samples(samples, getattr(body_model, "name", ""), callback=callback)
+        return [self.prepare(t[0], t[1], t[2], t[3], body_model, truth=t[4] if len(t) > 4 else None)
+                for t in progress(triplets, desc=desc, total=len(triplets))]
 
-    def fit_samples(self, samples: list[RefineSample], body_model_name: str = "",
-                    callback=None) -> IsomapRefine:
+    def fit_samples(self, samples: list[RefineSample], body_model_name: str = "", callback=None,
+                    val_samples: list[RefineSample] | None = None, wall_seconds: float | None = None,
+                    checkpoint=None, val_every: int = 50, checkpoint_every: int = 50) -> IsomapRefine:
         """Train on already prepared samples (:meth:`prepare`); see :meth:`fit`.
 
         The samples must come from the same coarse-stage and input settings (``dim``,
         ``k_neighbors``, ``n_points``, ...) as this object's; the loss settings may differ,
         which is how the loss ablation reuses one preparation for every variant.
         """
-        import torch
-
-        from dressmeup.progress import progress
+        from dressmeup.methods.retarget.train import train_network
 
         if not samples:
             raise ValueError("samples: expected at least one prepared sample")
-        net = self.new_network()
-        opt = torch.optim.Adam(net.parameters(), lr=float(self.lr))
-        rng = np.random.default_rng(int(self.seed))
-        order = np.concatenate([rng.permutation(len(samples)) for _ in range(int(self.steps) // len(samples) + 1)])
-        history = []
-        net.train()
-        for step in progress(range(int(self.steps)), desc="training isomap-refine", total=int(self.steps)):
-            total, terms = self.loss(net, samples[order[step]])
-            opt.zero_grad()
-            total.backward()
-            opt.step()
-            history.append((float(total.detach()), terms))
-            if callback is not None:
-                callback(step, float(total), terms)
-        net.eval()
+        net, history = train_network(self, samples, val_samples, steps=int(self.steps), wall_seconds=wall_seconds,
+                                     val_every=val_every, checkpoint=checkpoint, checkpoint_every=checkpoint_every,
+                                     callback=callback)
         self.network_ = net
-        self.loss_history_ = history
+        self.history_ = history
+        self.loss_history_ = [(t, terms) for _, t, terms in history.train]
         self.body_model_name_ = body_model_name
         return self
 
     # ----------------------------------------------------------------------------------------
-    def save(self, path) -> Path:
-        """Write the hyperparameters and the network weights (atomic) to ``path`` (.pt)."""
+    def save(self, path, half: bool = False, info: dict | None = None) -> Path:
+        """Write the hyperparameters and the network weights (atomic) to ``path`` (.pt).
+
+        ``half`` stores the floating-point weights as float16 (half the file; they are read
+        back as float32: the shipped files use it). ``info`` (JSON-like) is stored as the
+        checkpoint's ``"training"`` record (data, steps, times).
+        """
         import io
 
         import torch
@@ -292,11 +337,14 @@ class IsomapRefine(IsomapRetarget):
         from dressmeup.io.atomic import atomic_write_bytes
 
         if not hasattr(self, "network_"):
-            raise ValueError("isomap-refine: nothing to save, call fit() or load() first")
+            raise ValueError(f"{self.name}: nothing to save, call fit() or load() first")
         params = {k: v for k, v in self.get_params().items() if k not in ("weights", "device")}
+        state = {k: v.detach().cpu() for k, v in self.network_.state_dict().items()}
+        if half:
+            state = {k: v.half() if v.is_floating_point() else v for k, v in state.items()}
         buf = io.BytesIO()
-        torch.save({"format": _FORMAT, "hyperparameters": params, "body_model": self.body_model_name_,
-                    "state_dict": {k: v.detach().cpu() for k, v in self.network_.state_dict().items()}}, buf)
+        torch.save({"format": self._format, "hyperparameters": params, "body_model": self.body_model_name_,
+                    "training": dict(info or {}), "state_dict": state}, buf)
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_bytes(path, buf.getvalue())
@@ -309,18 +357,18 @@ class IsomapRefine(IsomapRetarget):
 
         path = Path(path)
         if not path.is_file():
-            raise MissingModelError(f"isomap-refine weights not found: {path}; train them with "
+            raise MissingModelError(f"{cls.name} weights not found: {path}; train them with "
                                     f"'dressmeup baseline train-retarget --data ROOT --out {path}'")
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
-        if not isinstance(ckpt, dict) or ckpt.get("format") != _FORMAT:
-            raise MissingModelError(f"{path}: not an isomap-refine checkpoint (format {_FORMAT} expected)")
+        if not isinstance(ckpt, dict) or ckpt.get("format") != cls._format:
+            raise MissingModelError(f"{path}: not an {cls.name} checkpoint (format {cls._format} expected)")
         obj = cls(**ckpt["hyperparameters"], device=device, weights=str(path))
         obj._load_state(ckpt)
         return obj
 
     def _load_state(self, ckpt: dict) -> None:
         net = self.new_network()
-        net.load_state_dict(ckpt["state_dict"])
+        net.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in ckpt["state_dict"].items()})
         net.eval()
         self.network_ = net
         self.body_model_name_ = ckpt.get("body_model", "")
@@ -331,16 +379,16 @@ class IsomapRefine(IsomapRetarget):
             return
         import torch
 
-        path = Path(self.weights) if self.weights else WEIGHTS_DIR / f"isomap_refine_{body_model.name}.pt"
+        path = Path(self.weights) if self.weights else WEIGHTS_DIR / f"{self.weights_stem}_{body_model.name}.pt"
         if not path.is_file():
             raise MissingModelError(
-                f"isomap-refine: no trained weights for body model {body_model.name!r} (looked for {path}); "
+                f"{self.name}: no trained weights for body model {body_model.name!r} (looked for {path}); "
                 "train them with 'dressmeup baseline train-retarget --data ROOT --out WEIGHTS.pt' and pass "
                 "weights=WEIGHTS.pt (CLI: --weights)")
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
-        if ckpt.get("format") != _FORMAT:
-            raise MissingModelError(f"{path}: not an isomap-refine checkpoint")
-        keep = ("weights", "device", "correspondence_noise", "steps", "lr")
+        if ckpt.get("format") != self._format:
+            raise MissingModelError(f"{path}: not an {self.name} checkpoint (format {self._format} expected)")
+        keep = ("weights", "device", "correspondence_noise", "steps", "lr", "carry_offset", "precompute")
         for k, v in ckpt["hyperparameters"].items():
             if k not in keep:
                 setattr(self, k, v)
@@ -349,24 +397,89 @@ class IsomapRefine(IsomapRetarget):
     def retarget(self, garment_V, garment_F, source, target, body_model) -> np.ndarray:
         """Coarse placement + one forward pass; returns (n, 3) float64.
 
-        ``last_timing_`` holds the seconds of the correspondence search (coarse placement and
-        neighbour search) and of the network forward pass.
+        With ``precompute`` (default) the garment's preparation (eq. 4.1, the k-NN of eq. 4.4,
+        the garment's PointNet code and the embedding's share of the first layer) is computed
+        once per garment and source body; a new target then costs posing it, a gather, the
+        k nearest target vertices of each coarse point, the body PointNet and the rest of the
+        network. ``precompute=False`` runs the general path (both k-NN searches and the whole
+        network per call). ``last_timing_`` holds the seconds of the target posing, the
+        correspondence part (coarse placement and neighbour search) and the network.
         """
-
         self.ensure_network(body_model)
-        sample = self.prepare(garment_V, garment_F, source, target, body_model)
+        if not self.precompute:
+            sample = self.prepare(garment_V, garment_F, source, target, body_model)
+            t0 = time.perf_counter()
+            out = self.predict_sample(sample)
+            self.last_timing_ = {"correspondence": sample.seconds_correspondence,
+                                 "network": time.perf_counter() - t0}
+            return out
+        return self._retarget_prepared(garment_V, garment_F, source, target, body_model)
+
+    def _retarget_prepared(self, garment_V, garment_F, source, target, body_model) -> np.ndarray:
+        import torch
+
+        from dressmeup.methods.retarget.base import body_context, check_garment
+
+        V, F = check_garment(garment_V, garment_F)
         t0 = time.perf_counter()
-        out = self.predict_sample(sample)
-        self.last_timing_ = {"correspondence": sample.seconds_correspondence,
-                             "network": time.perf_counter() - t0}
-        return out
+        s = body_context(body_model, source)
+        t1 = time.perf_counter()
+        emb = self.embedding(body_model)
+        prep = self.prepared(V, F, s, emb)
+        part = self._garment_partial(prep, V, s)
+        t2 = time.perf_counter()
+        t = body_context(body_model, target)
+        t3 = time.perf_counter()
+        center = t.joints[0]
+        TV = t.skin_vertices - center
+        x = (prep.with_offset(t.skin_vertices, t.skin_normals()) if self.carry_offset
+             else prep.coarse(t.skin_vertices)) - center
+        if self.correspondence_noise:
+            x = x + np.random.default_rng(self.seed).normal(0.0, float(self.correspondence_noise), size=x.shape)
+        x = x.astype(np.float32)
+        k = int(min(self.k_neighbors, len(TV)))
+        _, nb = cKDTree(TV).query(x, k=k)
+        nb = np.asarray(nb).reshape(len(x), k)
+        neighbors = (TV[nb].astype(np.float32) - x[:, None, :]).reshape(len(x), 3 * k)
+        t4 = time.perf_counter()
+        dev = torch.device(self.device)
+        net = self.network_
+        with torch.no_grad():
+            body_pts = torch.as_tensor(subsample(TV, self.n_points, self.seed + 1).astype(np.float32), device=dev)
+            code = torch.cat([part["garment_code"], net.encoder_body(body_pts)])
+            dx = _decode_with_partial(net.decoder, torch.as_tensor(x, device=dev),
+                                      torch.as_tensor(neighbors, device=dev), part["phi_term"], code)
+        t5 = time.perf_counter()
+        self.last_timing_ = {"source_posing": t1 - t0, "preparation": t2 - t1, "target_posing": t3 - t2,
+                             "correspondence": t4 - t3, "network": t5 - t4}
+        return x.astype(np.float64) + dx.cpu().numpy().astype(np.float64) + center
+
+    def _garment_partial(self, prep, V: np.ndarray, s) -> dict:
+        """Per-garment network inputs: the garment's PointNet code and ``phi W_phi^T`` (memoised)."""
+        import torch
+
+        key = (prep.key, id(self.network_), int(self.n_points), int(self.seed))
+        memo = self.__dict__.setdefault("_partial_memo", {})
+        if key not in memo:
+            if len(memo) >= 8:
+                memo.pop(next(iter(memo)))
+            dev = torch.device(self.device)
+            net = self.network_
+            d = int(self.dim)
+            with torch.no_grad():
+                gp = torch.as_tensor(subsample(V - s.joints[0], self.n_points, self.seed).astype(np.float32),
+                                     device=dev)
+                W = net.decoder.layers[0].weight
+                phi_term = torch.as_tensor(prep.phi.astype(np.float32), device=dev) @ W[:, 3:3 + d].T
+                memo[key] = {"garment_code": net.encoder_garment(gp), "phi_term": phi_term}
+        return memo[key]
 
     def predict_sample(self, sample: RefineSample) -> np.ndarray:
         """One forward pass on a prepared sample: (n, 3) float64 world positions."""
         import torch
 
         if not hasattr(self, "network_"):
-            raise ValueError("isomap-refine: no network; call fit() or load() first")
+            raise ValueError(f"{self.name}: no network; call fit() or load() first")
         with torch.no_grad():
             feats, gp, bp = self.features(sample)
             dx = self.network_(feats, gp, bp).cpu().numpy().astype(np.float64)

@@ -43,7 +43,9 @@ class RefineSample:
     garment; faces : (m, 3) int64; edges : (e, 2) int64; edge_weights : (e,) joint mask;
     face_pairs : (b, 2) int64 faces sharing an interior edge; target_V : (t, 3) target skin;
     target_N : (t, 3) its normals; target_emb : (t, d); center : (3,) float64;
-    seconds_correspondence : time of the coarse placement and neighbour search.
+    seconds_correspondence : time of the coarse placement and neighbour search; truth : (n, 3)
+    float64 ground-truth garment on the target (same frame), when known (validation, the
+    supervised variant), else None.
     """
 
     x: np.ndarray
@@ -61,6 +63,7 @@ class RefineSample:
     target_emb: np.ndarray
     center: np.ndarray
     seconds_correspondence: float = 0.0
+    truth: np.ndarray | None = None
     _tree: Any = None
 
     def tree(self) -> cKDTree:

@@ -15,7 +15,8 @@ import numpy as np
 
 log = logging.getLogger(__name__)
 
-__all__ = ["body_model_for", "predict_pairs", "training_triplets", "parse_value"]
+__all__ = ["body_model_for", "predict_pairs", "training_triplets", "parse_value", "garment_fingerprints",
+           "check_split_leakage"]
 
 
 def body_model_for(params, cache: dict | None = None):
@@ -63,15 +64,18 @@ def predict_pairs(method, pairs: Sequence[Any], limit: int | None = None) -> tup
 
 
 def training_triplets(dataset, split: str = "train", max_triplets: int | None = None, seed: int = 0,
-                      exclude_garments: Sequence[str] = ()):
-    """Self-supervised training triplets (garment, source body, target body) of a split.
+                      exclude_garments: Sequence[str] = (), with_truth: bool = False):
+    """Training triplets (garment, source body, target body) of a split.
 
-    Every ordered pose pair of every garment in ``split`` (no ground truth is read: only the
-    source garment and the two bodies), shuffled with ``seed`` and cut to ``max_triplets``.
+    Every ordered pair of every garment in ``split``, shuffled with ``seed`` and cut to
+    ``max_triplets``. Without ``with_truth`` no ground truth is read (only the source garment
+    and the two bodies: self-supervised training); with it the target garment is appended
+    (the supervised variant, validation curves).
 
     Returns
     -------
-    triplets : list of (garment_V (n, 3), garment_F (m, 3), source BodyParams, target BodyParams)
+    triplets : list of (garment_V (n, 3), garment_F (m, 3), source BodyParams, target BodyParams
+        [, target garment vertices (n, 3)])
     body_model : the body model of the first sample.
     """
     from dressmeup.errors import InputError
@@ -87,11 +91,86 @@ def training_triplets(dataset, split: str = "train", max_triplets: int | None = 
         p = pairs[int(i)]
         g = p.source.garment()
         src, tgt = p.source.body(), p.target.body()
-        triplets.append((np.asarray(g.vertices), np.asarray(g.faces), src, tgt))
+        item = (np.asarray(g.vertices), np.asarray(g.faces), src, tgt)
+        if with_truth:
+            truth = np.asarray(p.target.garment().vertices, dtype=np.float64)
+            if truth.shape != item[0].shape:
+                raise InputError(f"pair {p.pair_id}: target garment has {len(truth)} vertices, source "
+                                 f"{len(item[0])}; supervised training needs one topology per garment")
+            item = (*item, truth)
+        triplets.append(item)
         body_model_for(src, models)
     if len(models) > 1:
         raise InputError(f"split {split!r} mixes body models {sorted(models)}; train one model per body model")
     return triplets, next(iter(models.values()))
+
+
+def garment_fingerprints(dataset, split: str) -> dict[str, dict[str, Any]]:
+    """Content fingerprints of every garment of a split (ids play no part).
+
+    Returns
+    -------
+    garment id -> {"samples": set of sample content hashes (vertices rounded to 0.01 mm and
+    faces), "topology": hash of the faces, "lengths": (e,) float64 edge lengths of its first
+    sample (metres), "split": split}.
+    """
+    from dressmeup.cache import hash_arrays
+    from dressmeup.geometry.mesh import edges as mesh_edges
+
+    out: dict[str, dict[str, Any]] = {}
+    for s in dataset.filter(split=split).samples():
+        g = s.garment()
+        V, F = np.asarray(g.vertices, dtype=np.float64), np.asarray(g.faces, dtype=np.int64)
+        rec = out.setdefault(s.garment_id, {"samples": set(), "topology": hash_arrays(F), "lengths": None,
+                                            "split": split})
+        rec["samples"].add(hash_arrays(np.round(V, 5), F))
+        if rec["lengths"] is None:
+            E = mesh_edges(F)
+            rec["lengths"] = np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
+    return out
+
+
+def check_split_leakage(dataset, train_split: str = "train", other_splits: Sequence[str] = ("val", "test"),
+                        length_tolerance: float = 0.01) -> dict[str, Any]:
+    """Refuse training data whose garments appear, by content, in another split.
+
+    A train garment leaks when one of its samples has the same content hash as a sample of
+    another split, or when it has the same face list as a garment of another split and its
+    edge lengths differ from that garment's by less than ``length_tolerance`` (median relative
+    difference: the same garment under another id, draped in another pose).
+
+    Returns
+    -------
+    dict: ``train_garments``, ``compared_garments`` (per other split), ``closest`` (the smallest
+    median relative edge-length difference met between same-topology garments, or None).
+
+    Raises
+    ------
+    InputError
+        Naming the leaking garment ids.
+    """
+    from dressmeup.errors import InputError
+
+    train = garment_fingerprints(dataset, train_split)
+    others: dict[str, dict[str, Any]] = {}
+    for sp in other_splits:
+        for g, rec in garment_fingerprints(dataset, sp).items():
+            others[f"{sp}:{g}"] = rec
+    closest = None
+    for g, rec in train.items():
+        for og, orec in others.items():
+            if rec["samples"] & orec["samples"]:
+                raise InputError(f"garment {g!r} of split {train_split!r} has a sample identical in content to "
+                                 f"one of {og}: training would leak; remove it from the training split")
+            if rec["topology"] == orec["topology"] and len(rec["lengths"]) == len(orec["lengths"]):
+                rel = float(np.median(np.abs(rec["lengths"] - orec["lengths"])
+                                      / np.maximum(orec["lengths"], 1e-12)))
+                closest = rel if closest is None else min(closest, rel)
+                if rel < length_tolerance:
+                    raise InputError(f"garment {g!r} of split {train_split!r} has the faces of {og} and edge "
+                                     f"lengths within {100 * rel:.2f} %: the same garment under another id; "
+                                     "training would leak")
+    return {"train_garments": sorted(train), "compared_garments": sorted(others), "closest": closest}
 
 
 def parse_value(text: str) -> Any:

@@ -66,7 +66,7 @@ def test_refine_loss_decreases_and_roundtrips(tiny, body_model, tmp_path):
     assert m.loss_history_[-1][1]["penetration"] < 0.5 * m.loss_history_[0][1]["penetration"]
     out = m.retarget(V, F, s, t, body_model)
     assert out.shape == V.shape and np.all(np.isfinite(out))
-    assert set(m.last_timing_) == {"correspondence", "network"}
+    assert {"correspondence", "network"} <= set(m.last_timing_)
     path = m.save(tmp_path / "w.pt")
     loaded = get_method("isomap-refine", weights=str(path))
     assert np.array_equal(loaded.retarget(V, F, s, t, body_model), out)
