@@ -8,6 +8,9 @@
    baselines, score them and print their leaderboard;
 5. when the capture and fusion stages are installed: render one synthetic capture of a sample,
    fuse it and report its fusion quality against the scan.
+6. write the report site of every result (``runs/<time>/site/index.html``: sortable
+   leaderboards, a page per method with its best and worst items as pictures) and print
+   the path of its index.
 
 Everything is written under ``OUT`` (default ``./dressmeup-demo``): ``data/`` (reused by
 later runs), and a new ``runs/<time>/`` folder per run with ``submissions/``, ``results/``
@@ -99,7 +102,10 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
         _uv_part(run, out, workers, quick, log, report)
     if with_fusion:
         _fusion_part(data, run, quick, log, report)
+    _site_part(run, log, report)
     log(f"done in {time.perf_counter() - t0:.0f} s; everything is under {run}")
+    if report.get("site"):
+        log(f"open the report site: {report['site']}")
     return report
 
 
@@ -127,6 +133,20 @@ def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report
     report["uv_leaderboard"] = md
     log(f"Leaderboard {UV_EDITION}:")
     log(md)
+
+
+def _site_part(run: Path, log, report) -> None:
+    """Write the report site of every result of this run (``run/site/index.html``)."""
+    from dressmeup.viz.site import write_site
+
+    if not report["results"]:
+        return
+    log("report site: leaderboards, a page per method with pictures of its best and worst "
+        "items")
+    site = write_site(report["results"], run / "site")
+    report["site"] = site.index.resolve()
+    log(f"report site written in {site.seconds:.0f} s ({len(site.method_pages)} method pages, "
+        f"{site.images} pictures)")
 
 
 def _fusion_part(data: Path, run: Path, quick: bool, log, report) -> None:
