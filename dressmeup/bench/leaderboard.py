@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from dressmeup.bench.edition import Edition, edition_from_dict
+from dressmeup.bench.escape import csv_text, latex_text, md_text, safe_url
 from dressmeup.bench.results import EDITION_JSON, Result, load_result
 from dressmeup.bench.tasks import MetricSpec, get_task
 from dressmeup.errors import InputError
@@ -239,7 +240,7 @@ class Leaderboard:
         lines = ["| " + " | ".join(head) + " |",
                  "|" + "|".join([":-:", ":--"] + ["--:"] * (len(head) - 2)) + "|"]
         for i, row in enumerate(self.rows):
-            cells = [self.rank(i), self.method_text(row).replace("|", "\\|")]
+            cells = [self.rank(i), md_text(self.method_text(row))]
             for c in self.columns:
                 t = self.cell(row, c)
                 cells.append(f"**{t}**" if i in self.best.get(c.key, ()) else t)
@@ -247,7 +248,7 @@ class Leaderboard:
             if self.show_ci:
                 cells.append(self.separated(i))
             lines.append("| " + " | ".join(cells) + " |")
-        return "\n".join(lines) + "\n\n" + self._caption() + "\n"
+        return "\n".join(lines) + "\n\n" + html.escape(self._caption(), quote=False) + "\n"
 
     def to_csv(self) -> str:
         """CSV: numbers in display units (std columns when asked), ``best_in`` lists the
@@ -263,10 +264,10 @@ class Leaderboard:
                 head += [c.header() + " ci95 lo", c.header() + " ci95 hi"]
         head += ["failed", "items", "runtime_s_per_sample", "best_in", "comparable",
                  "separated_from_next", "schema_version"]
-        w.writerow(head)
+        w.writerow([csv_text(h) for h in head])
         for i, row in enumerate(self.rows):
             rank = self.rank(i)
-            vals: list[Any] = [rank if rank != "–" else "", row["method"]]
+            vals: list[Any] = [rank if rank != "–" else "", csv_text(row["method"])]
             best_in = []
             for c in self.columns:
                 mean, std, _ = row["values"].get(c.key, (None, None, 0))
@@ -294,12 +295,7 @@ class Leaderboard:
 
     def to_latex(self) -> str:
         """A ``booktabs`` LaTeX table (``\\usepackage{booktabs}``)."""
-        def esc(s: str) -> str:
-            for a, b in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"),
-                         ("_", r"\_"), ("#", r"\#"), ("$", r"\$"), ("{", r"\{"),
-                         ("}", r"\}"), ("~", r"\textasciitilde{}"), ("^", r"\^{}")):
-                s = s.replace(a, b)
-            return s
+        esc = latex_text
 
         def head(c: Column) -> str:
             arrow = r"$\downarrow$" if c.spec.better == "lower" else r"$\uparrow$"
@@ -359,8 +355,8 @@ class Leaderboard:
         body = []
         for i, row in enumerate(self.rows):
             m = row["method"]
-            link = (links or {}).get(m) or row.get("url")
-            if link and (links and m in links or str(link).startswith(("http://", "https://"))):
+            link = (links or {}).get(m) or safe_url(row.get("url"))
+            if link:
                 name = f'<a href="{e(link)}">{e(m)}</a>'
             else:
                 name = e(m)

@@ -121,9 +121,9 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
                 if key != "data_root" and not key.endswith("_path"):
                     res.setdefault(key, value)
             rows.append(res)
-    table = _to_table(rows, list(ed.metrics), list(getattr(task, "extra_columns", ())))
-    stats = summarise(table, list(ed.metrics), list(getattr(task, "extra_columns", ())),
-                      unit_column=getattr(task, "unit_column", None))
+    table = _to_table(rows, list(ed.metrics), list(task.extra_columns))
+    stats = summarise(table, list(ed.metrics), list(task.extra_columns),
+                      unit_column=task.unit_column)
     info = report.info or {}
     summary: dict[str, Any] = {
         "schema": RESULT_SCHEMA,
