@@ -12,6 +12,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from dressmeup.cli.executor_args import add_executor_args, executor_from_args
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Register ``synth-capture``, ``fuse`` and ``build-dataset``."""
@@ -66,6 +68,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--target-faces", type=int, default=20000, help="garment face count (decimation)")
     p.add_argument("--texture-size", type=int, default=1024)
     p.add_argument("--no-texture", action="store_true")
+    add_executor_args(p, default_workers=1, what="session")
     p.set_defaults(func=_build_dataset)
 
 
@@ -163,7 +166,8 @@ def _build_dataset(args: argparse.Namespace) -> int:
         extraction_config=ExtractionConfig(target_faces=args.target_faces,
                                            texture=not args.no_texture,
                                            texture_size=args.texture_size),
-        body=args.body, body_model=args.body_model, split=args.split, name=args.name)
+        body=args.body, body_model=args.body_model, split=args.split, name=args.name,
+        executor=executor_from_args(args, default_workers=1))
     for session, error in report.failed:
         sys.stderr.write(f"build-dataset: skipped session {session}: {error}\n")
     sys.stdout.write(f"{args.out}: {report.written} sample(s) written, {report.skipped} already "

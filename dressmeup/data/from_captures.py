@@ -106,10 +106,55 @@ def body_for_session(session: Any, vertices: np.ndarray, faces: np.ndarray, sour
     raise ValueError(f"no body for {session.root}: " + "; ".join(errors))
 
 
+def build_session(job: dict[str, Any]) -> dict[str, Any]:
+    """One build job (runs on a worker): fuse, extract and find the body of one session.
+
+    Parameters
+    ----------
+    job : ``{"session": folder, "fusion": FusionConfig, "extraction": ExtractionConfig,
+        "body": body source, "body_model": name}``.
+
+    Returns
+    -------
+    dict with ``subject_id``, ``pose_id``, ``garments`` (list of dicts: ``id``, ``category``,
+    ``garment_type``, ``mesh`` = ``(V (n,3) float64, F (m,3) int64[, uv (k,2), uv_faces])``
+    in the output frame, ``texture`` (h,w,3) uint8 or None), ``scan`` = ``(V, F)``, ``body``
+    (BodyParams or None), ``labels_from`` and ``body_source``.
+    """
+    from dressmeup.capture.session import open_session
+    from dressmeup.extraction.pipeline import extract_garments
+    from dressmeup.fusion.pipeline import fuse_session
+
+    session = open_session(job["session"])
+    info = session.info
+    result = fuse_session(session, job["fusion"])
+    ex = extract_garments(result, info, job["extraction"])
+    params, T, body_src = body_for_session(session, result.vertices, result.faces,
+                                           job["body"], job["body_model"])
+
+    def tf(V: np.ndarray) -> np.ndarray:
+        return V if T is None else V @ T[:3, :3].T + T[:3, 3]
+
+    garments = [{"id": g.info.id, "category": g.info.category,
+                 "garment_type": g.info.garment_type or g.info.category,
+                 "mesh": ((tf(g.vertices), g.faces) if g.uv is None
+                          else (tf(g.vertices), g.faces, g.uv, g.uv_faces)),
+                 "texture": g.texture} for g in ex.garments]
+    return {"subject_id": info.subject_id, "pose_id": info.pose_id, "garments": garments,
+            "scan": (tf(result.vertices), result.faces), "body": params,
+            "labels_from": ex.method, "body_source": body_src}
+
+
+def _failure(exc: BaseException) -> str:
+    return (str(exc) if isinstance(exc, (DressmeupError, ValueError, OSError))
+            else f"{type(exc).__name__}: {exc}")
+
+
 def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path, *,
                                 fusion_config: Any = None, extraction_config: Any = None,
                                 body: str = "auto", body_model: str = "anny",
-                                split: str = "train", name: str = "captured") -> BuildReport:
+                                split: str = "train", name: str = "captured",
+                                executor: Any = None) -> BuildReport:
     """Fuse, extract and register every session into the dataset at ``out``.
 
     Parameters
@@ -120,6 +165,10 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     extraction_config : ``dressmeup.extraction.pipeline.ExtractionConfig`` (defaults when None).
     body, body_model : see :func:`body_for_session`.
     split : split of the garments written; name : dataset name in dataset.json.
+    executor : where the per-session jobs (:func:`build_session`) run
+        (:mod:`dressmeup.executors`; default: one after the other in this process). This
+        process writes every sample, in session order, so the dataset is the same whatever
+        the executor.
 
     Returns
     -------
@@ -128,8 +177,9 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     from dressmeup.capture.session import open_session
     from dressmeup.data import layout
     from dressmeup.data.writer import DatasetWriter
-    from dressmeup.extraction.pipeline import ExtractionConfig, extract_garments
-    from dressmeup.fusion.pipeline import FusionConfig, fuse_session
+    from dressmeup.executors import LocalExecutor, in_order
+    from dressmeup.extraction.pipeline import ExtractionConfig
+    from dressmeup.fusion.pipeline import FusionConfig
     from dressmeup.io.atomic import atomic_write_text
     from dressmeup.progress import progress
 
@@ -141,43 +191,48 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     writer = DatasetWriter(out, {"name": name, "source": "dressmeup build-dataset",
                                  "body_model": body_model})
     report = BuildReport()
-    for sdir in progress(folders, desc="sessions", total=len(folders)):
+    todo: list[tuple[Path, list[str]]] = []
+    for sdir in folders:
         try:
-            session = open_session(sdir)
-            info = session.info
-            ids = [layout.make_sample_id(info.subject_id, g.id, info.pose_id) for g in info.garments]
-            if ids and all(writer.has_sample(i) for i in ids):
-                report.skipped += len(ids)
-                continue
-            result = fuse_session(session, fusion_config)
-            ex = extract_garments(result, info, extraction_config)
-            params, T, body_src = body_for_session(session, result.vertices, result.faces,
-                                                   body, body_model)
-
-            def tf(V: np.ndarray, T: np.ndarray | None = T) -> np.ndarray:
-                return V if T is None else V @ T[:3, :3].T + T[:3, 3]
-
-            for g, sid in zip(ex.garments, ids, strict=True):
+            info = open_session(sdir).info
+            ids = [layout.make_sample_id(info.subject_id, g.id, info.pose_id)
+                   for g in info.garments]
+        except Exception as exc:  # noqa: BLE001 - one bad session must not stop the build
+            report.failed.append((str(sdir), _failure(exc)))
+            log.warning("build-dataset: skipped session %s: %s", sdir, _failure(exc))
+            continue
+        if ids and all(writer.has_sample(i) for i in ids):
+            report.skipped += len(ids)
+        else:
+            todo.append((sdir, ids))
+    executor = executor or LocalExecutor(1)
+    executor.require_shared(*(s for s, _ in todo))
+    jobs = [{"session": str(sdir), "fusion": fusion_config, "extraction": extraction_config,
+             "body": body, "body_model": body_model} for sdir, _ in todo]
+    done = progress(executor.run(build_session, jobs), desc="sessions", total=len(jobs))
+    for i, res in in_order(done):
+        sdir, ids = todo[i]
+        try:
+            if isinstance(res, BaseException):
+                raise res
+            for g, sid in zip(res["garments"], ids, strict=True):
                 if writer.has_sample(sid):
                     report.skipped += 1
                     continue
-                garment = ((tf(g.vertices), g.faces) if g.uv is None
-                           else (tf(g.vertices), g.faces, g.uv, g.uv_faces))
-                writer.add_sample(subject_id=info.subject_id, garment_id=g.info.id,
-                                  pose_id=info.pose_id, category=g.info.category,
-                                  garment_type=g.info.garment_type or g.info.category,
-                                  split=split, garment=garment, body=params,
-                                  scan=(tf(result.vertices), result.faces), texture=g.texture,
-                                  sample_id=sid)
+                writer.add_sample(subject_id=res["subject_id"], garment_id=g["id"],
+                                  pose_id=res["pose_id"], category=g["category"],
+                                  garment_type=g["garment_type"], split=split,
+                                  garment=g["mesh"], body=res["body"], scan=res["scan"],
+                                  texture=g["texture"], sample_id=sid)
                 report.written += 1
-            log.info("%s: %d garment(s), labels from %s, body from %s", sdir, len(ex.garments),
-                     ex.method, body_src)
+            log.info("%s: %d garment(s), labels from %s, body from %s", sdir,
+                     len(res["garments"]), res["labels_from"], res["body_source"])
         except Exception as exc:  # noqa: BLE001 - one bad session must not stop the build
-            msg = (str(exc) if isinstance(exc, (DressmeupError, ValueError, OSError))
-                   else f"{type(exc).__name__}: {exc}")
-            report.failed.append((str(sdir), msg))
-            log.warning("build-dataset: skipped session %s: %s", sdir, msg)
+            report.failed.append((str(sdir), _failure(exc)))
+            log.warning("build-dataset: skipped session %s: %s", sdir, _failure(exc))
     writer.finalize()
+    rank = {str(s): k for k, s in enumerate(folders)}
+    report.failed.sort(key=lambda f: rank.get(f[0], len(rank)))  # in the order given
     if report.failed:
         report.failures_path = Path(out) / "build-failures.json"
         atomic_write_text(report.failures_path, json.dumps(

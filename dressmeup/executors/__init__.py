@@ -18,12 +18,13 @@ from __future__ import annotations
 
 import importlib.util
 import os
-from collections.abc import Callable, Iterator, Sequence
-from typing import Any, Protocol
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import Any, Protocol, TypeVar
 
 from dressmeup.executors.local import LocalExecutor, die_with_parent
 
 EXECUTORS = ("local", "dask")
+T = TypeVar("T")
 
 
 class Executor(Protocol):
@@ -41,6 +42,23 @@ class Executor(Protocol):
     def require_shared(self, *paths: str | os.PathLike, writable: Sequence[Any] = ()) -> None:
         """Declare the folders the jobs read (``paths``) and write (``writable``); a
         distributed executor checks that every worker sees them."""
+
+
+def in_order(results: Iterable[tuple[int, T]]) -> Iterator[tuple[int, T]]:
+    """Re-order an executor's ``(index, result)`` pairs into index order.
+
+    Results that arrive early are held until every earlier index has been yielded, so a
+    consumer that writes as it goes (a dataset manifest) writes the same file as a serial run.
+    """
+    held: dict[int, T] = {}
+    nxt = 0
+    for i, res in results:
+        held[i] = res
+        while nxt in held:
+            yield nxt, held.pop(nxt)
+            nxt += 1
+    for i in sorted(held):
+        yield i, held.pop(i)
 
 
 def dashboard_available() -> bool:
@@ -100,4 +118,4 @@ def __getattr__(name: str) -> Any:  # DaskExecutor without importing distributed
 
 
 __all__ = ["EXECUTORS", "DaskExecutor", "Executor", "LocalExecutor", "dashboard_available",
-           "dask_available", "die_with_parent", "make_executor"]
+           "dask_available", "die_with_parent", "in_order", "make_executor"]

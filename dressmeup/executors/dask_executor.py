@@ -97,6 +97,40 @@ def see_paths(read: Sequence[str], write: Sequence[str]) -> dict[str, Any]:
                           os.access(_existing_ancestor(p), os.W_OK)) for p in write}}
 
 
+#: Imported in each worker's main thread before any task runs. Dask runs tasks in a thread
+#: pool; pymeshlab imported first in such a thread after open3d has run there corrupts the
+#: heap ("malloc_consolidate(): unaligned fastbin chunk detected", measured on the
+#: fusion clean-up of build-dataset), while an import in the main thread first is safe.
+MAIN_THREAD_IMPORTS = ("pymeshlab",)
+
+
+def _main_thread_imports(modules: Sequence[str] = MAIN_THREAD_IMPORTS) -> list[str]:
+    """Import ``modules`` (those installed) in the calling thread; return the imported ones."""
+    import importlib
+    import importlib.util
+
+    done = []
+    for name in modules:
+        if importlib.util.find_spec(name) is not None:
+            importlib.import_module(name)
+            done.append(name)
+    return done
+
+
+def _worker_plugin() -> Any:
+    """A WorkerPlugin whose ``setup`` (run in the worker's main thread, also for workers
+    that join or restart later) performs :data:`MAIN_THREAD_IMPORTS`."""
+    from distributed import WorkerPlugin
+
+    class MainThreadImports(WorkerPlugin):
+        name = "dressmeup-main-thread-imports"
+
+        def setup(self, worker: Any) -> None:
+            _main_thread_imports()
+
+    return MainThreadImports()
+
+
 # ----------------------------------------------------------------------------- client side
 class DaskExecutor:
     """Jobs as Dask futures on a LocalCluster (loopback only) or an existing scheduler.
@@ -187,10 +221,11 @@ class DaskExecutor:
                                   self.allowed_failures}):
                 self._cluster = distributed.LocalCluster(
                     n_workers=self.workers, threads_per_worker=1, processes=True,
-                    host=LOOPBACK, dashboard_address=f"{LOOPBACK}:0", silence_logs=logging.ERROR,
+                    host=LOOPBACK, dashboard_address=f"{LOOPBACK}:0", silence_logs=logging.CRITICAL,
                     memory_limit=self.memory_limit or "auto")
             self._client = distributed.Client(self._cluster)
             where = f"LocalCluster of {self.workers} worker processes on {LOOPBACK}"
+        self._client.register_plugin(_worker_plugin())
         self.startup_s = time.perf_counter() - t0
         from dressmeup.executors import dashboard_available
 
