@@ -147,6 +147,7 @@ class Leaderboard:
     show_std: bool = False
     primary: str = ""
     show_ci: bool = False
+    custom_edition: str | None = None
     unit: str | None = None
     n_units: int | None = None
 
@@ -210,7 +211,9 @@ class Leaderboard:
                 f"edition hash {ed.hash[:12]}, dataset manifest "
                 f"{(self.manifest_sha256 or '?')[:12]}). Sorted by "
                 f"{self._primary_label(ascii_only)}. Best per column in bold."
-                + self._ci_note())
+                + self._ci_note()
+                + (f" Custom edition (not shipped with dressmeup; from {self.custom_edition})."
+                   if self.custom_edition else ""))
 
     def _ci_note(self) -> str:
         """Caption sentences on intervals, separation and comparability."""
@@ -494,6 +497,9 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
                  for r in comparable]
         raise InputError("results scored on different datasets cannot share a leaderboard:\n"
                          + "\n".join(lines))
+    from dressmeup.bench.verify import verify_results
+
+    edition_check = verify_results(loaded)  # means vs per_sample, edition hashes
     ed = _edition_of(loaded[0])
     task = get_task(ed.task)
     specs = task.metric_specs(ed)
@@ -570,6 +576,7 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
                         else show_ci,
                         unit=boot.get("unit") or getattr(task, "unit_column", None),
                         n_units=boot.get("n_units"))
+    board.custom_edition = edition_check.source if edition_check.custom else None
     _mark_separation(rows, primary, getattr(task, "unit_column", None))
     for row in rows:
         row.pop("_result", None)
