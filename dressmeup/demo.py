@@ -152,7 +152,7 @@ def _site_part(run: Path, log, report) -> None:
 def _fusion_part(data: Path, run: Path, quick: bool, log, report) -> None:
     """Render one synthetic capture of a test sample, fuse it, score it against the scan."""
     try:
-        from dressmeup.bench.tasks.fusion.evaluate import fuse_synthetic_sample
+        from dressmeup.data.sample_capture import fuse_synthetic_sample
     except ImportError as exc:
         log(f"capture/fusion stage not available ({exc}): fusion part skipped")
         return

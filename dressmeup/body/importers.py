@@ -294,5 +294,5 @@ def import_body_params(path: str | os.PathLike, format: str = "auto", body_model
     if format == "auto":
         format = guess_format(path)
     if format not in _IMPORTERS:
-        raise ValueError(f"format: unknown {format!r}; known: {available_importers()}")
+        raise InputError(f"format: unknown {format!r}; known: {available_importers()}")
     return _IMPORTERS[format](path, body_model=body_model, **kw)

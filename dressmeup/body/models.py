@@ -6,6 +6,8 @@ import importlib
 import threading
 from collections.abc import Callable
 
+from dressmeup.errors import InputError
+
 _FACTORIES: dict[str, Callable[..., object]] = {}
 _BUILTIN = {
     "anny": ("dressmeup.body.anny_model", "AnnyBody"),
@@ -21,7 +23,7 @@ _LOCK = threading.Lock()
 def register_body_model(name: str, factory: Callable[..., object]) -> None:
     """Register ``factory(**kw) -> BodyModel`` under ``name`` (overrides a built-in)."""
     if not isinstance(name, str) or not name:
-        raise ValueError(f"name: expected a non-empty string, got {name!r}")
+        raise InputError(f"name: expected a non-empty string, got {name!r}")
     _FACTORIES[name] = factory
 
 
@@ -53,7 +55,7 @@ def get_body_model(name: str = "anny", **kw):
         mod, cls = _BUILTIN[name]
         factory = getattr(importlib.import_module(mod), cls)
     else:
-        raise ValueError(f"unknown body model {name!r}; known: {available_body_models()}")
+        raise InputError(f"unknown body model {name!r}; known: {available_body_models()}")
     with _LOCK:
         model = factory(**kw)
         if key is not None:

@@ -349,7 +349,7 @@ def look_at(eye: Any, target: Any, up: Any) -> np.ndarray:
     z /= np.linalg.norm(z)
     x = np.cross(z, up)
     if np.linalg.norm(x) < 1e-9:
-        raise ValueError("look_at: viewing direction is parallel to up")
+        raise InputError("look_at: viewing direction is parallel to up")
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     m = np.eye(4)
@@ -383,7 +383,7 @@ def ring_rig(n_cameras: int = 7, radius: float = 2.2, height: float = 1.0,
     Rig with serials ``cam0 .. cam{n-1}``; ``cam0`` is the reference.
     """
     if n_cameras < 1:
-        raise ValueError(f"n_cameras: expected >= 1, got {n_cameras}")
+        raise InputError(f"n_cameras: expected >= 1, got {n_cameras}")
     up = np.asarray(up, dtype=np.float64)
     up = up / np.linalg.norm(up)
     a = np.array([1.0, 0.0, 0.0]) if abs(up[0]) < 0.9 else np.array([0.0, 0.0, 1.0])

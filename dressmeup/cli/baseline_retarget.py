@@ -6,6 +6,8 @@ import argparse
 import platform
 import sys
 
+from dressmeup.errors import InputError
+
 
 def register(tasks: argparse._SubParsersAction) -> None:
     """Register ``retarget`` and ``train-retarget`` under ``dressmeup baseline``."""
@@ -64,7 +66,7 @@ def _params(items: list[str]) -> dict:
     out = {}
     for item in items:
         if "=" not in item:
-            raise ValueError(f"--param: expected KEY=VALUE, got {item!r}")
+            raise InputError(f"--param: expected KEY=VALUE, got {item!r}")
         k, v = item.split("=", 1)
         out[k.strip()] = parse_value(v)
     return out
@@ -82,7 +84,7 @@ def _run(args: argparse.Namespace) -> int:
     check_submission_out(args.out, args.overwrite)  # before the work, naming --overwrite
     edition = load_edition(args.edition)
     if edition.task != "retarget":
-        raise ValueError(f"--edition: {edition.name} is a {edition.task!r} edition, expected a retarget one")
+        raise InputError(f"--edition: {edition.name} is a {edition.task!r} edition, expected a retarget one")
     params = _params(args.param)
     if args.weights:
         params["weights"] = args.weights

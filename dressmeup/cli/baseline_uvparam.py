@@ -15,6 +15,8 @@ import re
 import sys
 from pathlib import Path
 
+from dressmeup.errors import InputError
+
 METHOD_NAMES = ("xatlas", "lscm", "harmonic", "slim", "neural")
 
 
@@ -61,7 +63,7 @@ def _parse_params(items: list[str]) -> dict:
     out = {}
     for item in items:
         if "=" not in item:
-            raise ValueError(f"--param {item!r}: expected KEY=VALUE")
+            raise InputError(f"--param {item!r}: expected KEY=VALUE")
         k, v = item.split("=", 1)
         try:
             out[k] = json.loads(v)
@@ -94,10 +96,10 @@ def _mesh_ids_from_edition(edition: str) -> list[str]:
 
     ed = load_edition(edition)
     if ed.task != "uvparam":
-        raise ValueError(f"--edition {edition}: a '{ed.task}' edition, expected a 'uvparam' one")
+        raise InputError(f"--edition {edition}: a '{ed.task}' edition, expected a 'uvparam' one")
     ids = ed.dataset.params.get("mesh_ids")
     if not ids:
-        raise ValueError(f"--edition {edition}: the edition lists no mesh_ids")
+        raise InputError(f"--edition {edition}: the edition lists no mesh_ids")
     return list(ids)
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from dressmeup.errors import InputError
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Register this stage's subcommands."""
@@ -90,7 +92,7 @@ def _run_register(args: argparse.Namespace) -> int:
     options: dict = {}
     if args.registrar == "from-file":
         if not args.params:
-            raise ValueError("--registrar from-file needs --params FILE")
+            raise InputError("--registrar from-file needs --params FILE")
         options = {"path": args.params, "format": args.format}
         scan = None
     else:
@@ -102,11 +104,11 @@ def _run_register(args: argparse.Namespace) -> int:
             except ValueError:
                 its = ()
             if len(its) != 3 or min(its) < 0:
-                raise ValueError(f"--iterations: expected three counts like 60,160,160, got "
+                raise InputError(f"--iterations: expected three counts like 60,160,160, got "
                                  f"{args.iterations!r}")
             options["iterations"] = its
         if args.clothed and args.naked:
-            raise ValueError("--clothed and --naked exclude each other")
+            raise InputError("--clothed and --naked exclude each other")
         if args.clothed:
             options["inside_weight"] = 0.2
         if args.naked:

@@ -6,6 +6,8 @@ import argparse
 import json
 import sys
 
+from dressmeup.errors import InputError
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Register the ``metrics`` subcommand."""
@@ -57,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     from dressmeup.metrics.report import compare_meshes
 
     if args.samples < 1:
-        raise ValueError(f"--samples: expected a positive number, got {args.samples}")
+        raise InputError(f"--samples: expected a positive number, got {args.samples}")
     pred = load_mesh(args.pred)
     gt = load_mesh(args.gt)
     body = load_mesh(args.body) if args.body else None

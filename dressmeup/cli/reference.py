@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from dressmeup.cli import build_parser
+from dressmeup.errors import InputError
 
 HEADING = "## Commands\n"
 WIDTH = 100
@@ -51,7 +52,7 @@ def command_reference() -> str:
 def render_page(existing: str) -> str:
     """Return ``existing`` with everything after the ``## Commands`` heading regenerated."""
     if HEADING not in existing:
-        raise ValueError(f"the page has no '{HEADING.strip()}' heading to regenerate below")
+        raise InputError(f"the page has no '{HEADING.strip()}' heading to regenerate below")
     head = existing[: existing.index(HEADING) + len(HEADING)]
     return head + "\n" + command_reference()
 

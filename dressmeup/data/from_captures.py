@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.errors import DressmeupError
+from dressmeup.errors import DressmeupError, InputError
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +77,7 @@ def body_for_session(session: Any, vertices: np.ndarray, faces: np.ndarray, sour
     (BodyParams or None, (4, 4) transform to apply to written meshes or None, source used).
     """
     if source not in BODY_SOURCES:
-        raise ValueError(f"source: expected one of {BODY_SOURCES}, got {source!r}")
+        raise InputError(f"source: expected one of {BODY_SOURCES}, got {source!r}")
     modes = ["register", "session", "ground-truth", "none"] if source == "auto" else [source]
     errors = []
     for mode in modes:
@@ -103,7 +103,7 @@ def body_for_session(session: Any, vertices: np.ndarray, faces: np.ndarray, sour
             errors.append(f"{gt / 'body.npz'} absent")
         if mode == "none":
             return None, None, "none"
-    raise ValueError(f"no body for {session.root}: " + "; ".join(errors))
+    raise InputError(f"no body for {session.root}: " + "; ".join(errors))
 
 
 def build_session(job: dict[str, Any]) -> dict[str, Any]:
@@ -185,7 +185,7 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
 
     folders = find_sessions(sessions)
     if not folders:
-        raise ValueError("sessions: no session folder given")
+        raise InputError("sessions: no session folder given")
     fusion_config = fusion_config or FusionConfig()
     extraction_config = extraction_config or ExtractionConfig()
     writer = DatasetWriter(out, {"name": name, "source": "dressmeup build-dataset",

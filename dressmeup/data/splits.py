@@ -24,6 +24,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from dressmeup.errors import InputError
+
 DEFAULT_FRACTIONS = (0.6, 0.2, 0.2)
 STRATEGIES = ("stratified", "random")
 
@@ -89,22 +91,22 @@ def split_by_garment(garment_ids: Sequence[str], fractions: Sequence[float] = DE
     """
     ids = sorted(set(garment_ids))
     if len(ids) != len(list(garment_ids)):
-        raise ValueError("garment_ids: expected unique ids")
+        raise InputError("garment_ids: expected unique ids")
     f = np.asarray(fractions, dtype=np.float64)
     if f.shape != (3,) or np.any(f < 0) or not np.isclose(f.sum(), 1.0):
-        raise ValueError(f"fractions: expected 3 non-negative numbers summing to 1, got {fractions}")
+        raise InputError(f"fractions: expected 3 non-negative numbers summing to 1, got {fractions}")
     if strategy is None:
         strategy = "stratified" if categories is not None else "random"
     if strategy not in STRATEGIES:
-        raise ValueError(f"strategy: expected one of {STRATEGIES}, got {strategy!r}")
+        raise InputError(f"strategy: expected one of {STRATEGIES}, got {strategy!r}")
     if strategy == "random":
         return _cut(ids, f, np.random.default_rng(seed))
     if categories is None:
-        raise ValueError("categories: strategy 'stratified' needs a garment id -> category "
+        raise InputError("categories: strategy 'stratified' needs a garment id -> category "
                          "mapping (e.g. the manifest's 'category' column)")
     missing = [g for g in ids if g not in categories]
     if missing:
-        raise ValueError(f"categories: no category for garments {missing[:5]}")
+        raise InputError(f"categories: no category for garments {missing[:5]}")
     groups: dict[str, list[str]] = {}
     for g in ids:
         groups.setdefault(str(categories[g]), []).append(g)

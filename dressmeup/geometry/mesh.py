@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.errors import InputError
+
 __all__ = ["as_arrays", "as_points", "face_areas", "face_normals", "vertex_normals", "edges"]
 
 
@@ -44,21 +46,21 @@ def as_points(points: Any, name: str = "points", dim: int | None = 3) -> np.ndar
     try:
         arr = np.asarray(points)
     except Exception as exc:  # ragged lists and the like
-        raise ValueError(
+        raise InputError(
             f"{name}: expected an (n, {dim or 'd'}) float array, got {type(points).__name__}"
         ) from exc
     if arr.dtype == object or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
-        raise ValueError(
+        raise InputError(
             f"{name}: expected a numeric (n, {dim or 'd'}) array, got dtype {arr.dtype}"
         )
     if arr.ndim != 2 or (dim is not None and arr.shape[1] != dim) or arr.shape[1] < 1:
-        raise ValueError(f"{name}: expected shape (n, {dim or 'd'}), got {arr.shape}")
+        raise InputError(f"{name}: expected shape (n, {dim or 'd'}), got {arr.shape}")
     if arr.shape[0] == 0:
-        raise ValueError(f"{name}: expected at least one point, got shape {arr.shape} (empty)")
+        raise InputError(f"{name}: expected at least one point, got shape {arr.shape} (empty)")
     arr = np.ascontiguousarray(arr, dtype=np.float64)
     if not np.all(np.isfinite(arr)):
         bad = int(np.count_nonzero(~np.isfinite(arr).all(axis=1)))
-        raise ValueError(f"{name}: {bad} of {arr.shape[0]} rows contain NaN or inf")
+        raise InputError(f"{name}: {bad} of {arr.shape[0]} rows contain NaN or inf")
     return arr
 
 
@@ -84,9 +86,9 @@ def as_faces(faces: Any, n_vertices: int, name: str = "faces") -> np.ndarray:
     """
     arr = np.asarray(faces)
     if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"{name}: expected shape (m, 3) of triangle indices, got {arr.shape}")
+        raise InputError(f"{name}: expected shape (m, 3) of triangle indices, got {arr.shape}")
     if arr.shape[0] == 0:
-        raise ValueError(f"{name}: expected at least one face, got shape {arr.shape} (empty)")
+        raise InputError(f"{name}: expected at least one face, got shape {arr.shape} (empty)")
     if not np.issubdtype(arr.dtype, np.integer):
         if (
             np.issubdtype(arr.dtype, np.floating)
@@ -95,11 +97,11 @@ def as_faces(faces: Any, n_vertices: int, name: str = "faces") -> np.ndarray:
         ):
             arr = arr.astype(np.int64)
         else:
-            raise ValueError(f"{name}: expected integer indices, got dtype {arr.dtype}")
+            raise InputError(f"{name}: expected integer indices, got dtype {arr.dtype}")
     arr = np.ascontiguousarray(arr, dtype=np.int64)
     lo, hi = int(arr.min()), int(arr.max())
     if lo < 0 or hi >= n_vertices:
-        raise ValueError(
+        raise InputError(
             f"{name}: indices must lie in [0, {n_vertices - 1}] (there are {n_vertices} vertices), "
             f"got values in [{lo}, {hi}]"
         )
@@ -139,7 +141,7 @@ def as_arrays(
         elif isinstance(obj, tuple) and len(obj) == 2:
             obj, faces = obj
         else:
-            raise ValueError(
+            raise InputError(
                 f"{name}: expected a mesh (trimesh.Trimesh or (vertices, faces)); faces are missing"
             )
     V = as_points(obj, name=f"{name} vertices", dim=3)

@@ -172,7 +172,7 @@ def _load_obj(path: Path) -> MeshData:
                         if len(sub) > 1 and sub[1]:
                             ti.append(_obj_index(sub[1], len(uvs)))
                     if len(vi) < 3:
-                        raise ValueError("a face needs at least three corners")
+                        raise InputError("a face needs at least three corners")
                     if len(ti) != len(vi):
                         missing_vt = True
                     for k in range(1, len(vi) - 1):
@@ -299,22 +299,22 @@ def _check_save_args(vertices, faces, uv, uv_faces, vertex_colors):
         uv = as_points(uv, name="uv", dim=2)
         if uv_faces is None:
             if uv.shape[0] != V.shape[0]:
-                raise ValueError(
+                raise InputError(
                     f"uv: per-vertex UVs need shape ({V.shape[0]}, 2), got {uv.shape}; "
                     "pass uv_faces for per-corner UVs"
                 )
         else:
             uv_faces = as_faces(uv_faces, uv.shape[0], name="uv_faces")
             if uv_faces.shape != F.shape:
-                raise ValueError(
+                raise InputError(
                     f"uv_faces: expected shape {F.shape} (one row per face), got {uv_faces.shape}"
                 )
     elif uv_faces is not None:
-        raise ValueError("uv_faces: given without uv")
+        raise InputError("uv_faces: given without uv")
     if vertex_colors is not None:
         vc = np.asarray(vertex_colors)
         if vc.ndim != 2 or vc.shape[0] != V.shape[0] or vc.shape[1] not in (3, 4):
-            raise ValueError(f"vertex_colors: expected shape ({V.shape[0]}, 3), got {vc.shape}")
+            raise InputError(f"vertex_colors: expected shape ({V.shape[0]}, 3), got {vc.shape}")
         if np.issubdtype(vc.dtype, np.floating):
             vc = np.clip(np.round(vc * 255.0), 0, 255)
         vertex_colors = vc[:, :3].astype(np.uint8)
@@ -340,7 +340,7 @@ def _texture_bytes(texture) -> bytes:
         or (arr.ndim == 3 and arr.shape[2] not in (3, 4))
         or arr.dtype != np.uint8
     ):
-        raise ValueError(
+        raise InputError(
             f"texture: expected an (H, W, 3) uint8 image or a file path, got {arr.dtype} {arr.shape}"
         )
     from PIL import Image
@@ -388,7 +388,7 @@ def save_mesh(
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in MESH_SUFFIXES:
-        raise ValueError(f"path: unsupported mesh format {suffix!r} (expected .ply or .obj)")
+        raise InputError(f"path: unsupported mesh format {suffix!r} (expected .ply or .obj)")
     V, F, uv, uv_faces, vc = _check_save_args(vertices, faces, uv, uv_faces, vertex_colors)
     tex_name = None
     if texture is not None:

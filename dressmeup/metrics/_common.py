@@ -27,7 +27,7 @@ def has_faces(obj: Any) -> bool:
 def mesh_arrays(obj: Any, name: str) -> tuple[np.ndarray, np.ndarray]:
     """Validated ``(V, F)`` of a mesh argument (trimesh-like object or ``(V, F)`` tuple)."""
     if not has_faces(obj):
-        raise ValueError(
+        raise InputError(
             f"{name}: expected a mesh (trimesh.Trimesh or a (vertices, faces) tuple), got "
             f"{type(obj).__name__}{getattr(obj, 'shape', '')}"
         )
@@ -50,5 +50,5 @@ def surface_or_points(obj: Any, name: str) -> tuple[np.ndarray, np.ndarray | Non
 
 def check_samples(n_samples: int) -> int:
     if int(n_samples) != n_samples or n_samples < 1:
-        raise ValueError(f"n_samples: expected a positive integer, got {n_samples}")
+        raise InputError(f"n_samples: expected a positive integer, got {n_samples}")
     return int(n_samples)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib
 
 from dressmeup.bench.tasks.base import Item, MetricSpec, Task
+from dressmeup.errors import InputError
 
 TASK_NAMES = ("retarget", "uvparam", "fusion", "registration", "correspondence")
 
@@ -19,7 +20,7 @@ def get_task(name: str) -> Task:
         If ``name`` is not a known task.
     """
     if name not in TASK_NAMES:
-        raise ValueError(f"task must be one of {', '.join(TASK_NAMES)}, got {name!r}")
+        raise InputError(f"task must be one of {', '.join(TASK_NAMES)}, got {name!r}")
     return importlib.import_module(f"dressmeup.bench.tasks.{name}").TASK
 
 

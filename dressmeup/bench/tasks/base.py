@@ -13,8 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 #: Statuses of a per-sample result row.
 STATUS_OK = "ok"
@@ -85,32 +84,61 @@ class Item:
     meta: dict[str, Any] = field(default_factory=dict)
 
 
-class Task(Protocol):
-    """The protocol each task module object implements (see ``dressmeup.bench.tasks``)."""
+@dataclass(frozen=True)
+class Task:
+    """What the generic machinery (validation, scoring, results, leaderboards) knows of a task.
+
+    Built by :func:`assemble_task` from the task package's four modules and checked there, so
+    a task that lacks a piece fails when it is imported, not in the middle of a scoring run.
+
+    Attributes
+    ----------
+    name : task name (``retarget``, ...).
+    metrics : the task's metrics, in table order.
+    default_options : edition options and their defaults.
+    extra_columns : extra per-item result columns kept in the table (``ir_gt``, ...).
+    unit_column : result column naming the independent unit of bootstrap intervals
+        (retarget: the source garment id; uvparam: the mesh id; ...).
+    file_suffixes : accepted submission file suffixes.
+    dataset_problems : ``(edition, data_root) -> (dataset info, problems)``; checks the pin.
+    items : ``(edition, data_root) -> list[Item]``, in a stable order.
+    check_file : ``(path, item, edition) -> list[str]`` problems of one submission file.
+    jobs : ``(edition, data_root, files, items, show_progress=None) -> list[dict]``, one
+        picklable scoring job per item (the main process prepares shared caches).
+    score_job : ``job -> dict`` one result row (runs in a worker).
+    metric_specs : ``(edition) -> list[MetricSpec]``, how the edition's metrics are shown.
+    """
 
     name: str
     metrics: Sequence[MetricSpec]
     default_options: Mapping[str, Any]
+    extra_columns: Sequence[str]
+    unit_column: str | None
     file_suffixes: Sequence[str]
-
-    def dataset_problems(self, edition: Any, data_root: Path) -> tuple[dict[str, Any], list[str]]:
-        """Check the data root against the edition's pin; return (dataset info, problems)."""
-
-    def items(self, edition: Any, data_root: Path) -> list[Item]:
-        """The items a submission to ``edition`` must contain, in a stable order."""
-
-    def check_file(self, path: Path, item: Item, edition: Any) -> list[str]:
-        """Problems of one submission file (empty when valid)."""
-
-    def jobs(self, edition: Any, data_root: Path, files: Mapping[str, Path],
-             items: Sequence[Item]) -> list[dict[str, Any]]:
-        """Picklable scoring jobs, one per item (main process: prepares shared caches)."""
-
+    dataset_problems: Callable[..., tuple[dict[str, Any], list[str]]]
+    items: Callable[..., list[Item]]
+    check_file: Callable[..., list[str]]
+    jobs: Callable[..., list[dict[str, Any]]]
     score_job: Callable[[dict[str, Any]], dict[str, Any]]
+    metric_specs: Callable[..., Any]
+
+    def __post_init__(self) -> None:
+        problems = []
+        if not self.name:
+            problems.append("name is empty")
+        if not all(isinstance(m, MetricSpec) for m in self.metrics):
+            problems.append("metrics must be MetricSpec objects")
+        if self.unit_column is not None and not isinstance(self.unit_column, str):
+            problems.append(f"unit_column must be a column name or None, got {self.unit_column!r}")
+        for fn in ("dataset_problems", "items", "check_file", "jobs", "score_job", "metric_specs"):
+            if not callable(getattr(self, fn)):
+                problems.append(f"{fn} is not callable")
+        if problems:
+            raise TypeError(f"task {self.name!r}: " + "; ".join(problems))
 
 
-def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any) -> Any:
-    """Build a task object (the :class:`Task` protocol) from its four modules.
+def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any) -> Task:
+    """Build a :class:`Task` from its four modules.
 
     Parameters
     ----------
@@ -119,16 +147,18 @@ def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any)
         column naming the independent unit of bootstrap intervals), ``FILE_SUFFIXES``/
         ``dataset_problems``/``items``/``check_file``, ``jobs``/``score_job`` and
         ``metric_specs``.
-    """
-    from types import SimpleNamespace
 
-    return SimpleNamespace(
+    Raises
+    ------
+    AttributeError when a module lacks one of them; TypeError when one has the wrong kind.
+    """
+    return Task(
         name=name,
-        metrics=config.METRICS,
+        metrics=tuple(config.METRICS),
         default_options=config.DEFAULT_OPTIONS,
-        extra_columns=config.EXTRA_COLUMNS,
-        unit_column=getattr(config, "UNIT_COLUMN", None),
-        file_suffixes=data.FILE_SUFFIXES,
+        extra_columns=tuple(config.EXTRA_COLUMNS),
+        unit_column=config.UNIT_COLUMN,
+        file_suffixes=tuple(data.FILE_SUFFIXES),
         dataset_problems=data.dataset_problems,
         items=data.items,
         check_file=data.check_file,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 from pathlib import Path
@@ -10,6 +11,20 @@ from typing import Any
 import numpy as np
 
 from dressmeup.errors import InputError
+
+
+@functools.lru_cache(maxsize=4)
+def open_dataset(root: str):
+    """A :class:`dressmeup.data.Dataset` for ``root`` (cached per process: the scoring jobs
+    of every task read their samples through it).
+
+    Parameters
+    ----------
+    root : dataset root as a resolved path string (the cache key).
+    """
+    from dressmeup.data import Dataset
+
+    return Dataset(root)
 
 
 def manifest_sha256(root: str | os.PathLike) -> str:

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from dressmeup.data.dataset import ID_FIELDS, RetargetPair, Sample, make_pairs
+from dressmeup.errors import InputError
 
 
 def clean_id(text: str) -> str:
@@ -140,7 +141,7 @@ def make_row(**fields: Any) -> dict[str, Any]:
     row = {"split": "test", **fields}
     missing = [f for f in ID_FIELDS if f not in row]
     if missing:
-        raise ValueError(f"row lacks {missing}")
+        raise InputError(f"row lacks {missing}")
     return row
 
 

@@ -37,6 +37,7 @@ from dressmeup.data.synth.garments import (
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
 from dressmeup.data.synth.texture import procedural_texture
 from dressmeup.data.writer import DatasetWriter
+from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.progress import progress
 
@@ -161,7 +162,7 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
         from dressmeup.data.synth.wardrobe import VERSION, generate_v3
 
         if version != VERSION:
-            raise ValueError(f"version: this toolkit generates 2.x as {VERSION}, got {version!r}")
+            raise InputError(f"version: this toolkit generates 2.x as {VERSION}, got {version!r}")
         return generate_v3(out, subjects=subjects, poses=poses,
                            garments_per_split=garments_per_split or (6, 2, 4), seed=seed,
                            body_model=body_model, categories=categories,
@@ -169,19 +170,19 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                            texture_size=texture_size, pose_steps=pose_steps,
                            drape_settings=drape_settings)
     if version != GENERATOR_VERSION:
-        raise ValueError(f"version: expected {GENERATOR_VERSION!r} or '2.0.0', got {version!r}")
+        raise InputError(f"version: expected {GENERATOR_VERSION!r} or '2.0.0', got {version!r}")
     for v, n in ((subjects, "subjects"), (garments, "garments"), (poses, "poses")):
         if not isinstance(v, (int, np.integer)) or v < 1:
-            raise ValueError(f"{n}: expected a positive integer, got {v!r}")
+            raise InputError(f"{n}: expected a positive integer, got {v!r}")
     if poses < 2:
         log.warning("poses=1 gives no retargeting pairs")
     if registration_noise < 0:
-        raise ValueError(f"registration_noise: expected >= 0, got {registration_noise}")
+        raise InputError(f"registration_noise: expected >= 0, got {registration_noise}")
     all_types = sorted(garment_types())
     types = sorted(types) if types else all_types
     bad = [t for t in types if t not in all_types]
     if bad:
-        raise ValueError(f"types: unknown {bad}; known {all_types}")
+        raise InputError(f"types: unknown {bad}; known {all_types}")
     edge = float(edge_length or DEFAULT_EDGE_LENGTH.get(body_model, 0.015))
     settings = drape_settings or DrapeSettings()
     t_start = time.perf_counter()

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.errors import InputError
+
 _AXES = ("left", "up", "forward")
 
 
@@ -50,7 +52,7 @@ def pose_rotations(name: str) -> list[list]:
             for e in p.get("mirror", []):
                 out += [list(e), _mirror(e)]
             return out + [list(e) for e in p.get("rotations", [])]
-    raise ValueError(f"pose: unknown name {name!r}; known: {pose_names('all')}")
+    raise InputError(f"pose: unknown name {name!r}; known: {pose_names('all')}")
 
 
 #: limb roots aligned to the canonical rest pose before applying library angles:
@@ -82,9 +84,9 @@ def pose_axis_angle(name: str, joint_names: tuple[str, ...], frame: Any,
     rots: dict[str, Rotation] = {}
     for joint, axis, deg in pose_rotations(name):
         if joint not in joint_names:
-            raise ValueError(f"pose {name!r}: joint {joint!r} not in the model's joints")
+            raise InputError(f"pose {name!r}: joint {joint!r} not in the model's joints")
         if axis not in _AXES:
-            raise ValueError(f"pose {name!r}: axis {axis!r} not in {_AXES}")
+            raise InputError(f"pose {name!r}: axis {axis!r} not in {_AXES}")
         if rng is not None and jitter_deg > 0:
             deg = deg + rng.normal(0.0, jitter_deg)
         r = Rotation.from_rotvec(np.deg2rad(deg) * np.asarray(getattr(frame, axis)))

@@ -18,6 +18,8 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from dressmeup.errors import InputError
+
 __all__ = ["get_method", "available_methods", "METHODS", "POSTPROCESSES", "LEADERBOARD"]
 
 METHODS = {
@@ -72,11 +74,11 @@ def get_method(name: str, **hyperparameters: Any):
         Unknown method, post-process or hyperparameter (the message lists the known ones).
     """
     if not isinstance(name, str) or not name:
-        raise ValueError(f"name: expected a method name, got {name!r}")
+        raise InputError(f"name: expected a method name, got {name!r}")
     parts = [p.strip() for p in name.split("+")]
     base, posts = parts[0], parts[1:]
     if base not in METHODS:
-        raise ValueError(f"unknown retargeting method {base!r}; known: {sorted(METHODS)} "
+        raise InputError(f"unknown retargeting method {base!r}; known: {sorted(METHODS)} "
                          f"(post-processes with '+': {sorted(POSTPROCESSES)})")
     post_kw: dict[str, dict[str, Any]] = {p: {} for p in posts}
     base_kw: dict[str, Any] = {}
@@ -84,7 +86,7 @@ def get_method(name: str, **hyperparameters: Any):
         if "__" in key:
             post, sub = key.split("__", 1)
             if post not in post_kw:
-                raise ValueError(f"hyperparameter {key!r}: {post!r} is not a post-process of {name!r}")
+                raise InputError(f"hyperparameter {key!r}: {post!r} is not a post-process of {name!r}")
             post_kw[post][sub] = value
         else:
             base_kw[key] = value
@@ -94,7 +96,7 @@ def get_method(name: str, **hyperparameters: Any):
     chain = []
     for p in posts:
         if p not in POSTPROCESSES:
-            raise ValueError(f"unknown post-process {p!r} in {name!r}; known: {sorted(POSTPROCESSES)}")
+            raise InputError(f"unknown post-process {p!r} in {name!r}; known: {sorted(POSTPROCESSES)}")
         chain.append(_make(POSTPROCESSES, p, post_kw[p]))
     from dressmeup.methods.retarget.postprocess import Pipeline
 
@@ -108,5 +110,5 @@ def _make(table: dict, name: str, kw: dict[str, Any]):
     known = [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
     bad = sorted(set(kw) - set(known))
     if bad:
-        raise ValueError(f"{name}: unknown hyperparameter(s) {bad}; known: {known}")
+        raise InputError(f"{name}: unknown hyperparameter(s) {bad}; known: {known}")
     return cls(**kw)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from dressmeup.errors import InputError
 from dressmeup.methods.uvparam.base import UVResult
 
 __all__ = ["UVResult", "get_method", "METHODS"]
@@ -48,6 +49,6 @@ def get_method(name: str, **hyperparameters: Any):
         Unknown method name.
     """
     if name not in METHODS:
-        raise ValueError(f"method: expected one of {', '.join(METHODS)}, got {name!r}")
+        raise InputError(f"method: expected one of {', '.join(METHODS)}, got {name!r}")
     module, cls = METHODS[name]
     return getattr(importlib.import_module(module), cls)(**hyperparameters)

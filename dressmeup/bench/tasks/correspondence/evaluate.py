@@ -34,8 +34,7 @@ def richness_on_subset(V: np.ndarray, F: np.ndarray, E: np.ndarray, k: int, max_
 
 def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
     """Score one embedding."""
-    from dressmeup.bench.tasks.common import load_npz_arrays
-    from dressmeup.bench.tasks.retarget.data import open_dataset
+    from dressmeup.bench.tasks.common import load_npz_arrays, open_dataset
 
     t0 = time.perf_counter()
     g = open_dataset(job["meta"]["data_root"])[job["item_id"]].garment()

@@ -24,7 +24,7 @@ def _model(name: str):
 
 def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
     """Score one fitted body."""
-    from dressmeup.bench.tasks.retarget.data import open_dataset
+    from dressmeup.bench.tasks.common import open_dataset
     from dressmeup.body import BodyParams
     from dressmeup.geometry.sampling import sample_surface
     from dressmeup.metrics import p2s

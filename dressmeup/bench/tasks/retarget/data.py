@@ -23,6 +23,7 @@ from dressmeup.bench.tasks.common import (
     check_pin,
     faces_problems,
     load_npz_arrays,
+    open_dataset,
 )
 from dressmeup.errors import InputError
 
@@ -32,14 +33,6 @@ FILE_SUFFIXES = (".npz", ".ply", ".obj")
 def dataset_problems(edition: Any, data_root: Path) -> tuple[dict[str, Any], list[str]]:
     """Check the dataset root against the edition pin (see :func:`check_pin`)."""
     return check_pin(edition, data_root)
-
-
-@functools.lru_cache(maxsize=4)
-def open_dataset(root: str):
-    """A :class:`dressmeup.data.Dataset` for ``root`` (cached per process)."""
-    from dressmeup.data import Dataset
-
-    return Dataset(root)
 
 
 def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
