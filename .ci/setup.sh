@@ -43,3 +43,11 @@ fi
 # with). Roles adding an extra CI must exercise: add its name to EXTRAS.
 EXTRAS="test,bench,distributed,browser"
 $PY -m pip install -q -c constraints.txt -e ".[$EXTRAS]"
+
+# Keypoints from scans (registration, [keypoints] extra): the mediapipe 0.10.14 wheel ships its
+# pose models (no download at run time; newer releases download them). --no-deps: its declared
+# opencv-contrib-python would replace our cv2 (opencv-python-headless) and jax is not used.
+if $PY -c "import sys; sys.exit(not (3, 9) <= sys.version_info[:2] <= (3, 12))"; then
+  $PY -m pip install -q -c constraints.txt -e ".[keypoints]"
+  $PY -m pip install -q --no-deps "mediapipe==0.10.14"
+fi

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from dressmeup.errors import InputError
 
@@ -40,6 +41,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--naked", action="store_true",
                    help="scan is naked: symmetric data term (body inside the scan costs as much "
                    "as outside)")
+    p.add_argument("--init-route", choices=("hypotheses", "keypoints", "auto"),
+                   default="hypotheses",
+                   help="how the fit starts without --init/--keypoints: hypotheses (several "
+                   "canonical poses x yaw, default), keypoints (detected on renders of the scan; "
+                   "needs the [keypoints] extra), auto (keypoints if installed)")
+    p.add_argument("--no-picture", action="store_true",
+                   help="do not write the picture of the fit (<out>.fit.png)")
     p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
     p.set_defaults(func=_run_register)
 
@@ -98,6 +106,7 @@ def _run_register(args: argparse.Namespace) -> int:
     else:
         scan = _load_scan(args.scan)
         options["seed"] = args.seed
+        options["init_route"] = args.init_route
         if args.iterations:
             try:
                 its = tuple(int(x) for x in args.iterations.split(","))
@@ -118,7 +127,47 @@ def _run_register(args: argparse.Namespace) -> int:
     result = fit(scan, model, init=init, keypoints=keypoints, registrar=args.registrar,
                  return_result=True, **options)
     path = result.params.save(args.out)
-    final = {k: round(v, 4) for k, v in result.losses.items() if k.startswith("shape_")}
+    start = result.info.get("init")
     sys.stdout.write(f"wrote {path} (model {model.name}, {result.seconds:.1f} s"
-                     + (f", final losses {final}" if final else "") + ")\n")
+                     + (f"; start: {start}" if start else "") + ")\n")
+    if scan is not None:
+        _report_fit(model, result.params, scan, Path(path), picture=not args.no_picture,
+                    seed=args.seed)
     return 0
+
+
+def _report_fit(model, params, scan, out: Path, picture: bool, seed: int) -> None:
+    """Print the fit's distances to the scan (mm), write them next to the result as
+    ``<stem>.metrics.json`` and the picture as ``<stem>.fit.png``."""
+    import json
+
+    import numpy as np
+
+    from dressmeup.body.registration.metrics import fit_metrics, format_metrics, vertex_parts
+    from dressmeup.body.registration.scan import prepare_scan
+    from dressmeup.io.atomic import atomic_write_text
+
+    posed = model.posed(params)
+    pts = prepare_scan(scan, n_points=60000, seed=seed)
+    parts = vertex_parts(model)
+    m = fit_metrics(posed.vertices, model.faces, pts, parts)
+    sys.stdout.write(format_metrics(m) + "\n")
+    metrics_path = out.with_name(out.stem + ".metrics.json")
+    atomic_write_text(metrics_path, json.dumps(m, indent=1))
+    written = [str(metrics_path)]
+    if picture:
+        from scipy.spatial.transform import Rotation
+
+        from dressmeup.body.registration.metrics import outside_distances_mm
+        from dressmeup.viz.registration import render_registration
+
+        forward = Rotation.from_rotvec(np.asarray(params.pose)[0]).apply([0.0, 0.0, 1.0])
+        png = render_registration(
+            posed.vertices, model.faces, pts, out.with_name(out.stem + ".fit.png"),
+            forward=forward, outside_mm=outside_distances_mm(posed.vertices, model.faces, pts),
+            title=(f"{out.name}: body->scan {m['body_to_scan_mm']:.1f} mm, scan->body "
+                   f"{m['scan_to_body_mm']:.1f} mm, worst part outside "
+                   f"{m['max_part_outside_mm']:.1f} mm (red: > 15 mm outside the scan)"),
+            seed=seed)
+        written.append(str(png))
+    sys.stdout.write("wrote " + ", ".join(written) + "\n")

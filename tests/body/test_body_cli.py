@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import trimesh
 
@@ -23,7 +25,14 @@ def test_register_command(tmp_path, capsys):
     assert fit.model == "procedural" and fit.pose.shape == (22, 3)
     err = np.linalg.norm(model.posed(fit).joints - model.posed(truth).joints, axis=1).mean()
     assert err < 0.05
-    assert "wrote" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "wrote" in printed and "start: hypothesis" in printed
+    # figures without ground truth, in mm, and the picture next to the result
+    assert "body -> scan" in printed and " mm" in printed and "final losses" not in printed
+    metrics = json.loads((tmp_path / "body.metrics.json").read_text())
+    assert metrics["body_to_scan_mm"] < 50 and set(metrics["parts"]) >= {"torso", "head"}
+    png = tmp_path / "body.fit.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and (png.stat().st_mode & 0o777) == 0o644
     # from-file registrar: import instead of fitting
     out2 = tmp_path / "copy.npz"
     assert main(["register", str(scan), "--model", "procedural", "--out", str(out2),

@@ -84,3 +84,81 @@ def test_scan_validation(model):
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
     pts = prepare_scan((V, np.array([[0, 1, 2]])), n_points=100)
     assert pts.shape == (100, 3) and np.all(pts[:, 2] == 0) and np.all(pts.sum(1) <= 1 + 1e-9)
+
+
+def test_canonical_poses_point_the_limbs():
+    from dressmeup.body.registration.hypotheses import CANONICAL_POSES, canonical_pose
+
+    model = get_body_model("procedural")
+    rest = model.posed(model.default_params())
+    names = list(model.joint_names)
+    for name, spec in CANONICAL_POSES.items():
+        params = model.default_params()
+        params.pose = canonical_pose(name, names, rest.joints)
+        J = model.posed(params).joints
+        arm = J[names.index("left_elbow")] - J[names.index("left_shoulder")]
+        want = np.asarray(spec["arm"], float)
+        assert arm @ want / np.linalg.norm(arm) / np.linalg.norm(want) > 0.99, name
+    with pytest.raises(ValueError, match="unknown pose"):
+        canonical_pose("moonwalk", names, rest.joints)
+
+
+def test_hypotheses_find_a_t_pose_the_rest_pose_start_misses(model):
+    # arms horizontal: the old start (rest pose + yaw search) fits the arms down
+    from dressmeup.body.registration.hypotheses import canonical_pose
+
+    rest = model.posed(model.default_params())
+    pose = canonical_pose("t-pose", model.joint_names, rest.joints)
+    pose[0] = (0.0, 2.0, 0.0)  # facing away from the start
+    truth = BodyParams("procedural", shape=np.full(6, 0.45), pose=pose, transl=[0.1, 0.0, 0.2])
+    scan = synthetic_scan(model, truth, n_points=6000, noise=0.002, seed=3)
+    fast = dict(FAST, hypothesis_steps=(10, 10, 25), hypothesis_keep=2)
+    res = register(scan, model, return_result=True, **fast)
+    v_err, j_err = vertex_joint_errors(model, res.params, truth)
+    old = register(scan, model, hypotheses=(), **FAST)
+    v_old, _ = vertex_joint_errors(model, old, truth)
+    assert res.info["init"].startswith("hypothesis t-pose")
+    assert v_err < 0.025 and j_err < 0.03
+    assert v_err < 0.5 * v_old
+
+
+def test_fit_metrics_flag_a_body_outside_the_scan(model):
+    from dressmeup.body.registration.metrics import (
+        BODY_PARTS,
+        fit_metrics,
+        format_metrics,
+        vertex_parts,
+    )
+
+    truth = _truth(model, "standing", 4)
+    posed = model.posed(truth)
+    scan = synthetic_scan(model, truth, n_points=20000, noise=0.0, seed=4)
+    parts = vertex_parts(model)
+    assert set(np.unique(parts)) <= set(range(len(BODY_PARTS)))
+    good = fit_metrics(posed.vertices, model.faces, scan, parts)
+    assert good["body_to_scan_mm"] < 6 and good["scan_to_body_mm"] < 3
+    assert good["outside_share"] < 0.01 and good["max_part_outside_mm"] < 5
+    # the right arm pushed 4 cm outwards: outside the scan, and only that part
+    V = posed.vertices.copy()
+    arm = np.isin(parts, [list(BODY_PARTS).index(p) for p in ("right_upper_arm", "right_forearm")])
+    from dressmeup.geometry.mesh import vertex_normals
+
+    V[arm] += 0.04 * vertex_normals(posed.vertices, model.faces)[arm]
+    bad = fit_metrics(V, model.faces, scan, parts)
+    assert bad["max_part_outside_mm"] > 25 and bad["outside_share"] > 0.02
+    worst = max(bad["parts"], key=lambda p: bad["parts"][p]["outside_p90_mm"])
+    assert worst in ("right_upper_arm", "right_forearm")
+    assert bad["parts"]["left_forearm"]["outside_p90_mm"] < 5
+    assert "<- check" in format_metrics(bad) and "mm" in format_metrics(good)
+
+
+def test_hand_weight_down_weights_hand_points(model):
+    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    from dressmeup.body.registration.problem import FitProblem, joint_skin_mask
+
+    P = synthetic_scan(model, _truth(model, "standing", 5), n_points=2000, seed=5)
+    prob = FitProblem(OptimizationRegistrar(hand_weight=0.25, n_body_points=1500), model, P, None)
+    hand = joint_skin_mask(model, ("left_wrist", "right_wrist"))[prob.body_ids]
+    assert hand.any() and np.allclose(prob.point_weight.numpy()[hand], 0.25)
+    assert np.allclose(prob.point_weight.numpy()[~hand], 1.0)
+    assert FitProblem(OptimizationRegistrar(hand_weight=1.0), model, P, None).point_weight is None

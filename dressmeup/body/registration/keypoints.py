@@ -136,7 +136,7 @@ def _raycast(V: np.ndarray, F: np.ndarray, cam: Camera) -> np.ndarray:
     import open3d as o3d
 
     scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)), o3d.core.Tensor(F.astype(np.int32)))
+    scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32)))
     ext = np.eye(4)
     ext[:3, :3], ext[:3, 3] = cam.R, cam.t
     rays = scene.create_rays_pinhole(o3d.core.Tensor(cam.K), o3d.core.Tensor(ext), cam.width,
@@ -240,21 +240,32 @@ def _ransac(obs: list[tuple[int, np.ndarray, float, str]], Ps: list[np.ndarray],
                      np.ones(2))
             if not np.all(np.isfinite(X)):
                 continue
-            inl, views = [], set()
-            for i in idx:
-                if obs[i][0] in views:
-                    continue
-                if _reproj(Ps[obs[i][0]], X, obs[i][1]) < threshold:
-                    inl.append(i)
-                    views.add(obs[i][0])
+            inl = _inliers(obs, idx, Ps, X, threshold)
             score = sum(obs[i][2] for i in inl)
             if score > best_score:
                 best_X, best_in, best_score = X, inl, score
     if best_X is None:
         return np.full(3, np.nan), []
-    X = _dlt([Ps[obs[i][0]] for i in best_in], np.array([obs[i][1] for i in best_in]),
-             np.array([max(obs[i][2], 0.05) for i in best_in]))
-    return X, best_in
+    for _ in range(2):  # re-fit on all inliers, then re-select them around the new point
+        X = _dlt([Ps[obs[i][0]] for i in best_in], np.array([obs[i][1] for i in best_in]),
+                 np.array([max(obs[i][2], 0.05) for i in best_in]))
+        if not np.all(np.isfinite(X)):
+            break
+        again = _inliers(obs, idx, Ps, X, threshold)
+        if len(again) < 2:
+            break
+        best_X, best_in = X, again
+    return best_X, best_in
+
+
+def _inliers(obs, idx: list[int], Ps, X: np.ndarray, threshold: float) -> list[int]:
+    """Per view, the observation nearest to X's projection if within ``threshold`` px."""
+    best: dict[int, tuple[float, int]] = {}
+    for i in idx:
+        e = _reproj(Ps[obs[i][0]], X, obs[i][1])
+        if e < threshold and (obs[i][0] not in best or e < best[obs[i][0]][0]):
+            best[obs[i][0]] = (e, i)
+    return sorted(i for _, i in best.values())
 
 
 def _votes(obs, inliers: list[int], joint: str, twin: str) -> float:

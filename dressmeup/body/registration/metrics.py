@@ -40,6 +40,21 @@ def vertex_parts(model) -> np.ndarray:
     return out
 
 
+def outside_distances_mm(body_vertices: np.ndarray, body_faces: np.ndarray,
+                         scan_points: np.ndarray, seen_radius: float = 0.05) -> np.ndarray:
+    """(n,) how far (mm) each body vertex lies outside the scan along its normal (0 inside
+    or in a hole: no scan point within ``seen_radius`` m)."""
+    from scipy.spatial import cKDTree
+
+    from dressmeup.geometry.mesh import vertex_normals
+
+    V = np.asarray(body_vertices, dtype=np.float64)
+    P = np.asarray(scan_points, dtype=np.float64)
+    d, nn = cKDTree(P).query(V, k=1, workers=1)
+    signed = ((V - P[nn]) * vertex_normals(V, np.asarray(body_faces, np.int64))).sum(1)
+    return np.where(d <= seen_radius, np.clip(signed, 0, None) * 1000.0, 0.0)
+
+
 def fit_metrics(body_vertices: np.ndarray, body_faces: np.ndarray, scan_points: np.ndarray,
                 parts: np.ndarray | None = None, outside_mm: float = 15.0,
                 seen_radius: float = 0.05, n_samples: int = 60000, seed: int = 0) -> dict:
