@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from dressmeup.bench import build_leaderboard
+from dressmeup.bench.edition import edition_from_dict
 from dressmeup.bench.intervals import (
     bootstrap_mean,
     describe_resolution,
@@ -165,6 +166,21 @@ def test_tracks_get_columns_in_every_format(scored, tmp_path):
     assert "track cross" in board.render("latex") and "track re-pose" in board.render("html")
     col = next(c for c in board.columns if c.track == "cross")
     assert board.rows[0]["ci"][col.key][0] <= board.rows[0]["values"][col.key][0]
+
+    # an edition naming a primary track sorts by that track's column
+    for folder in (a, b):
+        ed = json.loads((folder / "edition.json").read_text())
+        ed.update(tracks=["re-pose", "re-shape", "cross"],
+                  primary={"metric": "p2s", "track": "cross"})
+        (folder / "edition.json").write_text(json.dumps(ed))
+        summary = json.loads((folder / "summary.json").read_text())
+        summary["edition"]["hash"] = edition_from_dict(ed).hash     # a re-scored result
+        summary["provenance"]["edition_hash"] = summary["edition"]["hash"]
+        (folder / "summary.json").write_text(json.dumps(summary))
+    board = build_leaderboard([b, a])
+    assert board.primary == "p2s#cross" and board.rows[0]["method"] == "GT"
+    assert [c.track for c in board.columns if c.track] == ["re-pose", "cross"]   # its order
+    assert "Sorted by P2S ↓ [mm] · track cross" in board.render("md")
 
 
 def test_rank_separation_marked(scored, tmp_path):
