@@ -3,8 +3,9 @@
 Each module in this package registers a group of subcommands with ``register(subparsers)``
 and keeps its handlers thin: they parse arguments, call library functions and print. Heavy
 imports happen inside the handlers so that ``dressmeup --help`` stays fast. Errors the user
-can fix (:class:`dressmeup.errors.DressmeupError`, ``ValueError``, ``FileNotFoundError``) are
-printed as one line and exit with status 2.
+can fix (:class:`dressmeup.errors.DressmeupError` such as ``InputError``, missing or
+inaccessible files) are printed as one line and exit with status 2; any other exception is a
+bug: its traceback is printed with a hint to report it (status 70).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from dressmeup import __version__
+from dressmeup.errors import DressmeupError
 
 # One module per stage; each defines ``register(subparsers) -> None``.
 COMMAND_MODULES = ("metrics", "body", "data", "capture", "baseline", "bench", "report")
@@ -33,10 +35,18 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; return the exit status."""
-    from dressmeup.errors import DressmeupError
+#: Errors the user can fix: the toolkit's own (InputError & co.) and files that are missing
+#: or not accessible. They print one line and exit with status 2; anything else is a bug.
+USER_ERRORS = (DressmeupError, FileNotFoundError, NotADirectoryError, IsADirectoryError,
+               PermissionError)
+#: Exit status of an internal error (EX_SOFTWARE of sysexits.h).
+INTERNAL_ERROR = 70
+ISSUES_URL = "https://github.com/dressmeup/dressmeup/issues"
 
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit status (0 ok, 1 command-specific failure such
+    as an invalid submission, 2 user error, 70 internal error, 130 interrupted)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
@@ -44,13 +54,29 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     try:
         status = args.func(args)
-    except (DressmeupError, ValueError, FileNotFoundError, PermissionError) as exc:
-        sys.stderr.write(f"dressmeup {args.command}: error: {exc}\n")
+    except USER_ERRORS as exc:
+        sys.stderr.write(f"dressmeup {args.command}: error: {_one_line(exc)}\n")
         return 2
     except KeyboardInterrupt:
         sys.stderr.write("interrupted\n")
         return 130
+    except Exception:  # noqa: BLE001 - the boundary: anything else is a bug to report
+        import traceback
+
+        traceback.print_exc()
+        sys.stderr.write(
+            f"dressmeup {args.command}: internal error (a bug in dressmeup "
+            f"{__version__}, not in your input). Please report it with the command line and "
+            f"the traceback above at {ISSUES_URL}\n")
+        return INTERNAL_ERROR
     return int(status or 0)
+
+
+def _one_line(exc: BaseException) -> str:
+    """The message of a user error; an OSError names its file."""
+    if isinstance(exc, OSError) and not isinstance(exc, DressmeupError) and exc.filename:
+        return f"{exc.strerror or exc}: {exc.filename}"
+    return str(exc)
 
 
 if __name__ == "__main__":  # pragma: no cover
