@@ -11,7 +11,6 @@ from __future__ import annotations
 import importlib
 import inspect
 import os
-import platform
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -20,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from dressmeup.bench.edition import Edition, load_edition
+from dressmeup.bench.provenance import hardware
 from dressmeup.errors import InputError
 
 Log = Callable[[str], Any]
@@ -29,7 +29,11 @@ def _quiet(_line: str) -> None:
     return None
 
 
-class SkippedBaseline(Exception):
+#: ``submission.json`` ``authors`` of the toolkit's reference baselines.
+BASELINE_AUTHORS = "dressmeup reference baselines"
+
+
+class SkippedBaseline(InputError):
     """A baseline that cannot run in this configuration (the message says why and what to do)."""
 
 
@@ -41,10 +45,6 @@ def _shipped_weights(method: Any, body_model: str) -> Path | None:
         return None
     hits = sorted(Path(wdir).glob(f"*_{body_model}.pt"))
     return hits[0] if hits else None
-
-
-def _hardware() -> str:
-    return f"{platform.processor() or platform.machine()} CPU, {os.cpu_count()} cores"
 
 
 def build_data(edition: str | Edition, root: str | os.PathLike, log: Log = _quiet) -> Path:
@@ -104,12 +104,37 @@ def uvparam_methods() -> list[str]:
 
 def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: str | os.PathLike,
                           out: str | os.PathLike, *, train_steps: int = 150,
-                          max_triplets: int = 8, log: Log = _quiet,
+                          max_triplets: int = 8, limit: int | None = None, url: str = "",
+                          overwrite: bool = False, log: Log = _quiet,
                           **hyperparameters: Any) -> Path:
     """Run one retargeting baseline over the edition's pairs into a submission folder.
 
-    Trainable methods (with ``fit``) are first trained self-supervised on the ``train``
-    split (``train_steps`` steps over ``max_triplets`` triplets; no ground truth is read).
+    The one path from a retargeting method to a submission: ``dressmeup baseline retarget``,
+    ``dressmeup demo`` and ``benchmarks/run_baselines.py`` all come here, so every
+    submission records its hardware (:func:`dressmeup.bench.provenance.hardware`) and
+    hyperparameters the same way.
+
+    Trainable methods (with ``fit``) use the weights they ship for the dataset's body model,
+    or ``weights=`` given as a hyperparameter; without either they are first trained
+    self-supervised on the ``train`` split (``train_steps`` steps over ``max_triplets``
+    triplets; no ground truth is read), or skipped when ``train_steps`` is 0.
+
+    Parameters
+    ----------
+    method_name : a name of :func:`dressmeup.methods.retarget.get_method` (``+`` chains).
+    edition, data_root, out : the edition, its data and the submission folder to write.
+    train_steps, max_triplets : training of trainable methods without weights (see above).
+    limit : only the first ``limit`` pairs (an incomplete submission, for smoke tests).
+    url : ``submission.json`` ``url``.
+    overwrite : write into a non-empty ``out``.
+    log : called with one line per thing done.
+    **hyperparameters : passed to the method (recorded with ``repr``).
+
+    Raises
+    ------
+    SkippedBaseline
+        A trainable method without weights while training is off (the message says how
+        to train it).
     """
     from dressmeup.bench.submission import write_submission
     from dressmeup.data import Dataset
@@ -139,13 +164,16 @@ def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: s
             method.fit(triplets, model)
             trained = (f", trained {train_steps} steps ({time.perf_counter() - t0:.0f} s) on "
                        f"{len(triplets)} train-split triplets")
-    preds, seconds = predict_pairs(method, ds.retarget_pairs(ed.split))
+    from dressmeup.bench.tasks.retarget.data import edition_pairs
+
+    preds, seconds = predict_pairs(method, edition_pairs(ed, ds), limit=limit)
     runtime = float(np.mean(seconds)) if seconds else 0.0
     path = write_submission(out, preds, edition=ed, method=method_name,
-                            authors="dressmeup reference baselines", url="",
-                            hardware=_hardware(), runtime_per_sample_s=runtime,
+                            authors=BASELINE_AUTHORS, url=url,
+                            hardware=hardware(), runtime_per_sample_s=runtime,
                             extra={"hyperparameters": {k: repr(v)
-                                                       for k, v in hyperparameters.items()}})
+                                                       for k, v in hyperparameters.items()}},
+                            overwrite=overwrite)
     log(f"  {method_name}: {len(preds)} pairs, {runtime:.2f} s/pair{trained}")
     return path
 
@@ -170,8 +198,8 @@ def run_uvparam_baseline(method_name: str, edition: str | Edition, data_root: st
         secs.append(res.seconds)
     runtime = float(np.mean(secs)) if secs else 0.0
     path = write_submission(out, preds, edition=ed, method=method_name,
-                            authors="dressmeup reference baselines", url="",
-                            hardware=_hardware(), runtime_per_sample_s=runtime)
+                            authors=BASELINE_AUTHORS, url="",
+                            hardware=hardware(), runtime_per_sample_s=runtime)
     log(f"  {method_name}: {len(preds)} meshes, {runtime:.2f} s/mesh")
     return path
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import platform
 import sys
 
 from dressmeup.errors import InputError
@@ -61,25 +60,15 @@ def register(tasks: argparse._SubParsersAction) -> None:
 
 
 def _params(items: list[str]) -> dict:
-    from dressmeup.methods.retarget.run import parse_value
+    from dressmeup.hyperparameters import parse_params
 
-    out = {}
-    for item in items:
-        if "=" not in item:
-            raise InputError(f"--param: expected KEY=VALUE, got {item!r}")
-        k, v = item.split("=", 1)
-        out[k.strip()] = parse_value(v)
-    return out
+    return parse_params(items)
 
 
 def _run(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from dressmeup.bench import load_edition, write_submission
+    from dressmeup.bench import load_edition
+    from dressmeup.bench.runs import run_retarget_baseline
     from dressmeup.bench.submission import check_submission_out
-    from dressmeup.data import Dataset
-    from dressmeup.methods.retarget import get_method
-    from dressmeup.methods.retarget.run import predict_pairs
 
     check_submission_out(args.out, args.overwrite)  # before the work, naming --overwrite
     edition = load_edition(args.edition)
@@ -88,21 +77,12 @@ def _run(args: argparse.Namespace) -> int:
     params = _params(args.param)
     if args.weights:
         params["weights"] = args.weights
-    method = get_method(args.method, **params)
-    ds = Dataset(args.data)
-    from dressmeup.bench.tasks.retarget.data import edition_pairs
-
-    pairs = edition_pairs(edition, ds)
-    preds, seconds = predict_pairs(method, pairs, limit=args.limit)
-    runtime = float(np.mean(seconds)) if seconds else 0.0
-    out = write_submission(args.out, preds, edition=edition, method=args.method,
-                           authors="dressmeup reference baselines",
-                           url="https://github.com/dressmeup (docs/baselines.md)",
-                           hardware=f"{platform.processor() or platform.machine()} CPU",
-                           runtime_per_sample_s=runtime,
-                           extra={"hyperparameters": {k: repr(v) for k, v in params.items()}},
-                           overwrite=args.overwrite)
-    sys.stdout.write(f"wrote {len(preds)} predictions to {out} ({runtime:.2f} s per pair)\n")
+    lines: list[str] = []
+    out = run_retarget_baseline(args.method, edition, args.data, args.out, train_steps=0,
+                                limit=args.limit, overwrite=args.overwrite,
+                                url="https://github.com/dressmeup (docs/baselines.md)",
+                                log=lines.append, **params)
+    sys.stdout.write(f"wrote {out} ({lines[-1].strip() if lines else args.method})\n")
     return 0
 
 

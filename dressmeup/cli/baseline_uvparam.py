@@ -10,7 +10,6 @@ files) and writes a submission folder: one ``<mesh_id>.npz`` per mesh with ``uv 
 from __future__ import annotations
 
 import argparse
-import json
 import re
 import sys
 from pathlib import Path
@@ -60,16 +59,9 @@ def register(tasks: argparse._SubParsersAction) -> None:
 
 
 def _parse_params(items: list[str]) -> dict:
-    out = {}
-    for item in items:
-        if "=" not in item:
-            raise InputError(f"--param {item!r}: expected KEY=VALUE")
-        k, v = item.split("=", 1)
-        try:
-            out[k] = json.loads(v)
-        except json.JSONDecodeError:
-            out[k] = v
-    return out
+    from dressmeup.hyperparameters import parse_params
+
+    return parse_params(items)
 
 
 def load_mesh_arg(spec: str):
@@ -104,8 +96,6 @@ def _mesh_ids_from_edition(edition: str) -> list[str]:
 
 
 def _run_uvparam(args: argparse.Namespace) -> int:
-    import os
-    import platform
 
     import numpy as np
 
@@ -143,14 +133,15 @@ def _run_uvparam(args: argparse.Namespace) -> int:
                               title=f"{args.method} on {mesh_id} ({res.n_charts} charts)",
                               chart_ids=res.chart_ids)
         sys.stdout.write(f"{mesh_id}: {len(V)} vertices, {res.n_charts} charts, {res.seconds:.2f} s\n")
+    from dressmeup.bench.provenance import hardware
+    from dressmeup.bench.runs import BASELINE_AUTHORS
     from dressmeup.bench.submission import write_submission
 
     write_submission(out, preds, edition=edition, method=args.method,
-                     authors="dressmeup reference baselines", url="",
-                     hardware=f"{platform.machine()} CPU ({os.cpu_count()} cores)",
+                     authors=BASELINE_AUTHORS, url="", hardware=hardware(),
                      runtime_per_sample_s=float(np.mean(list(times.values()))) if times else None,
                      task="uvparam", overwrite=args.overwrite,
-                     extra={"hyperparameters": {k: str(v) for k, v in params.items()},
+                     extra={"hyperparameters": {k: repr(v) for k, v in params.items()},
                             "runtime_seconds": times})
     sys.stdout.write(f"wrote {len(times)} UV maps to {out}\n")
     return 0

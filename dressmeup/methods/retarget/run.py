@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.hyperparameters import parse_value  # noqa: F401 - re-exported (its home)
+
 log = logging.getLogger(__name__)
 
 __all__ = ["body_model_for", "predict_pairs", "training_triplets", "parse_value", "garment_fingerprints",
@@ -171,18 +173,3 @@ def check_split_leakage(dataset, train_split: str = "train", other_splits: Seque
                                      f"lengths within {100 * rel:.2f} %: the same garment under another id; "
                                      "training would leak")
     return {"train_garments": sorted(train), "compared_garments": sorted(others), "closest": closest}
-
-
-def parse_value(text: str) -> Any:
-    """``"3" -> 3``, ``"0.5" -> 0.5``, ``"true" -> True``, ``"none" -> None``, else the string."""
-    low = text.strip().lower()
-    if low in ("true", "false"):
-        return low == "true"
-    if low in ("none", "null"):
-        return None
-    for cast in (int, float):
-        try:
-            return cast(text)
-        except ValueError:
-            pass
-    return text
