@@ -472,7 +472,8 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
     per_category : metrics to show per category and per track (default: the edition's
         ``per_category``; ``[]`` for none).
     show_ci : print 95 % intervals and the separation column (default: when any result
-        has intervals).
+        has schema ``dressmeup-result/2``; a degenerate interval over one unit prints
+        ``[–]`` and the caption says why).
 
     Raises
     ------
@@ -572,8 +573,8 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
                 None) or {}
     board = Leaderboard(edition=ed, manifest_sha256=(comparable or loaded)[0].manifest_hash,
                         columns=columns, rows=rows, show_std=show_std, primary=primary,
-                        show_ci=any(row["ci"] for row in rows) if show_ci is None
-                        else show_ci,
+                        show_ci=any(row["schema_version"] >= 2 for row in rows)
+                        if show_ci is None else show_ci,
                         unit=boot.get("unit") or getattr(task, "unit_column", None),
                         n_units=boot.get("n_units"))
     board.custom_edition = edition_check.source if edition_check.custom else None

@@ -245,3 +245,18 @@ def test_separation_when_the_unit_is_the_item():
                      "_result": SimpleNamespace(table=t)})
     _mark_separation(rows, "qce", "sample_id")
     assert rows[0]["separated"] is True and rows[1]["separated"] is None
+
+
+def test_one_unit_shows_degenerate_interval_and_says_why(scored, tmp_path):
+    """All pairs of one garment (mini-v2's test split): the table keeps its interval
+    column, prints [–] and the caption says the interval is degenerate."""
+    def one_garment(t):
+        t["garment_id"] = "G01"
+        return t
+
+    a = _copy(scored["gt"]["res"].path, tmp_path / "a", table_edit=one_garment)
+    b = _copy(scored["noisy"]["res"].path, tmp_path / "b", table_edit=one_garment)
+    board = build_leaderboard([a, b])
+    md = board.render("md")
+    assert board.show_ci and "[–]" in md.splitlines()[2] and "degenerate" in md
+    assert all(r["separated"] is None for r in board.rows)
