@@ -223,7 +223,8 @@ class Leaderboard:
         if self.show_ci:
             out += (f" [lo, hi]: 95 % bootstrap interval over {self.unit or 'units'} "
                     f"({N_RESAMPLES} seeded resamples; "
-                    f"{describe_resolution(self.n_units or 0)}); [–]: not in the result. "
+                    f"{describe_resolution(self.n_units or 0)}); [–]: no interval (one unit "
+                    "or an older result). "
                     "Sep.: paired bootstrap of the primary column says the rank is separated "
                     "from the next (yes/no).")
         if any(not r.get("comparable", True) for r in self.rows):

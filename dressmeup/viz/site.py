@@ -373,6 +373,13 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
                     + e(str(s.get("not_comparable_reason") or "")))
     parts.append(f'<div class="meta">{" · ".join(bits)}</div>')
     parts.append("<h2>Numbers</h2>" + _overall_table(s, specs))
+    boot = s.get("bootstrap")
+    if boot:
+        from dressmeup.bench.intervals import describe_resolution
+
+        parts.append(f'<p class="meta">Intervals: cluster bootstrap over {e(str(boot["unit"]))}'
+                     f" ({boot.get('resamples')} seeded resamples); "
+                     f"{e(describe_resolution(int(boot.get('n_units') or 0)))}.</p>")
     if result.schema_version < 2:
         parts.append('<p class="why">This result was scored by an older toolkit (schema 1): '
                      "it has no intervals and no tracks.</p>")
