@@ -89,3 +89,36 @@ def test_cli_prints_index(site_inputs, tmp_path, capsys):
     # the picture budget ran out for the second method: its page says so
     pages = sorted((tmp_path / "s").glob("*/*.html"))
     assert any("picture budget" in p.read_text() for p in pages)
+
+
+def test_fusion_results_get_error_maps(site_inputs, tmp_path):
+    """A fusion result (the fixture's scans, shifted 3 mm, as reconstructions) gets error
+    maps of the reconstruction against the scan."""
+    import json
+
+    from dressmeup.bench import score_submission
+    from dressmeup.data import Dataset
+    from dressmeup.viz.site import write_site
+
+    ed = json.loads(site_inputs["edition"].read_text())
+    ed.update(name="bench-fixture-fusion-v1", task="fusion",
+              metrics=["accuracy", "completeness", "fscore_5mm"], primary_metric="accuracy",
+              per_category=["accuracy"], options={"n_samples": 2000, "seed": 0})
+    ed_path = tmp_path / "fusion.json"
+    ed_path.write_text(json.dumps(ed))
+    ds = Dataset(site_inputs["data"])
+    preds = {}
+    for s in ds.filter(split="test"):
+        V, F = s.scan()
+        preds[s.sample_id] = {"vertices": V + [0.003, 0.0, 0.0], "faces": F}
+    from dressmeup.bench import write_submission
+
+    sub = write_submission(tmp_path / "sub", preds, edition=ed_path, method="SHIFTED")
+    res = score_submission(sub, ed_path, site_inputs["data"], tmp_path / "res", workers=1,
+                           show_progress=False)
+    assert res.summary["bootstrap"]["unit"] == "session_id"
+    site = write_site([res.path], tmp_path / "site", images_per_side=1)
+    page = site.method_pages[0].read_text()
+    pics = sorted((tmp_path / "site").glob("*/img/shifted-*.png"))
+    assert len([p for p in pics if "per_" not in p.name]) == 2, pics   # best + worst
+    assert "is gone" not in page and "could not be drawn" not in page
