@@ -189,17 +189,24 @@ def run_uvparam_baseline(method_name: str, edition: str | Edition, data_root: st
 
     ed = load_edition(edition)
     method = get_method(method_name, **hyperparameters)
-    preds, secs = {}, []
-    for m in meshes(data_root):
+    takes_category = "category" in inspect.signature(method.parameterize).parameters
+    preds, secs, tracks = {}, [], set()
+    for m in meshes(data_root, ed.split):
         mesh = load_mesh(m.path)
-        res = method.parameterize(mesh.vertices, mesh.faces)
+        kw = {"category": m.category} if takes_category else {}
+        res = method.parameterize(mesh.vertices, mesh.faces, **kw)
         preds[m.mesh_id] = {"uv": res.uv, "uv_faces": res.uv_faces,
                             "chart_ids": res.chart_ids, "seconds": np.float64(res.seconds)}
         secs.append(res.seconds)
+        # methods that optimise on the mesh report nothing: they are per-mesh
+        tracks.add(res.info.get("track", "per-mesh"))
     runtime = float(np.mean(secs)) if secs else 0.0
+    # the pretrained track only when every mesh was unseen by the method (checked, not declared)
+    extra = {"track": "pretrained" if tracks == {"pretrained"} else "per-mesh"} \
+        if getattr(ed, "tracks", None) else None
     path = write_submission(out, preds, edition=ed, method=method_name,
                             authors=BASELINE_AUTHORS, url="",
-                            hardware=hardware(), runtime_per_sample_s=runtime)
+                            hardware=hardware(), runtime_per_sample_s=runtime, extra=extra)
     log(f"  {method_name}: {len(preds)} meshes, {runtime:.2f} s/mesh")
     return path
 

@@ -53,3 +53,38 @@ def test_submission_track(tmp_path):
     (tmp_path / "submission.json").write_text(json.dumps({"track": "cheat"}))
     with pytest.raises(InputError, match="track"):
         submission_track(tmp_path, tracks)
+
+
+@pytest.mark.slow  # generates five garments (~70 s on a loaded 2-core machine)
+def test_garment_edition_builds_splits_scores_seams_and_tracks(tmp_path):
+    from dressmeup.bench import runs
+    from dressmeup.bench.score import score_submission
+    from dressmeup.bench.tasks.uvparam.data import meshes
+
+    ed_path = tmp_path / "uv2.json"
+    ed_path.write_text(json.dumps({
+        "name": "uv-garments-test-v2", "version": 2, "task": "uvparam",
+        "dataset": {"kind": "generated", "generator": "dressmeup-uvparam-shapes",
+                    "generator_version": "uvparam-meshes-v2",
+                    "params": {"mesh_ids": ["sheet-300"],
+                               "garments": {"subjects": 1, "garments": 5, "poses": 1,
+                                            "seed": 3, "body_model": "procedural",
+                                            "write_scan": False, "texture_size": 16}},
+                    "seed": 0},
+        "split": "test", "metrics": ["qce", "seam_length", "charts", "packing", "flip"],
+        "options": {"overlap_resolution": 256}, "tracks": ["pretrained", "per-mesh"],
+        "primary": {"metric": "qce", "track": "pretrained"}}))
+    data = runs.build_data(ed_path, tmp_path / "meshes")
+    allm = meshes(data)
+    assert {m.category for m in allm} >= {"shapes"} and len(allm) == 6
+    test = meshes(data, "test")
+    assert any(m.mesh_id == "sheet-300" for m in test) and len(test) < len(allm)
+    sub = runs.run_uvparam_baseline("lscm", ed_path, data, tmp_path / "lscm")
+    assert json.loads((sub / "submission.json").read_text())["track"] == "per-mesh"
+    res = score_submission(sub, ed_path, data, tmp_path / "r", workers=1, show_progress=False)
+    t = res.table.set_index("sample_id")
+    assert set(t.index) == {m.mesh_id for m in test}
+    garments = [i for i in t.index if i != "sheet-300"]
+    assert (t.loc[garments, "seam_length"] > 0).all() and (t["charts"] >= 1).all()
+    assert t.loc["sheet-300", "seam_length"] >= 0.0
+    assert (t["track"] == "per-mesh").all()

@@ -171,3 +171,35 @@ def test_decimation_for_training_keeps_a_valid_mesh():
     assert V2.shape[1] == 3 and F2.shape[1] == 3 and 700 < len(V2) < 1300
     assert F2.min() >= 0 and F2.max() == len(V2) - 1
     assert abs(face_areas(V2, F2).sum() / face_areas(V, F).sum() - 1) < 0.05
+
+
+def test_proxy_inference_agrees_with_full_inference(tiny_model):
+    # PatchNet on a decimated proxy (large meshes): the same charts
+    from dressmeup.methods.uvparam.neural.infer import infer
+    from dressmeup.metrics import qce
+
+    V, F = make_test_mesh("blob-6k")
+    full = infer(tiny_model, V, F, proxy_vertices=None)
+    prox = infer(tiny_model, V, F, proxy_vertices=1200)
+    assert prox.info["proxy_vertices"] > 0 and full.info["proxy_vertices"] == 0
+    assert prox.n_charts == full.n_charts
+    assert np.mean(prox.chart_ids == full.chart_ids) > 0.9
+    # (the tiny model's maps are too distorted for a QCE comparison to mean much; the perf
+    # script compares proxy and full inference of a trained model on large meshes)
+    assert np.isfinite(qce(V, F, prox.uv, prox.uv_faces))
+
+
+def test_pretrained_track_is_checked_not_declared(tmp_path):
+    from dressmeup.methods.uvparam import get_method
+    from dressmeup.methods.uvparam.neural.train import save_model
+    from dressmeup.methods.uvparam.neural.train_set import train_on_set
+
+    seen = make_test_mesh("blob-400")
+    model = train_on_set([seen], [make_test_mesh("sphere-300")], "fast", eval_every=5,
+                         **{**TINY, "uv_iters": 10, "patch_iters": 5})
+    path = tmp_path / "m.pt"
+    save_model(model, path)
+    method = get_method("neural", checkpoint=path)
+    assert method.parameterize(*make_test_mesh("sheet-300")).info["track"] == "pretrained"
+    assert method.parameterize(*seen).info["track"] == "per-mesh"     # a training mesh
+    assert get_method("lscm").parameterize(*seen).info.get("track", "per-mesh") == "per-mesh"

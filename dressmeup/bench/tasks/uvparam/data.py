@@ -37,6 +37,8 @@ from dressmeup.errors import InputError
 
 FILE_SUFFIXES = (".npz",)
 GENERATOR = "dressmeup-uvparam-shapes"
+#: generator version of mesh sets with garments (``params.garments``) beside the shapes
+MESHSET_V2 = "uvparam-meshes-v2"
 
 
 @dataclass(frozen=True)
@@ -81,11 +83,13 @@ def build_mesh_set(root: str | os.PathLike, mesh_ids: Sequence[str] | None = Non
     from dressmeup.progress import progress
 
     seed = 0
+    garments = None
     if edition is not None:
         ed = load_edition(edition)
         mesh_ids = list(ed.dataset.params["mesh_ids"])
         seed = ed.dataset.seed
-    if not mesh_ids:
+        garments = ed.dataset.params.get("garments")
+    if not mesh_ids and not garments:
         raise InputError("build_mesh_set: give mesh_ids or an edition")
     root = Path(root)
     (root / "meshes").mkdir(parents=True, exist_ok=True)
@@ -99,16 +103,60 @@ def build_mesh_set(root: str | os.PathLike, mesh_ids: Sequence[str] | None = Non
         from dressmeup.io.mesh import load_mesh
 
         m = load_mesh(path)
-        rows.append({"mesh_id": mesh_id, "category": shape, "split": "test",
-                     "path": f"meshes/{mesh_id}.ply", "n_vertices": len(m.vertices),
-                     "n_faces": len(m.faces), "sha256": file_sha256(path)})
+        rows.append({"mesh_id": mesh_id, "category": "shapes" if garments else shape,
+                     "split": "test", "path": f"meshes/{mesh_id}.ply",
+                     "n_vertices": len(m.vertices), "n_faces": len(m.faces),
+                     "sha256": file_sha256(path), "group": "shapes", "kind": shape})
+    params: dict[str, Any] = {"mesh_ids": list(mesh_ids)}
+    version = SHAPES_VERSION
+    if garments:
+        rows += _garment_rows(root, dict(garments))
+        params["garments"] = dict(garments)
+        version = MESHSET_V2
+    else:
+        rows = [{k: v for k, v in r.items() if k not in ("group", "kind")} for r in rows]
     info = {"name": "uvparam-meshes", "format": "dressmeup-meshset", "units": "m",
-            "generator": {"name": GENERATOR, "version": SHAPES_VERSION,
-                          "params": {"mesh_ids": list(mesh_ids)}, "seed": seed}}
+            "generator": {"name": GENERATOR, "version": version, "params": params,
+                          "seed": seed}}
     with atomic_path(root / "manifest.parquet") as tmp:
         pd.DataFrame(rows).to_parquet(tmp, index=False)
     atomic_write_text(root / "dataset.json", json.dumps(info, indent=2) + "\n")
     return root
+
+
+def _garment_rows(root: Path, garments: dict[str, Any]) -> list[dict[str, Any]]:
+    """Generate the garments (one draped pose each) with the synthetic generator into
+    ``root/source`` and copy each garment's mesh to ``meshes/<garment_type>-<garment_id>.ply``.
+
+    The split (train/val/test by garment, stratified by category) is the generator's.
+    """
+    import pandas as pd
+
+    from dressmeup.bench.edition import file_sha256
+    from dressmeup.data.synth import generate_dataset
+    from dressmeup.data.synth.generate import GENERATOR_VERSION
+    from dressmeup.io.mesh import load_mesh, save_mesh
+
+    want = garments.pop("generator_version", None)
+    if want is not None and want != GENERATOR_VERSION:
+        raise InputError(f"this edition's garments come from synthetic generator {want}; this "
+                         f"toolkit has {GENERATOR_VERSION}: use the toolkit version the "
+                         "edition was made with")
+    src = generate_dataset(root / "source", **garments)
+    man = pd.read_parquet(src / "manifest.parquet").sort_values("sample_id")
+    rows = []
+    for r in man.drop_duplicates("garment_id").itertuples():
+        mesh_id = f"{r.garment_type}-{r.garment_id}"
+        path = root / "meshes" / f"{mesh_id}.ply"
+        if not path.is_file():  # geometry only: the generator's own UVs and texture stay out
+            g = load_mesh(src / r.garment_path)
+            save_mesh(path, g.vertices, g.faces)
+        m = load_mesh(path)
+        rows.append({"mesh_id": mesh_id, "category": r.category, "split": r.split,
+                     "path": f"meshes/{mesh_id}.ply", "n_vertices": len(m.vertices),
+                     "n_faces": len(m.faces), "sha256": file_sha256(path),
+                     "group": "garments", "kind": r.garment_type})
+    return rows
 
 
 def dataset_problems(edition: Any, data_root: Path) -> tuple[dict[str, Any], list[str]]:
@@ -121,24 +169,29 @@ def dataset_problems(edition: Any, data_root: Path) -> tuple[dict[str, Any], lis
     return info, problems
 
 
-def meshes(data_root: str | os.PathLike) -> list[UVMesh]:
-    """The meshes of a mesh set folder, sorted by id (paths checked to stay inside ROOT)."""
+def meshes(data_root: str | os.PathLike, split: str | None = None) -> list[UVMesh]:
+    """The meshes of a mesh set folder, sorted by id (paths checked to stay inside ROOT).
+
+    ``split`` keeps only that split's meshes (``train``/``val``/``test``)."""
     import pandas as pd
 
     from dressmeup.data.layout import resolve_inside
 
     root = Path(data_root)
     df = pd.read_parquet(root / "manifest.parquet")
+    if split is not None:
+        df = df[df["split"] == split]
     out = [UVMesh(r.mesh_id, r.category, resolve_inside(root, r.path, "path"),
                   int(r.n_vertices), int(r.n_faces)) for r in df.itertuples()]
     return sorted(out, key=lambda m: m.mesh_id)
 
 
 def items(edition: Any, data_root: Path) -> list[Item]:
-    """One item per mesh of the edition's mesh set."""
+    """One item per mesh of the edition's split (v1 mesh sets hold only ``test`` meshes)."""
     return [Item(m.mesh_id, m.category,
                  expect={"n_vertices": m.n_vertices, "n_faces": m.n_faces},
-                 meta={"mesh_path": str(m.path)}) for m in meshes(data_root)]
+                 meta={"mesh_path": str(m.path)})
+            for m in meshes(data_root, getattr(edition, "split", None) or None)]
 
 
 def read_prediction(path: Path) -> dict[str, np.ndarray]:

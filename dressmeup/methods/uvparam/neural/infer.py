@@ -50,8 +50,29 @@ def chart_uvs(uv_rows: np.ndarray, Vn: np.ndarray, F: np.ndarray, row_vertex: np
     return out
 
 
+def _vertex_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Barycentric lumped vertex areas (n,) float64."""
+    a = face_areas(V, F) / 3.0
+    return np.bincount(F.reshape(-1), weights=np.repeat(a, 3), minlength=len(V))
+
+
+def _patchnet_on(model: NeuralUVModel, Vn: np.ndarray, F: np.ndarray, use_operator_cache: bool,
+                 **operator_options):
+    """PatchNet's probabilities (n, K) and last hidden features (n, d) on a mesh."""
+    import torch
+
+    ops = compute_operators(Vn, F, k_eig=model.config.k_eig, use_cache=use_operator_cache,
+                            **operator_options)
+    tops = ops.to_torch()
+    x = torch.from_numpy(patchnet_inputs(Vn, F))
+    with torch.no_grad():
+        h = model.patchnet.features(x, tops)
+        probs = torch.softmax(model.patchnet.last(h), dim=-1).numpy()
+    return probs, h.numpy(), ops
+
+
 def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: bool = True,
-          threads: int | None = None) -> UVResult:
+          threads: int | None = None, proxy_vertices: int | None = 5000) -> UVResult:
     """Parameterise a mesh with a trained model (no training).
 
     Parameters
@@ -65,6 +86,13 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
         Pack charts with xatlas into [0, 1]^2.
     threads : int, optional
         torch intra-op threads for this call.
+    proxy_vertices : int or None
+        Meshes with more than twice this many vertices run PatchNet on a decimated proxy of
+        about this many vertices (the network is discretisation-agnostic; its patch
+        probabilities and features are smooth) and take each vertex's values from the
+        nearest proxy vertex; charts, codes psi (mass-weighted on the full mesh) and the UV
+        MLP are evaluated on the full mesh. The proxy's eigenbasis uses the two-level
+        Galerkin solver (``n_coarse`` = 400). ``None`` runs PatchNet on the full mesh.
 
     Returns
     -------
@@ -73,7 +101,7 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
     """
     import torch
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     V, F = as_arrays(V, F)
     cfg = model.config
     old_threads = torch.get_num_threads()
@@ -81,32 +109,46 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
         torch.set_num_threads(int(threads))
     try:
         Vn = normalize_vertices(V)
-        ops = compute_operators(Vn, F, k_eig=cfg.k_eig, use_cache=use_operator_cache)
-        t1 = time.perf_counter()
-        tops = ops.to_torch()
-        x = torch.from_numpy(patchnet_inputs(Vn, F))
-        with torch.no_grad():
-            h = model.patchnet.features(x, tops)
-            probs = torch.softmax(model.patchnet.last(h), dim=-1).numpy()
-            feats = h.numpy()
-        t2 = time.perf_counter()
+        proxy = bool(proxy_vertices) and len(V) > 2 * int(proxy_vertices)
+        if proxy:
+            from scipy.spatial import cKDTree
+
+            from dressmeup.methods.uvparam.neural.method import decimate_for_training
+
+            Vp, Fp = decimate_for_training(V, F, int(proxy_vertices))
+            lo, hi = V.min(axis=0), V.max(axis=0)  # the full mesh's normalisation
+            Vpn = (Vp - 0.5 * (lo + hi)) / (float(np.linalg.norm(hi - lo)) or 1.0)
+            t1, c1 = time.perf_counter(), time.process_time()
+            probs_p, feats_p, ops = _patchnet_on(model, Vpn, Fp, use_operator_cache,
+                                                 exact_limit=1000, n_coarse=400)
+            nearest = cKDTree(Vpn).query(Vn)[1]
+            probs, feats = probs_p[nearest], feats_p[nearest]
+            mass = _vertex_areas(Vn, F)
+        else:
+            t1, c1 = time.perf_counter(), time.process_time()
+            probs, feats, ops = _patchnet_on(model, Vn, F, use_operator_cache)
+            mass = ops.mass
+        t2, c2 = time.perf_counter(), time.process_time()
         chart_ids = assign_charts(Vn, F, probs, cfg.consolidation_steps, cfg.min_chart_fraction)
-        psi = chart_codes(feats, ops.mass, F, chart_ids)
+        psi = chart_codes(feats, mass, F, chart_ids)
         row_vertex, row_chart, row_faces = chart_rows(F, chart_ids)
-        t3 = time.perf_counter()
+        t3, c3 = time.perf_counter(), time.process_time()
         inp = torch.cat([torch.from_numpy(Vn[row_vertex].astype(np.float32)),
                          torch.from_numpy(psi[row_chart])], dim=1)
         with torch.no_grad():
             uv = model.forward_mlp(inp).numpy().astype(np.float64)
-        t4 = time.perf_counter()
+        t4, c4 = time.perf_counter(), time.process_time()
         uv = chart_uvs(uv, Vn, F, row_vertex, row_chart, row_faces, chart_ids)
         uv_faces = row_faces
         if pack:
             uv, uv_faces = pack_charts(uv, uv_faces)
-        t5 = time.perf_counter()
+        t5, c5 = time.perf_counter(), time.process_time()
     finally:
         torch.set_num_threads(old_threads)
     return UVResult(uv, uv_faces, chart_ids, t5 - t0, {
-        "n_charts": int(chart_ids.max()) + 1, "seconds_operators": t1 - t0,
-        "seconds_patchnet": t2 - t1, "seconds_charts": t3 - t2, "seconds_mlp": t4 - t3,
-        "seconds_pack": t5 - t4, "operators_cached": ops.seconds == 0.0})
+        "n_charts": int(chart_ids.max()) + 1, "cpu_seconds": c5 - c0, "proxy_vertices": int(len(Vp)) if proxy else 0,
+        "seconds_decimate": t1 - t0, "seconds_operators": ops.seconds,
+        "seconds_patchnet": t2 - t1 - ops.seconds, "seconds_charts": t3 - t2, "seconds_mlp": t4 - t3,
+        "seconds_pack": t5 - t4, "operators_cached": ops.seconds == 0.0,
+        "cpu_stages": {"decimate": c1 - c0, "operators+patchnet": c2 - c1, "charts": c3 - c2,
+                       "mlp": c4 - c3, "pack": c5 - c4}})

@@ -1,0 +1,164 @@
+"""Train the shipped pretrained neural UV models (issue #16) on the synth-uvparam-v2 mesh set.
+
+Models: one per garment category (``topwear``, ``bottomwear``, ``dress``: the category's
+*train* garments, validated on its *val* garments) and one ``general`` model (the train
+garments of every category plus smoothly warped copies of the test shapes -- never the test
+meshes themselves -- validated on the val garments and other warped shapes). Each model gets
+a wall-clock budget and stops earlier when its validation loss improves by less than 1 % over
+the last fifth of training (``train_set.converged``).
+
+Writes ``dressmeup/methods/uvparam/weights/neural_<model>.pt`` (float16), a JSON log per model
+in ``benchmarks/results/uvparam_pretrained_<model>.json`` and learning curves in
+``docs/images/uvparam_learning_<model>.png``.
+
+    nice -n 10 python benchmarks/train_uvparam_pretrained.py --data DATA --models topwear dress \\
+        --budget-minutes 35
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+WEIGHTS = REPO / "dressmeup" / "methods" / "uvparam" / "weights"
+RESULTS = REPO / "benchmarks" / "results"
+IMAGES = REPO / "docs" / "images"
+CATEGORIES = ("topwear", "bottomwear", "dress")
+WARP_SHAPES = ("sphere-2k", "torus-2k", "blob-2k", "sheet-2k", "skirt-2k")
+
+
+def warped(mesh_id: str, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """A smooth random deformation of a test shape (anisotropic scale + two sine waves):
+    a different mesh of a similar kind, so the general model never sees the test meshes."""
+    from dressmeup.methods.uvparam.shapes import make_test_mesh
+
+    V, F = make_test_mesh(mesh_id)
+    rng = np.random.default_rng(seed)
+    V = V * rng.uniform(0.7, 1.4, size=3)
+    ext = float(np.linalg.norm(V.max(0) - V.min(0)))
+    for _ in range(2):
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        a = rng.normal(size=3)
+        V = V + 0.04 * ext * np.sin(2 * np.pi * rng.uniform(0.8, 2.0) * (V @ d) / ext
+                                    + rng.uniform(0, 2 * np.pi))[:, None] * a / np.linalg.norm(a)
+    return V, F
+
+
+def mesh_sets(data: Path, model: str):
+    from dressmeup.bench.tasks.uvparam.data import meshes
+    from dressmeup.io.mesh import load_mesh
+
+    def load(split, cats):
+        out = [m for m in meshes(data, split) if m.category in cats]
+        return [(lambda mm: (mm.vertices, mm.faces))(load_mesh(m.path)) for m in out], \
+            [m.mesh_id for m in out]
+
+    cats = CATEGORIES if model == "general" else (model,)
+    train, train_ids = load("train", cats)
+    val, val_ids = load("val", cats)
+    if model == "general":
+        for k, sid in enumerate(WARP_SHAPES):
+            train.append(warped(sid, 100 + k))
+            train_ids.append(f"warped-{sid}-{100 + k}")
+            if k % 2 == 0:
+                val.append(warped(sid, 200 + k))
+                val_ids.append(f"warped-{sid}-{200 + k}")
+    return train, train_ids, val, val_ids
+
+
+def plot_curves(hist: dict, title: str, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
+    for a, tr, va, name in ((ax[0], "patch_total", "val_patch", "PatchNet"),
+                            (ax[1], "uv_total", "val_uv", "UV MLPs")):
+        y = np.asarray(hist[tr], float)
+        if y.size:
+            k = max(1, y.size // 50)
+            sm = np.convolve(y, np.ones(k) / k, mode="valid")
+            a.plot(np.arange(1, y.size + 1), y, color="0.8", lw=0.6, label="train (per step)")
+            a.plot(np.arange(k, y.size + 1), sm, color="C0", lw=1.2, label=f"train ({k}-step mean)")
+        if hist[va]:
+            v = np.asarray(hist[va], float)
+            a.plot(v[:, 0], v[:, 1], "o-", color="C3", ms=3, label="validation")
+        a.set_yscale("log")
+        a.set_xlabel("step")
+        a.set_title(f"{name}: stopped by {hist['stopped'].get('patchnet' if tr == 'patch_total' else 'uv')}")
+        a.legend(fontsize=7)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--data", required=True, type=Path, help="synth-uvparam-v2 mesh set root")
+    ap.add_argument("--models", nargs="+", default=[*CATEGORIES, "general"],
+                    choices=[*CATEGORIES, "general"])
+    ap.add_argument("--budget-minutes", type=float, default=60.0, help="wall budget per model")
+    ap.add_argument("--config", default="reference", choices=["reference", "fast"])
+    ap.add_argument("--uv-iters", type=int, default=4000, help="UV step limit")
+    ap.add_argument("--patch-iters", type=int, default=300, help="PatchNet step limit")
+    ap.add_argument("--eval-every", type=int, default=25)
+    ap.add_argument("--train-vertices", type=int, default=2500)
+    args = ap.parse_args(argv)
+
+    import torch
+
+    from dressmeup.methods.uvparam.neural.train import save_model
+    from dressmeup.methods.uvparam.neural.train_set import train_on_set
+
+    torch.set_num_threads(1)
+    for model in args.models:
+        train, train_ids, val, val_ids = mesh_sets(args.data, model)
+        print(f"[{time.strftime('%H:%M:%S')}] {model}: {len(train)} train, {len(val)} val meshes, "
+              f"budget {args.budget_minutes} min, load {os.getloadavg()}", flush=True)
+
+        def on_eval(stage, step, v, model=model):
+            print(f"  {model} {stage} step {step}: val {v:.5f}  load {os.getloadavg()[0]:.1f}",
+                  flush=True)
+
+        t0 = time.time()
+        m = train_on_set(train, val, args.config, budget_seconds=60 * args.budget_minutes,
+                         eval_every=args.eval_every, on_eval=on_eval,
+                         uv_iters=args.uv_iters, patch_iters=args.patch_iters,
+                         train_vertices=args.train_vertices)
+        m.history.update(train_ids=train_ids, val_ids=val_ids, model=model,
+                         load_avg_end=list(os.getloadavg()), wall_seconds=time.time() - t0)
+        WEIGHTS.mkdir(parents=True, exist_ok=True)
+        ckpt = WEIGHTS / f"neural_{model}.pt"
+        save_model(m, ckpt, half=True)
+        log = {k: v for k, v in m.history.items()}
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        from dressmeup.methods.uvparam.neural.train import _plain
+
+        (RESULTS / f"uvparam_pretrained_{model}.json").write_text(json.dumps(
+            {"config": args.config, "budget_minutes": args.budget_minutes,
+             "checkpoint_bytes": ckpt.stat().st_size, "n_parameters": m.n_parameters,
+             **_plain(log)}, indent=1) + "\n")
+        plot_curves(m.history, f"neural UV '{model}' ({args.config} sizes): {len(train)} train / "
+                    f"{len(val)} val meshes, {m.history['patch_steps']} + {m.history['uv_steps']} "
+                    f"steps in {m.history['seconds_total'] / 60:.1f} min (load ~{os.getloadavg()[0]:.0f})",
+                    IMAGES / f"uvparam_learning_{model}.png")
+        print(f"[{time.strftime('%H:%M:%S')}] {model}: stopped {m.history['stopped']}, "
+              f"{ckpt.stat().st_size / 1e6:.2f} MB -> {ckpt}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
