@@ -31,6 +31,17 @@ os.environ["DRESSMEUP_NO_PROGRESS"] = "1"
 
 
 @pytest.fixture(scope="session")
+def dask_cluster():
+    """One 2-worker Dask LocalCluster on 127.0.0.1 shared by the run's Dask tests (start-up
+    costs seconds); skips when Dask distributed is not installed."""
+    pytest.importorskip("distributed")
+    from dressmeup.executors.dask_executor import DaskExecutor
+
+    with DaskExecutor(2, log=None) as ex:
+        yield ex
+
+
+@pytest.fixture(scope="session")
 def shared_meshes() -> Path:
     """Folder of the real test meshes in ../shared/data/meshes; skips when it is absent."""
     if not SHARED_MESHES.is_dir():

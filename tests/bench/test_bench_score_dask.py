@@ -25,11 +25,10 @@ cloudpickle.register_pickle_by_value(sys.modules[__name__])
 METRICS = ["p2s", "p2s_bi", "chamfer", "ed", "nc", "ir"]
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    """One 2-worker LocalCluster for the module (start-up costs seconds)."""
-    with DaskExecutor(2, log=None) as ex:
-        yield ex
+@pytest.fixture
+def cluster(dask_cluster):
+    """The run's 2-worker LocalCluster (tests/conftest.py)."""
+    return dask_cluster
 
 
 class KillWorkerOnce:

@@ -15,9 +15,8 @@ pytest.importorskip("distributed")
 from dressmeup.cli import main  # noqa: E402
 
 
-def test_build_dataset_on_dask_writes_every_session_once_and_resumes(tmp_path, capsys):
-    from dressmeup.executors.dask_executor import DaskExecutor
-
+def test_build_dataset_on_dask_writes_every_session_once_and_resumes(dask_cluster, tmp_path,
+                                                                    capsys):
     s0 = tmp_path / "sessions" / "S00-P0"
     assert main(["synth-capture", "mannequin", "--out", str(s0), "--scale", "0.25",
                  "--seed", "1"]) == 0
@@ -28,17 +27,17 @@ def test_build_dataset_on_dask_writes_every_session_once_and_resumes(tmp_path, c
     root = tmp_path / "dataset"
     args = ["build-dataset", str(tmp_path / "sessions"), "--out", str(root), "--voxel",
             "0.01", "--body", "none", "--target-faces", "800", "--no-texture"]
-    with DaskExecutor(2, log=None) as ex:
-        pids = ex.client.run(os.getpid)
-        from dressmeup.data.from_captures import build_dataset_from_sessions
-        from dressmeup.extraction.pipeline import ExtractionConfig
-        from dressmeup.fusion.pipeline import FusionConfig
+    from dressmeup.data.from_captures import build_dataset_from_sessions
+    from dressmeup.extraction.pipeline import ExtractionConfig
+    from dressmeup.fusion.pipeline import FusionConfig
 
-        report = build_dataset_from_sessions(
-            [tmp_path / "sessions"], root, fusion_config=FusionConfig(voxel_size=0.01),
-            extraction_config=ExtractionConfig(target_faces=800, texture=False), body="none",
-            executor=ex)
-        assert ex.client.run(os.getpid) == pids  # no worker crashed (and was restarted)
+    ex = dask_cluster
+    pids = ex.client.run(os.getpid)
+    report = build_dataset_from_sessions(
+        [tmp_path / "sessions"], root, fusion_config=FusionConfig(voxel_size=0.01),
+        extraction_config=ExtractionConfig(target_faces=800, texture=False), body="none",
+        executor=ex)
+    assert ex.client.run(os.getpid) == pids  # no worker crashed (and was restarted)
     assert (report.written, report.skipped, report.failed) == (4, 0, [])
     man = pd.read_parquet(root / "manifest.parquet")
     # the client writes in session order, garments in session.json order: as a serial run

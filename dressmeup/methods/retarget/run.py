@@ -17,7 +17,7 @@ from dressmeup.hyperparameters import parse_value  # noqa: F401 - re-exported (i
 
 log = logging.getLogger(__name__)
 
-__all__ = ["body_model_for", "predict_pairs", "training_triplets", "parse_value", "garment_fingerprints",
+__all__ = ["body_model_for", "predict_pairs", "RetargetPairJob", "training_triplets", "parse_value", "garment_fingerprints",
            "check_split_leakage"]
 
 
@@ -31,7 +31,39 @@ def body_model_for(params, cache: dict | None = None):
     return cache[params.model]
 
 
-def predict_pairs(method, pairs: Sequence[Any], limit: int | None = None) -> tuple[dict[str, np.ndarray], list[float]]:
+#: body models loaded in this process (a pool or Dask worker keeps them across pairs)
+_MODELS: dict[str, Any] = {}
+
+
+class RetargetPairJob:
+    """One pair's job for an executor: ``job(pair) -> ((n, 3) float64 vertices, seconds)``.
+
+    Picklable when ``method`` is (it travels to pool or Dask workers with the job); body
+    models are loaded once per process.
+    """
+
+    __name__ = "retarget_pair"
+
+    def __init__(self, method: Any) -> None:
+        self.method = method
+
+    def __call__(self, pair: Any) -> tuple[np.ndarray, float]:
+        from dressmeup.errors import InputError
+
+        garment = pair.source.garment()
+        src, tgt = pair.source.body(), pair.target.body()
+        if src is None or tgt is None:
+            raise InputError(f"pair {pair.pair_id}: a sample has no body.npz (needed by every "
+                             f"retargeting method)")
+        model = body_model_for(src, _MODELS)
+        t0 = time.perf_counter()
+        V = np.asarray(self.method.retarget(garment.vertices, garment.faces, src, tgt, model),
+                       dtype=np.float64)
+        return V, time.perf_counter() - t0
+
+
+def predict_pairs(method, pairs: Sequence[Any], limit: int | None = None,
+                  executor: Any = None) -> tuple[dict[str, np.ndarray], list[float]]:
     """Retarget the source garment of every pair onto its target body.
 
     Parameters
@@ -39,29 +71,37 @@ def predict_pairs(method, pairs: Sequence[Any], limit: int | None = None) -> tup
     method : a retargeting method (``get_method(...)``).
     pairs : sequence of :class:`dressmeup.data.RetargetPair`.
     limit : only the first ``limit`` pairs (None: all).
+    executor : where the per-pair jobs (:class:`RetargetPairJob`) run
+        (:mod:`dressmeup.executors`; default: one after the other in this process).
 
     Returns
     -------
-    predictions : pair id -> (n, 3) float64 vertices.
+    predictions : pair id -> (n, 3) float64 vertices, in pair order.
     seconds : wall time of each prediction.
+
+    Raises
+    ------
+    Exception
+        The first pair's error (in pair order), after every pair has run.
     """
-    from dressmeup.errors import InputError
+    from dressmeup.executors import LocalExecutor, in_order
     from dressmeup.progress import progress
 
-    models: dict[str, Any] = {}
+    pairs = list(pairs)[: limit if limit else None]
+    executor = executor or LocalExecutor(1)
     preds: dict[str, np.ndarray] = {}
     seconds: list[float] = []
-    pairs = list(pairs)[: limit if limit else None]
-    for pair in progress(pairs, desc=f"retarget ({getattr(method, 'name', 'method')})", total=len(pairs)):
-        garment = pair.source.garment()
-        src, tgt = pair.source.body(), pair.target.body()
-        if src is None or tgt is None:
-            raise InputError(f"pair {pair.pair_id}: a sample has no body.npz (needed by every retargeting method)")
-        model = body_model_for(src, models)
-        t0 = time.perf_counter()
-        preds[pair.pair_id] = np.asarray(method.retarget(garment.vertices, garment.faces, src, tgt, model),
-                                         dtype=np.float64)
-        seconds.append(time.perf_counter() - t0)
+    errors: list[BaseException] = []
+    done = progress(executor.run(RetargetPairJob(method), pairs),
+                    desc=f"retarget ({getattr(method, 'name', 'method')})", total=len(pairs))
+    for i, res in in_order(done):
+        if isinstance(res, BaseException):
+            errors.append(res)
+            continue
+        preds[pairs[i].pair_id], sec = res
+        seconds.append(sec)
+    if errors:
+        raise errors[0]
     return preds, seconds
 
 

@@ -45,3 +45,12 @@ def tiny(body_model):
     V, F = _cut(m, src, sel, 0.01)
     GT, _ = _cut(m, tgt, sel, 0.01)
     return {"V": V, "F": F, "source": src, "target": tgt, "gt": GT}
+
+
+@pytest.fixture(scope="session")
+def tiny_v2_data(tmp_path_factory):
+    """The synth-retarget-tiny-v2 data (procedural body), built once per run."""
+    pytest.importorskip("dressmeup.bench.runs")
+    from dressmeup.bench.runs import build_data
+
+    return build_data("synth-retarget-tiny-v2", tmp_path_factory.mktemp("data") / "tiny")

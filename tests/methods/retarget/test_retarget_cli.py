@@ -6,12 +6,9 @@ import numpy as np
 import pytest
 
 
-@pytest.fixture(scope="module")
-def tiny_data(tmp_path_factory):
-    pytest.importorskip("dressmeup.bench.runs")
-    from dressmeup.bench.runs import build_data
-
-    return build_data("synth-retarget-tiny-v2", tmp_path_factory.mktemp("data") / "tiny")
+@pytest.fixture
+def tiny_data(tiny_v2_data):
+    return tiny_v2_data
 
 
 @pytest.mark.parametrize("method", ["rigid", "skinning+detail"])
