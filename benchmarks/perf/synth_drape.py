@@ -9,7 +9,7 @@ CPU seconds per sample, with the load average beside every timing.
     python benchmarks/perf/synth_drape.py [--body-model anny] [--variants v2,v3]
 
 Variants: ``v2`` = generator 1.1.0's solver (direct drape, no self-collision, 1 mm final
-clearance); ``v3`` = generator 2.0.0 (3-step pose path, self-collision 6 mm, 3 mm clearance);
+clearance); ``v3`` = generator 2.0.0 (3-step pose path, self-collision 10 mm, 3 mm clearance);
 ``v3-noself`` and ``v3-direct`` switch one of the two off.
 """
 
@@ -45,6 +45,7 @@ def main() -> None:
     ap.add_argument("--body-model", default="anny")
     ap.add_argument("--variants", default="v2,v3,v3-noself,v3-direct")
     ap.add_argument("--edge-length", type=float, default=None)
+    ap.add_argument("--garments", default="t-shirt,skirt,dress")
     args = ap.parse_args()
 
     from dressmeup.body import BodyParams, get_body_model
@@ -86,7 +87,7 @@ def main() -> None:
               "strain p99 | self-int. faces | CPU s | load |")
         print("|---|---|---|---|---|---|---|---|---|---|")
         totals: dict[str, list] = {k: [] for k in chosen}
-        for gtype, k in GARMENTS:
+        for gtype, k in [x for x in GARMENTS if x[0] in args.garments.split(",")]:
             params = sample_params(gtype, np.random.default_rng([0, 3, k, 0]))
             (s0, V_d, fr_d), (s1, V_w, fr_w) = bodies
             g = build_garment(gtype, params, V_d, skin_F, labels, fr_d, edge_length=edge)

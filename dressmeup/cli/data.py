@@ -28,6 +28,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--edge-length", type=float, default=None,
                    help="target garment edge length in metres (default: by body model)")
     p.add_argument("--no-scan", action="store_true", help="do not write clothed scan meshes")
+    p.add_argument("--edition", default=None,
+                   help="generate exactly the data this edition pins (e.g. synth-retarget-v3; "
+                        "the options above are then taken from the edition) and check its "
+                        "manifest against the edition's expected sha256")
+    p.add_argument("--workers", "-j", type=int, default=1,
+                   help="processes for generator 2.x (--edition ...-v3); the data do not "
+                        "depend on it (default 1)")
     p.set_defaults(func=_synth)
 
     v = subparsers.add_parser(
@@ -73,9 +80,36 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     i.set_defaults(func=_import)
 
 
+def _synth_edition(args: argparse.Namespace) -> int:
+    from dressmeup.bench.edition import load_edition
+    from dressmeup.bench.tasks.common import manifest_sha256
+    from dressmeup.data.synth import generate_dataset
+    from dressmeup.errors import InputError
+
+    ed = load_edition(args.edition)
+    pin = ed.dataset
+    if pin.kind != "generated":
+        raise InputError(f"--edition {ed.name} is scored on a real dataset; it cannot be generated")
+    kw = {"workers": args.workers} if str(pin.params.get("version", "")).startswith("2.") else {}
+    root = generate_dataset(args.out, seed=pin.seed, **pin.params, **kw)
+    sha = manifest_sha256(root)
+    sys.stdout.write(f"wrote the data of edition {ed.name} to {root}\nmanifest sha256 {sha}\n")
+    expected = pin.expected_manifest_sha256
+    if expected and sha != expected:
+        sys.stdout.write(f"WARNING: the edition expects {expected}: this machine generated other "
+                         "data, whose scores are not comparable (score with --allow-other-data; "
+                         "see docs/synthetic-data.md, Reproducibility)\n")
+        return 1
+    if expected:
+        sys.stdout.write("matches the edition's expected manifest\n")
+    return 0
+
+
 def _synth(args: argparse.Namespace) -> int:
     from dressmeup.data.synth import generate_dataset
 
+    if args.edition:
+        return _synth_edition(args)
     kw = {}
     if args.edge_length is not None:
         kw["edge_length"] = args.edge_length

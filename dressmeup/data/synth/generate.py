@@ -125,14 +125,16 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                      texture_size: int = 256, split_strategy: str = "stratified",
                      version: str = GENERATOR_VERSION,
                      garments_per_split: tuple[int, int, int] | list[int] | None = None,
-                     categories: list[str] | None = None, pose_steps: int = 3) -> Path:
+                     categories: list[str] | None = None, pose_steps: int = 3,
+                     workers: int = 1) -> Path:
     """Generate (or resume) the synthetic dataset in ``out``.
 
     ``version="2.0.0"`` runs generator 2.0.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
     every garment worn by every subject, identical poses; it reads ``subjects``, ``poses``,
     ``seed``, ``body_model``, ``edge_length``, ``write_scan``, ``texture_size``,
-    ``drape_settings``, ``garments_per_split``, ``categories`` and ``pose_steps``); any other
-    version runs generator 1.1.0 below (the ``*-v2`` editions' data), which ignores those three.
+    ``drape_settings``, ``garments_per_split``, ``categories``, ``pose_steps`` and ``workers``
+    (processes; the output does not depend on it)); any other version runs generator 1.1.0
+    below (the ``*-v2`` editions' data), which ignores the last four.
 
     Parameters
     ----------
@@ -168,7 +170,7 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                            body_model=body_model, categories=categories,
                            edge_length=edge_length, write_scan=write_scan,
                            texture_size=texture_size, pose_steps=pose_steps,
-                           drape_settings=drape_settings)
+                           drape_settings=drape_settings, workers=workers)
     if version != GENERATOR_VERSION:
         raise InputError(f"version: expected {GENERATOR_VERSION!r} or '2.0.0', got {version!r}")
     for v, n in ((subjects, "subjects"), (garments, "garments"), (poses, "poses")):

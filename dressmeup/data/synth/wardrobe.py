@@ -6,16 +6,16 @@ A garment (one rest mesh: vertices, faces, UVs) is made around its *design* body
 1. **Subjects** come from a fixed table of phenotypes that spreads the body model's range
    (:data:`SUBJECTS`: gender, age, muscle, weight, height at their extremes; adults only,
    since the model's lowest ages are children). Subject ``k`` is ``SUBJECTS[k]``.
-2. **Poses** are the same pose arrays for every subject: library poses
-   (:mod:`dressmeup.data.synth.poses`) turned into axis-angle once, on the model's
-   default body, without jitter. ``P1`` of one subject is exactly ``P1`` of another.
+2. **Poses** are the same pose arrays for every subject: the first ``poses`` library poses
+   of :data:`POSE_ORDER` (:mod:`dressmeup.data.synth.poses`) turned into axis-angle once, on
+   the model's default body, without jitter. ``P1`` of one subject is exactly ``P1`` of
+   another.
 3. **Garments**: per category (topwear, bottomwear, dress), ``test + val + train``
    garments cycling through the category's types with parameters drawn per garment (seeded),
    so no two garments are alike. Garment ``k`` is designed on subject ``k mod subjects``.
-4. **Fit**: each garment vertex keeps its closest point on the design body (face and
-   barycentric coordinates) and its signed offset along the interpolated normal; on another
-   body (same body topology) it is placed at the same surface point and offset, then
-   relaxed in the rest pose with the garment's own rest edge lengths
+4. **Fit**: each garment vertex moves by the body's shape displacement at its closest
+   point on the design body (same body topology, so the same face and barycentric
+   coordinates on the other body), then is relaxed in the rest pose with the garment's own rest edge lengths
    (:func:`dressmeup.data.synth.drape.drape`): a garment made for a slim body fitted to a heavy
    one stretches, one made for a heavy body stands off a slim one; a final projection keeps
    every vertex outside the body (it never sinks in).
@@ -69,6 +69,10 @@ SUBJECTS: tuple[tuple[str, tuple[float, ...]], ...] = (
     ("average-person", (0.5, 0.5, 0.5, 0.5, 0.5, 0.5)),
     ("slim-short-man", (0.1, 0.45, 0.2, 0.1, 0.15, 0.5)),
 )
+#: Pose order of generator 2.0.0 (the first ``poses`` are used): legs and arms alternate so
+#: that even two or three poses load both (sitting is the hardest for skirts and dresses).
+POSE_ORDER = ("sitting", "arms-raised", "walking", "one-arm-up", "bent-knees", "arms-forward",
+              "twist-side", "bent-elbows", "a-pose", "arms-down")
 DEFAULT_EDGE_LENGTH = {"anny": 0.02, "procedural": 0.025}
 BODY_DECIMALS = 9  # body vertices, metres
 TRANSFORM_DECIMALS = 12  # LBS matrices
@@ -79,7 +83,7 @@ def v3_drape_settings() -> DrapeSettings:
     """Drape settings of generator 2.0.0: 1.x's material, cloth self-collision on, and a
     3 mm final clearance (1 mm let 20 mm triangles of a garment stretched over a heavier body
     cut into its curved surface between their vertices)."""
-    return DrapeSettings(self_stiffness=2.0e5, self_thickness=0.006, margin=0.006,
+    return DrapeSettings(self_stiffness=2.0e5, self_thickness=0.010, margin=0.006,
                          clearance=0.003)
 
 
@@ -124,7 +128,7 @@ def plan_v3(subjects: int, poses: int, garments_per_split: tuple[int, int, int],
     subjects : number of subjects (1 .. len(SUBJECTS)).
     poses : number of poses (1 .. library size), the same for every subject.
     garments_per_split : (train, val, test) garments per category.
-    seed : random seed (pose choice, garment parameters, textures).
+    seed : random seed (garment parameters, textures).
     categories : categories to make (default all of :data:`CATEGORY_TYPES`).
     """
     names = pose_names()
@@ -140,12 +144,11 @@ def plan_v3(subjects: int, poses: int, garments_per_split: tuple[int, int, int],
     if min(n_train, n_val, n_test) < 0 or n_train + n_val + n_test < 1:
         raise ValueError(f"garments_per_split: expected non-negative counts, got "
                          f"{garments_per_split!r}")
-    rng = np.random.default_rng([seed, 2])
-    pick = rng.permutation(len(names))[:poses]
+    order = [n for n in POSE_ORDER if n in names] + [n for n in names if n not in POSE_ORDER]
     plan: dict[str, Any] = {
         "subjects": {f"S{i + 1:02d}": {"name": SUBJECTS[i][0], "shape": list(SUBJECTS[i][1])}
                      for i in range(subjects)},
-        "poses": {f"P{k + 1}": names[i] for k, i in enumerate(pick)},
+        "poses": {f"P{k + 1}": order[k] for k in range(poses)},
         "garments": {},
     }
     sids = list(plan["subjects"])
@@ -168,8 +171,10 @@ def transfer_to_body(points: np.ndarray, from_V: np.ndarray, to_V: np.ndarray,
                      faces: np.ndarray) -> np.ndarray:
     """Carry points from one body to another of the same topology (the fit's start).
 
-    Each point keeps its closest surface point on ``from_V`` (face, barycentric
-    coordinates) and its signed offset along the interpolated vertex normal there.
+    Each point moves by the body's displacement at its closest surface point on ``from_V``
+    (barycentric blend of ``to_V - from_V`` over the closest face): a smooth map, since the
+    bodies differ by smooth shape blendshapes, so the garment keeps its offset from the body
+    and does not fold where the surface is concave (an offset along the normal would).
 
     Parameters
     ----------
@@ -180,21 +185,13 @@ def transfer_to_body(points: np.ndarray, from_V: np.ndarray, to_V: np.ndarray,
     -------
     (p, 3) float64 points near ``to_V``.
     """
-    from dressmeup.geometry.mesh import vertex_normals
     from dressmeup.geometry.proximity import closest_points
 
     F = np.asarray(faces, np.int64)
     _, p, fid = closest_points(from_V, F, points)
-    tri = from_V[F[fid]]
-    bary = _barycentric(p, tri)
-    n0 = np.einsum("pk,pkd->pd", bary, vertex_normals(from_V, F)[F[fid]])
-    n0 /= np.linalg.norm(n0, axis=1, keepdims=True)
-    offset = np.einsum("pd,pd->p", points - p, n0)
-    tri1 = to_V[F[fid]]
-    p1 = np.einsum("pk,pkd->pd", bary, tri1)
-    n1 = np.einsum("pk,pkd->pd", bary, vertex_normals(to_V, F)[F[fid]])
-    n1 /= np.linalg.norm(n1, axis=1, keepdims=True)
-    return p1 + offset[:, None] * n1
+    bary = _barycentric(p, from_V[F[fid]])
+    disp = np.einsum("pk,pkd->pd", bary, (to_V - from_V)[F[fid]])
+    return np.asarray(points, np.float64) + disp
 
 
 def _barycentric(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
@@ -219,19 +216,20 @@ def drape_stats(V: np.ndarray, F: np.ndarray, rest_V: np.ndarray, body_V: np.nda
     Returns
     -------
     dict: ``deepest_mm`` (deepest vertex inside the body, >= 0), ``inside_area_pct`` (share of
-    the garment's area inside the body, winding number on surface samples),
+    the garment's area whose face centroid is inside the body, by the winding number),
     ``strain_mean`` / ``strain_p99`` (|l / L - 1| over edges), ``self_intersecting_faces``
     (pymeshlab).
     """
     import pymeshlab
 
-    from dressmeup.geometry.mesh import edges
+    from dressmeup.geometry.mesh import edges, face_areas
     from dressmeup.geometry.proximity import closest_points
     from dressmeup.geometry.winding import winding_number
-    from dressmeup.metrics import interpenetration_ratio
 
     d, _, _ = closest_points(body_V, body_F, V)
     inside = winding_number(body_V, body_F, V) > 0.5
+    area = face_areas(V, F)
+    inside_f = winding_number(body_V, body_F, V[F].mean(1)) > 0.5
     E = edges(F)
     L = np.linalg.norm(rest_V[E[:, 1]] - rest_V[E[:, 0]], axis=1)
     le = np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1)
@@ -240,7 +238,7 @@ def drape_stats(V: np.ndarray, F: np.ndarray, rest_V: np.ndarray, body_V: np.nda
     ms.add_mesh(pymeshlab.Mesh(np.asarray(V, np.float64), np.asarray(F, np.int32)))
     ms.compute_selection_by_self_intersections_per_face()
     return {"deepest_mm": float(d[inside].max() * 1000) if inside.any() else 0.0,
-            "inside_area_pct": float(interpenetration_ratio((V, F), (body_V, body_F)) * 100),
+            "inside_area_pct": float(area[inside_f].sum() / area.sum() * 100),
             "strain_mean": float(strain.mean()), "strain_p99": float(np.quantile(strain, 0.99)),
             "self_intersecting_faces": int(ms.current_mesh().selected_face_number())}
 
@@ -283,7 +281,7 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
                 body_model: str = "anny", categories: list[str] | None = None,
                 edge_length: float | None = None, write_scan: bool = True,
                 texture_size: int = 256, pose_steps: int = 3,
-                drape_settings: DrapeSettings | None = None) -> Path:
+                drape_settings: DrapeSettings | None = None, workers: int = 1) -> Path:
     """Generate (or resume) a generator-2.0.0 dataset in ``out`` (see the module docstring).
 
     Parameters
@@ -292,7 +290,8 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     subjects : subjects 1..6 (rows of :data:`SUBJECTS`); every garment is worn by each.
     poses : poses per subject (the same pose arrays for every subject).
     garments_per_split : (train, val, test) garments per category.
-    seed : random seed; the dataset is a deterministic function of all arguments.
+    seed : random seed; the dataset is a deterministic function of all arguments but
+        ``workers``.
     body_model : ``anny`` (default) or ``procedural`` (tests).
     categories : subset of ``topwear``, ``bottomwear``, ``dress`` (default all).
     edge_length : garment edge length in metres (20 mm anny, 25 mm procedural).
@@ -300,15 +299,15 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     texture_size : texture side in pixels.
     pose_steps : steps of the pose-continuation path (1: drape directly at the pose).
     drape_settings : material and solver settings (default :func:`v3_drape_settings`).
+    workers : processes computing garments in parallel (one thread each); the files and the
+        manifest are the same for any number (the main process writes them in plan order).
 
     Returns
     -------
     Path of the dataset root.
     """
-    from dressmeup.data.synth.generate import _garment_weights, _skin, summarize_stats
+    from dressmeup.data.synth.generate import summarize_stats
     from dressmeup.data.writer import DatasetWriter
-    from dressmeup.io.atomic import atomic_write_text
-    from dressmeup.io.mesh import save_mesh
     from dressmeup.progress import progress
 
     gps = tuple(int(x) for x in garments_per_split)
@@ -340,109 +339,178 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
         "garments": plan["garments"],
     }
     t_start = time.perf_counter()
+    cpu_start = time.process_time()
     out = Path(out)
     writer = DatasetWriter(out, info)
-    with single_threaded():
-        from dressmeup.body import get_body_model
+    sids, pids = list(plan["subjects"]), list(plan["poses"])
+    total = len(plan["garments"]) * len(sids) * len(pids)
+    bar = progress(range(total), desc="synth v3", total=total)
+    todo = []
+    for gid, g in plan["garments"].items():
+        missing = [(s, p) for s in sids for p in pids if not writer.has_sample(f"{s}-{gid}-{p}")]
+        for _ in range(len(sids) * len(pids) - len(missing)):
+            next(bar, None)
+        if missing:
+            todo.append((gid, g, missing))
+    setup = (body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan)
+    if workers > 1 and len(todo) > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
 
-        model = get_body_model(body_model)
-        keep, skin_F = _skin(model)
-        names = tuple(model.joint_names)
-        body_W = np.asarray(model.skinning_weights)[keep]
-        labels = np.array(names)[body_W.argmax(1)]
-        frame0 = BodyFrame.from_joints(model.posed(model.default_params()).rest_joints, names)
-        pose_arrays = {pid: pose_axis_angle(name, names, frame0, rng=None)
-                       for pid, name in plan["poses"].items()}
-        bodies: dict[str, Body] = {}
-        for sid, s in plan["subjects"].items():
-            shape = np.asarray(s["shape"], np.float64)
-            from dressmeup.body import BodyParams
-
-            rest = model.posed(BodyParams(model=model.name, shape=shape,
-                                          pose=np.zeros((len(names), 3))))
-            bodies[sid] = Body(sid, shape, _q(rest.rest_vertices[keep], BODY_DECIMALS),
-                               BodyFrame.from_joints(_q(rest.rest_joints, BODY_DECIMALS),
-                                                     names))
-        sids, pids = list(plan["subjects"]), list(plan["poses"])
-        total = len(plan["garments"]) * len(sids) * len(pids)
-        bar = progress(range(total), desc="synth v3", total=total)
-        for gid, g in plan["garments"].items():
-            ids = [f"{s}-{gid}-{p}" for s in sids for p in pids]
-            if all(writer.has_sample(x) for x in ids):
-                for _ in ids:
-                    next(bar, None)
-                continue
-            _make_garment(writer, out, gid, g, bodies, sids, pids, pose_arrays, model, keep,
-                          skin_F, body_W, labels, names, edge, settings, pose_steps, seed,
-                          texture_size, write_scan, bar, save_mesh, atomic_write_text,
-                          _garment_weights)
-        for _ in bar:
-            pass
+        ctx = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(min(workers, len(todo)), mp_context=ctx,
+                                 initializer=_init_worker,
+                                 initargs=(os.getpid(), *setup)) as pool:
+            for res in pool.map(_garment_job, todo):
+                _write_garment(writer, out, res, bar)
+    else:
+        with single_threaded():
+            _setup(*setup)
+            for job in todo:
+                _write_garment(writer, out, _garment_job(job), bar)
+    for _ in bar:
+        pass
     report = summarize_stats(out)
-    return writer.finalize(report=report,
-                           timings={"last_run_s": round(time.perf_counter() - t_start, 2)})
+    return writer.finalize(report=report, timings={
+        "last_run_s": round(time.perf_counter() - t_start, 2),
+        "last_run_main_cpu_s": round(time.process_time() - cpu_start, 2), "workers": workers})
 
 
-def _make_garment(writer, out, gid, g, bodies, sids, pids, pose_arrays, model, keep, skin_F,
-                  body_W, labels, names, edge, settings, pose_steps, seed, texture_size,
-                  write_scan, bar, save_mesh, atomic_write_text, garment_weights):
-    """Build one garment on its design body, fit it to every subject, drape every pose."""
-    from dressmeup.body import BodyParams
+#: per-process state of the garment jobs (body model, subjects, poses), set by :func:`_setup`
+_STATE: dict[str, Any] = {}
+
+
+def _setup(body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan):
+    """Load the body model, the subjects' rest bodies and the pose arrays (once a process)."""
+    key = json.dumps([body_model, plan, edge, settings.to_dict(), pose_steps, seed,
+                      texture_size, write_scan], sort_keys=True, default=str)
+    if _STATE.get("key") == key:
+        return
+    from dressmeup.body import BodyParams, get_body_model
+    from dressmeup.data.synth.generate import _skin
+
+    model = get_body_model(body_model)
+    keep, skin_F = _skin(model)
+    names = tuple(model.joint_names)
+    body_W = np.asarray(model.skinning_weights)[keep]
+    frame0 = BodyFrame.from_joints(model.posed(model.default_params()).rest_joints, names)
+    bodies = {}
+    for sid, s in plan["subjects"].items():
+        shape = np.asarray(s["shape"], np.float64)
+        rest = model.posed(BodyParams(model=model.name, shape=shape,
+                                      pose=np.zeros((len(names), 3))))
+        bodies[sid] = Body(sid, shape, _q(rest.rest_vertices[keep], BODY_DECIMALS),
+                           BodyFrame.from_joints(_q(rest.rest_joints, BODY_DECIMALS), names))
+    _STATE.clear()
+    _STATE.update(key=key, model=model, keep=keep, skin_F=skin_F, names=names, body_W=body_W,
+                  labels=np.array(names)[body_W.argmax(1)], bodies=bodies,
+                  poses={pid: pose_axis_angle(name, names, frame0, rng=None)
+                         for pid, name in plan["poses"].items()},
+                  edge=edge, settings=settings, pose_steps=pose_steps, seed=seed,
+                  texture_size=texture_size, write_scan=write_scan)
+
+
+def _init_worker(parent_pid: int, *setup) -> None:
+    import torch
+
+    from dressmeup.executors.local import die_with_parent
+
+    die_with_parent(parent_pid)  # a killed generation leaves no worker behind
+    torch.set_num_threads(1)
+    try:
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(limits=1)
+    except ImportError:
+        pass
+    _setup(*setup)
+
+
+def _garment_job(job) -> dict[str, Any]:
+    """Build one garment on its design body, fit it to the subjects, drape the missing
+    samples; returns every array to write (computed in a worker or in the main process)."""
+    from dressmeup.data.synth.generate import _garment_weights
     from dressmeup.data.synth.texture import procedural_texture
 
+    gid, g, missing = job
+    S = _STATE
+    t_cpu = time.process_time()
+    model, skin_F, bodies = S["model"], S["skin_F"], S["bodies"]
     design = bodies[g["design_subject"]]
-    garment = build_garment(g["type"], g["params"], design.rest_V, skin_F, labels,
-                            design.frame, edge_length=edge)
+    garment = build_garment(g["type"], g["params"], design.rest_V, skin_F, S["labels"],
+                            design.frame, edge_length=S["edge"])
     V0, F = _q(garment.vertices, STORE_DECIMALS), garment.faces
-    save_mesh(out / "generator" / "rest" / f"{gid}.ply", V0, F, uv=garment.uv,
-              uv_faces=garment.uv_faces)
-    tex, pattern = procedural_texture(np.random.default_rng([seed, 7919, int(gid[1:])]),
-                                      texture_size)
-    for sid in sids:
+    tex, pattern = procedural_texture(np.random.default_rng([S["seed"], 7919, int(gid[1:])]),
+                                      S["texture_size"])
+    res: dict[str, Any] = {"gid": gid, "g": g, "V0": V0, "F": F, "uv": garment.uv,
+                           "uv_faces": garment.uv_faces, "category": garment.category,
+                           "garment_type": garment.garment_type, "tex": tex, "fitted": {},
+                           "samples": [], "build_cpu_s": time.process_time() - t_cpu}
+    for sid in dict.fromkeys(s for s, _ in missing):
         body = bodies[sid]
-        ids = [f"{sid}-{gid}-{p}" for p in pids]
-        if all(writer.has_sample(x) for x in ids):
-            for _ in ids:
-                next(bar, None)
-            continue
+        t_fit = time.process_time()
         if sid == design.sid:
-            fitted = V0
-            fit_stats: dict[str, Any] = {"fit": "design body"}
+            fitted, fit_stats = V0, {"fit": "design body"}
         else:
             start = transfer_to_body(V0, design.rest_V, body.rest_V, skin_F)
             fit = drape(V0, F, start, garment.support, body.rest_V, skin_F, body.frame.up,
-                        settings)
+                        S["settings"])
             fitted = _q(fit.vertices, STORE_DECIMALS)
             fit_stats = {"fit": "fitted", **{f"fit_{k}": v for k, v in fit.stats.items()}}
-        save_mesh(out / "generator" / "fitted" / f"{gid}-{sid}.ply", fitted, F)
-        fitted_garment = _Fitted(fitted, F, garment.garment_type)
-        W = garment_weights(fitted_garment, body.rest_V, skin_F, body_W, names, body.frame)
-        draper = PoseDraper(model, keep, skin_F, V0, F, garment.support, fitted, W, body.shape,
-                            settings, pose_steps)
-        for pid in pids:
-            sample_id = f"{sid}-{gid}-{pid}"
-            next(bar, None)
-            if writer.has_sample(sample_id):
-                continue
-            pose = pose_arrays[pid]
-            res, body_V = draper(pose, body.frame.up)
-            Vd = _q(res.vertices, STORE_DECIMALS)
-            bp = BodyParams(model=model.name, shape=body.shape, pose=pose)
+        res["fitted"][sid] = fitted
+        W = _garment_weights(_Fitted(fitted, F, garment.garment_type), body.rest_V, skin_F,
+                             S["body_W"], S["names"], body.frame)
+        draper = PoseDraper(model, S["keep"], skin_F, V0, F, garment.support, fitted, W,
+                            body.shape, S["settings"], S["pose_steps"])
+        fit_stats["fit_cpu_s"] = time.process_time() - t_fit
+        for pid in [p for s, p in missing if s == sid]:
+            t0 = time.process_time()
+            pose = S["poses"][pid]
+            out, body_V = draper(pose, body.frame.up)
+            Vd = _q(out.vertices, STORE_DECIMALS)
             scan = None
-            if write_scan:
-                posed_all = model.posed(bp)
-                BV = _q(posed_all.vertices, STORE_DECIMALS)
+            if S["write_scan"]:
+                from dressmeup.body import BodyParams
+
+                BV = _q(model.posed(BodyParams(model=model.name, shape=body.shape,
+                                               pose=pose)).vertices, STORE_DECIMALS)
                 scan = (np.vstack([BV, Vd]),
                         np.vstack([np.asarray(model.faces, np.int64), F + len(BV)]))
-            st = {**res.stats, **drape_stats(Vd, F, V0, body_V, skin_F), **fit_stats,
+            drape_cpu = time.process_time() - t0
+            st = {**out.stats, **drape_stats(Vd, F, V0, body_V, skin_F), **fit_stats,
                   "pose": pid, "garment_type": g["type"],
-                  "texture": pattern, "subject": sid, "design_subject": design.sid}
-            atomic_write_text(out / "generator" / "stats" / f"{sample_id}.json",
-                              json.dumps(st, indent=1, sort_keys=True) + "\n")
-            writer.add_sample(subject_id=sid, garment_id=gid, pose_id=pid,
-                              category=garment.category, garment_type=garment.garment_type,
-                              split=g["split"], garment=(Vd, F, garment.uv, garment.uv_faces),
-                              body=bp, scan=scan, texture=tex)
+                  "texture": pattern, "subject": sid, "design_subject": design.sid,
+                  "drape_cpu_s": drape_cpu}
+            res["samples"].append({"sid": sid, "pid": pid, "V": Vd, "scan": scan,
+                                   "shape": body.shape, "pose": pose, "stats": st,
+                                   "model": model.name})
+    return res
+
+
+def _write_garment(writer, out: Path, res: dict[str, Any], bar) -> None:
+    """Write one garment's files (rest, fitted, stats, then each sample) in plan order."""
+    from dressmeup.body import BodyParams
+    from dressmeup.io.atomic import atomic_write_text
+    from dressmeup.io.mesh import save_mesh
+
+    gid, g, F = res["gid"], res["g"], res["F"]
+    save_mesh(out / "generator" / "rest" / f"{gid}.ply", res["V0"], F, uv=res["uv"],
+              uv_faces=res["uv_faces"])
+    for sid, fitted in res["fitted"].items():
+        save_mesh(out / "generator" / "fitted" / f"{gid}-{sid}.ply", fitted, F)
+    for smp in res["samples"]:
+        sid, pid = smp["sid"], smp["pid"]
+        sample_id = f"{sid}-{gid}-{pid}"
+        next(bar, None)
+        # the stats before the manifest row (a resumed run skips samples in the manifest)
+        atomic_write_text(out / "generator" / "stats" / f"{sample_id}.json",
+                          json.dumps(smp["stats"], indent=1, sort_keys=True) + "\n")
+        writer.add_sample(subject_id=sid, garment_id=gid, pose_id=pid,
+                          category=res["category"], garment_type=res["garment_type"],
+                          split=g["split"], garment=(smp["V"], F, res["uv"], res["uv_faces"]),
+                          body=BodyParams(model=smp["model"], shape=smp["shape"],
+                                          pose=smp["pose"]),
+                          scan=smp["scan"], texture=res["tex"])
 
 
 @dataclass
