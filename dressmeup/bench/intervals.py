@@ -21,7 +21,9 @@ Paired separation
 -----------------
 Two methods scored on the same items are compared on the *same* resampled units
 (:func:`paired_difference`): the interval of the difference of their means excludes 0 when
-the ranking between them is separated at the 95 % level.
+the ranking between them is separated at the 95 % level. Leaderboards give no verdict below
+:data:`MIN_UNITS_SEPARATION` shared units: with 2 or 3 units a percentile interval cannot
+put less than 2.5 % in a tail, so "separated" would only mean "every unit agrees".
 """
 
 from __future__ import annotations
@@ -40,6 +42,11 @@ SEED = 0
 LEVEL = 0.95
 #: Below this many units an interval is flagged as coarse in tables and docs.
 FEW_UNITS = 8
+#: Fewest shared units for a separation verdict: with n units the most extreme resample
+#: (every draw the unit with the smallest difference) has probability n^-n (0.25 for 2,
+#: 0.037 for 3, 0.0039 for 4), so only from 4 units can a 2.5 % tail leave it out; below
+#: that "separated" would just mean "every unit agrees", and tables print "–".
+MIN_UNITS_SEPARATION = 4
 
 
 def distinct_resamples(n_units: int) -> int:

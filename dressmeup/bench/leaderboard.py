@@ -217,7 +217,11 @@ class Leaderboard:
 
     def _ci_note(self) -> str:
         """Caption sentences on intervals, separation and comparability."""
-        from dressmeup.bench.intervals import N_RESAMPLES, describe_resolution
+        from dressmeup.bench.intervals import (
+            MIN_UNITS_SEPARATION,
+            N_RESAMPLES,
+            describe_resolution,
+        )
 
         out = ""
         if self.show_ci:
@@ -226,7 +230,7 @@ class Leaderboard:
                     f"{describe_resolution(self.n_units or 0)}); [–]: no interval (one unit "
                     "or an older result). "
                     "Sep.: paired bootstrap of the primary column says the rank is separated "
-                    "from the next (yes/no).")
+                    f"from the next (yes/no; – below {MIN_UNITS_SEPARATION} shared units).")
         if any(not r.get("comparable", True) for r in self.rows):
             out += " Not comparable: scored on data other than the edition pins; unranked."
         return out
@@ -515,14 +519,18 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
         if m not in by_name:
             raise InputError(f"per-category metric {m!r} is not a metric of {ed.name}")
     tracks = _tracks(ed, loaded)
-    for m in cat_metrics:
+    prim = getattr(ed, "primary", None)
+    prim_metric = prim.get("metric") if isinstance(prim, dict) else None
+    # every track is shown separately for the primary metric, even without per_category
+    track_metrics = list(dict.fromkeys(
+        [*cat_metrics, *[m for m in (prim_metric, ed.primary_metric) if m in by_name][:1]]))
+    for m in track_metrics:
         columns += [Column(f"{m}#{t}", by_name[m], track=t) for t in tracks]
     categories = sorted({c for r in loaded for c in r.summary.get("per_category", {})})
     if len(categories) > 1:
         for m in cat_metrics:
             columns += [Column(f"{m}@{cat}", by_name[m], cat) for cat in categories]
     primary = sort_by or ed.primary_metric
-    prim = getattr(ed, "primary", None)
     if sort_by is None and isinstance(prim, dict) and prim.get("track") in tracks \
             and prim.get("metric", primary) in by_name:
         primary = f"{prim.get('metric', primary)}#{prim['track']}"
@@ -606,7 +614,7 @@ def _mark_separation(rows: list[dict[str, Any]], primary: str, unit: str | None)
     """Set ``row["separated"]`` (True/False/None) between consecutive comparable ranks by
     a paired bootstrap over ``unit`` of the primary column (see
     :func:`dressmeup.bench.intervals.paired_difference`)."""
-    from dressmeup.bench.intervals import paired_difference
+    from dressmeup.bench.intervals import MIN_UNITS_SEPARATION, paired_difference
 
     metric, _, track = primary.partition("#")
     ranked = [r for r in rows if r["comparable"]]
@@ -635,7 +643,7 @@ def _mark_separation(rows: list[dict[str, Any]], primary: str, unit: str | None)
         d = paired_difference(xa.loc[shared, metric].to_numpy(),
                               xb.loc[shared, metric].to_numpy(),
                               xa.loc[shared, unit].to_numpy())
-        if d is not None and d.n_units > 1:
+        if d is not None and d.n_units >= MIN_UNITS_SEPARATION:
             a["separated"] = d.separated
 
 

@@ -181,15 +181,24 @@ def test_tracks_get_columns_in_every_format(scored, tmp_path):
     assert board.primary == "p2s#cross" and board.rows[0]["method"] == "GT"
     assert [c.track for c in board.columns if c.track] == ["re-pose", "cross"]   # its order
     assert "Sorted by P2S ↓ [mm] · track cross" in board.render("md")
+    # every track is shown for the primary metric even without per-category metrics
+    bare = build_leaderboard([b, a], per_category=[])
+    assert [c.key for c in bare.columns if c.track] == ["p2s#re-pose", "p2s#cross"]
+
+
+def _six_units(t):
+    t["garment_id"] = [f"U{i % 6}" for i in range(len(t))]   # 6 unit labels over 18 pairs
+    return t
 
 
 def test_rank_separation_marked(scored, tmp_path):
     """NOISY is worse than GT on every pair by about the noise: the paired bootstrap
     separates them even though their intervals overlap; a copy of NOISY is not
     separated from NOISY."""
-    twin = _copy(scored["noisy"]["res"].path, tmp_path / "twin", method="NOISY-TWIN")
-    board = build_leaderboard([scored["gt"]["res"].path, scored["noisy"]["res"].path,
-                               twin], sort_by="ed")
+    gt = _copy(scored["gt"]["res"].path, tmp_path / "gt", table_edit=_six_units)
+    noisy = _copy(scored["noisy"]["res"].path, tmp_path / "noisy", table_edit=_six_units)
+    twin = _copy(noisy, tmp_path / "twin", method="NOISY-TWIN")
+    board = build_leaderboard([gt, noisy, twin], sort_by="ed")
     seps = {r["method"]: r["separated"] for r in board.rows}
     assert seps["GT"] is True
     assert [seps["NOISY"], seps["NOISY-TWIN"]].count(False) == 1
@@ -260,3 +269,12 @@ def test_one_unit_shows_degenerate_interval_and_says_why(scored, tmp_path):
     md = board.render("md")
     assert board.show_ci and "[–]" in md.splitlines()[2] and "degenerate" in md
     assert all(r["separated"] is None for r in board.rows)
+
+
+def test_no_separation_verdict_below_four_units(scored):
+    """The fixture's 3 garments: GT beats NOISY on every garment, but 3 units cannot give a
+    95 % verdict (the all-one-garment resample has probability 1/27 > 2.5 %)."""
+    board = build_leaderboard([scored["gt"]["res"].path, scored["noisy"]["res"].path],
+                              sort_by="ed")
+    assert [r["separated"] for r in board.rows] == [None, None]
+    assert "below 4 shared units" in board.render("md")
