@@ -8,6 +8,7 @@ never overwrites anything; this script owns those four files).
     python benchmarks/run_baselines.py                              # every reference edition
     python benchmarks/run_baselines.py --editions synth-uvparam-v1 --methods xatlas lscm
     python benchmarks/run_baselines.py --work /tmp/bench --workers 2
+    python benchmarks/run_baselines.py --work /tmp/bench --executor dask --workers 2
 
 Data go to ``<work>/data/<edition>`` (reused across runs), submissions and results to
 ``<work>/runs/<UTC time>/``; ``<work>`` defaults to the toolkit cache
@@ -17,6 +18,7 @@ Data go to ``<work>/data/<edition>`` (reused across runs), submissions and resul
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime as dt
 import sys
 import time
@@ -27,17 +29,32 @@ RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def main(argv: list[str] | None = None) -> int:
+    from dressmeup.cli.executor_args import add_executor_args, executor_from_args
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--editions", nargs="+", default=list(REFERENCE_EDITIONS))
     ap.add_argument("--methods", nargs="+", default=None,
                     help="restrict to these baselines (default: every available one)")
     ap.add_argument("--work", default=None, help="work folder (default: the toolkit cache)")
-    ap.add_argument("--workers", type=int, default=None, help="scoring workers")
+    add_executor_args(ap, default_workers=None, what="scored item, and with --executor or "
+                                                  "--scheduler also per baseline pair / mesh")
     ap.add_argument("--train-steps", type=int, default=300,
                     help="self-supervised training steps of trainable retargeting baselines")
     ap.add_argument("--results", default=str(RESULTS), help="where the tables are rewritten")
     args = ap.parse_args(argv)
 
+    executor = executor_from_args(args)
+    # baselines: serial as before unless the switch is given; scoring: the executor
+    baseline_executor = executor if (args.executor or args.scheduler) else None
+    with contextlib.ExitStack() as stack:
+        if executor.name == "dask":
+            stack.enter_context(executor)  # one cluster for every run of this script
+        return _run(args, executor, baseline_executor)
+
+
+def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
+    """Every edition of ``args``: data, baselines (through ``baseline_executor``; None: in
+    this process), scoring (through ``executor``), tables."""
     from dressmeup.bench import load_edition, runs
     from dressmeup.bench.leaderboard import write_leaderboard
     from dressmeup.cache import cache_dir
@@ -53,12 +70,13 @@ def main(argv: list[str] | None = None) -> int:
         data = runs.build_data(ed, work / "data" / ed.name, log=log)
         kw = {"train_steps": args.train_steps} if ed.task == "retarget" else {}
         subs = runs.run_baselines(ed, data, run / "submissions" / ed.name,
-                                  methods=args.methods, log=log, **kw)
+                                  methods=args.methods, log=log, executor=baseline_executor,
+                                  **kw)
         if not subs:
             log(f"no submissions for {ed.name}; tables left unchanged")
             continue
         results = runs.score_many(subs, ed, data, run / "results" / ed.name,
-                                  workers=args.workers, log=log)
+                                  executor=executor, log=log)
         out = Path(args.results)
         out.mkdir(parents=True, exist_ok=True)
         for fmt, ext in (("md", "md"), ("csv", "csv"), ("latex", "tex"), ("html", "html")):

@@ -105,9 +105,12 @@ def uvparam_methods() -> list[str]:
 def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: str | os.PathLike,
                           out: str | os.PathLike, *, train_steps: int = 150,
                           max_triplets: int = 8, limit: int | None = None, url: str = "",
-                          overwrite: bool = False, log: Log = _quiet,
+                          overwrite: bool = False, log: Log = _quiet, executor: Any = None,
                           **hyperparameters: Any) -> Path:
     """Run one retargeting baseline over the edition's pairs into a submission folder.
+
+    ``executor`` (:mod:`dressmeup.executors`) runs one job per pair (default: in this
+    process); training, when any, runs here first.
 
     The one path from a retargeting method to a submission: ``dressmeup baseline retarget``,
     ``dressmeup demo`` and ``benchmarks/run_baselines.py`` all come here, so every
@@ -166,7 +169,10 @@ def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: s
                        f"{len(triplets)} train-split triplets")
     from dressmeup.bench.tasks.retarget.data import edition_pairs
 
-    preds, seconds = predict_pairs(method, edition_pairs(ed, ds), limit=limit)
+    if executor is not None:
+        executor.require_shared(data_root)
+    preds, seconds = predict_pairs(method, edition_pairs(ed, ds), limit=limit,
+                                   executor=executor)
     runtime = float(np.mean(seconds)) if seconds else 0.0
     path = write_submission(out, preds, edition=ed, method=method_name,
                             authors=BASELINE_AUTHORS, url=url,
@@ -178,23 +184,49 @@ def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: s
     return path
 
 
+class UVMeshJob:
+    """One mesh's job for an executor: ``job(mesh_record) -> UVResult`` (picklable when the
+    method is; runs on a pool or Dask worker)."""
+
+    __name__ = "uvparam_mesh"
+
+    def __init__(self, method: Any) -> None:
+        self.method = method
+        self.takes_category = "category" in inspect.signature(method.parameterize).parameters
+
+    def __call__(self, m: Any) -> Any:
+        from dressmeup.io.mesh import load_mesh
+
+        mesh = load_mesh(m.path)
+        kw = {"category": m.category} if self.takes_category else {}
+        return self.method.parameterize(mesh.vertices, mesh.faces, **kw)
+
+
 def run_uvparam_baseline(method_name: str, edition: str | Edition, data_root: str | os.PathLike,
-                         out: str | os.PathLike, *, log: Log = _quiet,
+                         out: str | os.PathLike, *, log: Log = _quiet, executor: Any = None,
                          **hyperparameters: Any) -> Path:
-    """Run one UV baseline over the edition's meshes into a submission folder."""
+    """Run one UV baseline over the edition's meshes into a submission folder.
+
+    ``executor`` (:mod:`dressmeup.executors`) runs one job per mesh (default: in this
+    process); the first mesh that fails fails the run, as in the loop."""
     from dressmeup.bench.submission import write_submission
     from dressmeup.bench.tasks.uvparam.data import meshes
-    from dressmeup.io.mesh import load_mesh
+    from dressmeup.executors import LocalExecutor, in_order
     from dressmeup.methods.uvparam import get_method
+    from dressmeup.progress import progress
 
     ed = load_edition(edition)
     method = get_method(method_name, **hyperparameters)
-    takes_category = "category" in inspect.signature(method.parameterize).parameters
+    records = list(meshes(data_root, ed.split))
+    executor = executor or LocalExecutor(1)
+    executor.require_shared(data_root)
     preds, secs, tracks = {}, [], set()
-    for m in meshes(data_root, ed.split):
-        mesh = load_mesh(m.path)
-        kw = {"category": m.category} if takes_category else {}
-        res = method.parameterize(mesh.vertices, mesh.faces, **kw)
+    done = progress(executor.run(UVMeshJob(method), records), desc=f"uvparam {method_name}",
+                    total=len(records))
+    for i, res in in_order(done):
+        if isinstance(res, BaseException):
+            raise res
+        m = records[i]
         preds[m.mesh_id] = {"uv": res.uv, "uv_faces": res.uv_faces,
                             "chart_ids": res.chart_ids, "seconds": np.float64(res.seconds)}
         secs.append(res.seconds)
@@ -241,7 +273,7 @@ def run_baselines(edition: str | Edition, data_root: str | os.PathLike,
 
 
 def score_many(subs: dict[str, Path], edition: str | Edition, data_root: str | os.PathLike,
-               results_dir: str | os.PathLike, workers: int | None = None,
+               results_dir: str | os.PathLike, workers: int | None = None, executor: Any = None,
                log: Log = _quiet) -> list[Path]:
     """Score each submission into ``results_dir/<name>`` (new folders); return the folders."""
     from dressmeup.bench.leaderboard import format_summary
@@ -250,7 +282,7 @@ def score_many(subs: dict[str, Path], edition: str | Edition, data_root: str | o
     out = []
     for sub in subs.values():
         res = score_submission(sub, edition, data_root, Path(results_dir) / sub.name,
-                               workers=workers)
+                               workers=workers, executor=executor)
         log(format_summary(res.summary))
         out.append(res.path)
     return out

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
 
 
@@ -27,6 +28,7 @@ def register(tasks: argparse._SubParsersAction) -> None:
     p.add_argument("--limit", type=int, default=None, help="only the first N pairs (the submission "
                                                           "is then incomplete: for smoke tests)")
     p.add_argument("--overwrite", action="store_true", help="write into a non-empty folder")
+    add_executor_args(p, default_workers=1, what="pair")
     p.set_defaults(func=_run)
 
     t = tasks.add_parser(
@@ -80,6 +82,7 @@ def _run(args: argparse.Namespace) -> int:
     lines: list[str] = []
     out = run_retarget_baseline(args.method, edition, args.data, args.out, train_steps=0,
                                 limit=args.limit, overwrite=args.overwrite,
+                                executor=executor_from_args(args, default_workers=1),
                                 url="https://github.com/dressmeup (docs/baselines.md)",
                                 log=lines.append, **params)
     sys.stdout.write(f"wrote {out} ({lines[-1].strip() if lines else args.method})\n")

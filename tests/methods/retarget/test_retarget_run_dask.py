@@ -39,3 +39,20 @@ def test_predict_pairs_raises_a_pair_error(tiny_data):
 
     with pytest.raises(RuntimeError, match="boom"):
         predict_pairs(Broken(), Dataset(tiny_data).retarget_pairs("test"))
+
+
+def test_baseline_retarget_command_on_an_existing_scheduler(dask_cluster, tiny_data, tmp_path):
+    from dressmeup.cli import main
+    from dressmeup.data import Dataset
+    from dressmeup.methods.retarget import get_method
+    from dressmeup.methods.retarget.run import predict_pairs
+
+    addr = dask_cluster.client.scheduler.address
+    out = tmp_path / "sub"
+    assert main(["baseline", "retarget", "--method", "skinning", "--data", str(tiny_data),
+                 "--edition", "synth-retarget-tiny-v2", "--out", str(out),
+                 "--scheduler", addr]) == 0
+    serial, _ = predict_pairs(get_method("skinning"), Dataset(tiny_data).retarget_pairs("test"))
+    for pid, V in serial.items():
+        with np.load(out / f"{pid}.npz") as z:
+            assert np.array_equal(z["vertices"], V)
