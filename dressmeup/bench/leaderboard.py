@@ -63,6 +63,7 @@ HTML_CSS = """  body { font-family: -apple-system, "Segoe UI", Roboto, Helvetica
   ul.legend { font-size: .88rem; color: #3a4252; padding-left: 1.2rem; }
   footer { margin-top: 1.5rem; font-size: .8rem; color: #8a92a3; }
   td.sep-no { color: #a15c00; }
+  td .ci { display: block; font-size: .75rem; color: #6b7385; font-weight: 400; }
   .nc { display: inline-block; margin-left: .4em; padding: 0 .35em; font-size: .75rem;
         color: #8a1c1c; background: #fde8e8; border-radius: 3px; }
   th[data-type] { cursor: pointer; user-select: none; }
@@ -381,6 +382,9 @@ class Leaderboard:
                 mean = row["values"].get(c.key, (None,))[0]
                 v = f"{mean:.9g}" if mean is not None and math.isfinite(mean) else ""
                 t = e(self.cell(row, c))
+                if self.show_ci and " [" in t:     # the interval on its own, smaller line
+                    head_, _, tail_ = t.rpartition(" [")
+                    t = f'{head_}<span class="ci">[{tail_}</span>'
                 if i in self.best.get(c.key, ()):
                     cells.append(f'<td class="best" data-v="{v}"><strong>{t}</strong></td>')
                 else:
