@@ -90,6 +90,8 @@ def main() -> None:
     parser.add_argument("--options", default="", help="registrar options as JSON, e.g. "
                         "'{\"hand_weight\": 1.0}'")
     parser.add_argument("--json", help="also write the rows to this JSON file")
+    parser.add_argument("--pictures", help="write a picture of each fit (body over the scan, "
+                        "front and side) into this folder as <scenario>-<subject>.png")
     args = parser.parse_args()
     os.environ.setdefault("DRESSMEUP_NO_PROGRESS", "1")
 
@@ -157,6 +159,21 @@ def main() -> None:
                        part_vertex_mm=part_err, wall_s=wall, cpu_s=cpu, load=load,
                        init=res.info.get("init", ""))
             rows.append(row)
+            if args.pictures:
+                from pathlib import Path
+
+                from scipy.spatial.transform import Rotation
+
+                from dressmeup.body.registration.metrics import outside_distances_mm
+                from dressmeup.viz.registration import render_registration
+
+                Path(args.pictures).mkdir(parents=True, exist_ok=True)
+                render_registration(
+                    a.vertices, model.faces, scan, Path(args.pictures) / f"{name}-{subject}.png",
+                    forward=Rotation.from_rotvec(res.params.pose[0]).apply([0.0, 0.0, 1.0]),
+                    outside_mm=outside_distances_mm(a.vertices, model.faces, scan),
+                    title=f"{name}: vertex error {row['vertex_mm']:.1f} mm, joint "
+                    f"{row['joint_mm']:.1f} mm (truth known); start: {row['init']}")
             print(f"{name:<30}{row['vertex_mm']:>6.1f}{row['joint_mm']:>6.1f}"
                   f"{row['vertex_nohands_mm']:>7.1f}{row['hands_mm']:>6.1f}"
                   f"{row['max_part_outside_mm']:>6.1f}{v0:>7.0f}{wall:>8.1f}{cpu:>7.1f}"

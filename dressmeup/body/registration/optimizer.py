@@ -47,6 +47,8 @@ class OptimizationRegistrar:
         symmetric term; the default 0.5 with the saturating ``sigma_in`` suits clothes too).
     sigma_out, sigma_in : Geman-McClure scales (m) of outside / inside residuals.
     point_weight : weight of the point-to-point term.
+    cloth_max : inside gaps (m) beyond which a residual is not clothing and costs again
+        (None: inside residuals always saturate, as before).
     hand_weight : data weight of hand vertices (skinned to the wrists); < 1 keeps the many
         hand vertices from pulling the arm.
     pose_prior_weight, limit_weight, shape_weight, keypoint_weight : prior weights.
@@ -80,6 +82,7 @@ class OptimizationRegistrar:
     sigma_out: float = 0.15
     sigma_in: float = 0.01
     point_weight: float = 0.3
+    cloth_max: float | None = 0.06
     hand_weight: float = 1.0
     pose_prior_weight: float = 1e-2
     limit_weight: float = 1e-2

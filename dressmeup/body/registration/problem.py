@@ -223,7 +223,7 @@ class FitProblem:
         data = 0.0
         for res, diff, wt in pairs:
             data = data + one_sided_cost(res, diff, wt, o.sigma_out, o.sigma_in, o.inside_weight,
-                                         o.point_weight)
+                                         o.point_weight, o.cloth_max)
         loss = data * 1e4  # residuals in metres: scale to ~cm^2
         terms = {"data": float(data.detach()) * 1e4}
         if stage != "global":

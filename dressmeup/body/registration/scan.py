@@ -36,7 +36,8 @@ def prepare_scan(scan, n_points: int = 8000, seed: int = 0) -> np.ndarray:
         flip = u + v > 1
         u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
         t = tri[fid]
-        return t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + v[:, None] * (t[:, 2] - t[:, 0])
+        return _check_metres(
+            t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + v[:, None] * (t[:, 2] - t[:, 0]))
     P = np.asarray(scan, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 3 or P.shape[0] < 10:
         raise InputError(f"scan: expected a mesh (V, F) or points (p, 3) with p >= 10, got {P.shape}")
@@ -44,6 +45,24 @@ def prepare_scan(scan, n_points: int = 8000, seed: int = 0) -> np.ndarray:
         raise InputError("scan: contains NaN or infinite coordinates")
     if P.shape[0] > n_points:
         P = P[np.random.default_rng(seed).choice(P.shape[0], n_points, replace=False)]
+    return _check_metres(P)
+
+
+#: Plausible extent of a scanned person in metres (the largest side of the bounding box).
+SCAN_EXTENT_M = (0.3, 3.0)
+
+
+def _check_metres(P: np.ndarray) -> np.ndarray:
+    """Refuse a scan whose size is implausible in metres (millimetres, centimetres, ...)."""
+    if not np.all(np.isfinite(P)):
+        raise InputError("scan: contains NaN or infinite coordinates")
+    extent = float(np.ptp(P, axis=0).max())
+    lo, hi = SCAN_EXTENT_M
+    if not lo <= extent <= hi:
+        hint = (f" (in millimetres? scale by {1 / 1000:g}; centimetres? by {1 / 100:g})"
+                if extent > hi else " (a partial scan, or not in metres?)")
+        raise InputError(f"scan: spans {extent:.4g} units, but registration expects a person "
+                         f"in metres ({lo}-{hi} m){hint}")
     return P
 
 

@@ -6,7 +6,9 @@ along the body's outward normal, ``r = (body - scan) . n``. A body point *outsid
 scale ``sigma_out``; *inside* (clothing, ``r < 0``) costs ``inside_weight`` times a
 Geman-McClure of the smaller scale ``sigma_in``, which saturates for cloth a few
 centimetres off the skin, so loose clothing does not inflate the body. A point-to-point
-term with a small weight keeps correspondences from sliding. Each body point carries a
+term with a small weight keeps correspondences from sliding. Inside gaps larger than
+``cloth_max`` (6 cm) are not clothing: their excess costs like an outside residual, so
+limbs of the scan far from the body still pull it. Each body point carries a
 weight (hands count less: their many vertices would otherwise pull the arm).
 """
 
@@ -63,7 +65,7 @@ def geman_mcclure(r2, sigma: float):
 
 
 def one_sided_cost(res, diff, weight, sigma_out: float, sigma_in: float, inside_weight: float,
-                   point_weight: float):
+                   point_weight: float, cloth_max: float | None = None):
     """Weighted mean robust cost of signed residuals.
 
     Parameters
@@ -71,11 +73,17 @@ def one_sided_cost(res, diff, weight, sigma_out: float, sigma_in: float, inside_
     res : (k,) signed normal residuals (m), > 0 where the body is outside the scan.
     diff : (k, 3) body-minus-scan vectors (m) for the point-to-point term.
     weight : (k,) per-point weights (>= 0) or None.
+    cloth_max : inside gaps beyond this (m) are not clothing: the excess costs like an
+        outside residual (a T-pose scan's arms far from a body fitted with its arms down
+        would otherwise cost almost nothing). None: no limit.
     """
     import torch
 
-    cost = torch.where(res > 0, geman_mcclure(res * res, sigma_out),
-                       inside_weight * geman_mcclure(res * res, sigma_in))
+    inside = inside_weight * geman_mcclure(res * res, sigma_in)
+    if cloth_max is not None:
+        excess = torch.relu(-res - cloth_max)
+        inside = inside + geman_mcclure(excess * excess, sigma_out)
+    cost = torch.where(res > 0, geman_mcclure(res * res, sigma_out), inside)
     cost = cost + point_weight * geman_mcclure((diff * diff).sum(-1), sigma_out)
     if weight is None:
         return cost.mean()
