@@ -81,6 +81,11 @@ def fingerprint(path: str) -> str:
     return "missing"
 
 
+def _environ(names: Sequence[str]) -> dict[str, str | None]:
+    """Run on every worker: the values of the environment variables ``names``."""
+    return {k: os.environ.get(k) for k in names}
+
+
 def _existing_ancestor(path: str) -> str:
     p = Path(path).absolute()
     while not p.exists() and p != p.parent:
@@ -149,6 +154,9 @@ class DaskExecutor:
         by the job function is returned, never retried).
     memory_limit : per-worker memory limit of the LocalCluster (Dask syntax, e.g. ``"4GB"``;
         default: the machine's memory divided by ``workers``).
+    worker_env : environment variables the jobs need in their worker processes from the
+        start (e.g. the synthetic generator's canonical numerics): a LocalCluster starts its
+        workers with them; on an existing cluster every worker is checked to have them.
     log : one-line messages (cluster started, dashboard address); default stderr.
 
     Use as a context manager to keep one cluster over several ``run`` calls; otherwise each
@@ -159,7 +167,8 @@ class DaskExecutor:
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None, *,
                  max_pending: int = 2, allowed_failures: int = 3, retries: int = 1,
-                 memory_limit: str | None = None, log: Log | None = _stderr) -> None:
+                 memory_limit: str | None = None, worker_env: dict[str, str] | None = None,
+                 log: Log | None = _stderr) -> None:
         if scheduler and workers is not None:
             raise InputError("--workers sets the size of a LocalCluster; with --scheduler the "
                              "existing cluster's workers are used (drop --workers)")
@@ -171,6 +180,7 @@ class DaskExecutor:
         self.allowed_failures = int(allowed_failures)
         self.retries = int(retries)
         self.memory_limit = memory_limit
+        self.worker_env = dict(worker_env or {})
         self.log = log or (lambda _line: None)
         self.startup_s: float | None = None
         self._read: list[str] = []
@@ -222,10 +232,11 @@ class DaskExecutor:
                 self._cluster = distributed.LocalCluster(
                     n_workers=self.workers, threads_per_worker=1, processes=True,
                     host=LOOPBACK, dashboard_address=f"{LOOPBACK}:0", silence_logs=logging.CRITICAL,
-                    memory_limit=self.memory_limit or "auto")
+                    memory_limit=self.memory_limit or "auto", env=dict(self.worker_env))
             self._client = distributed.Client(self._cluster)
             where = f"LocalCluster of {self.workers} worker processes on {LOOPBACK}"
         self._client.register_plugin(_worker_plugin())
+        self.check_worker_env()
         self.startup_s = time.perf_counter() - t0
         from dressmeup.executors import dashboard_available
 
@@ -244,6 +255,25 @@ class DaskExecutor:
             client.close()
         if cluster is not None:
             cluster.close()
+
+    def check_worker_env(self) -> None:
+        """Check that every worker has :attr:`worker_env` in its environment.
+
+        Raises
+        ------
+        InputError
+            Naming the worker and the variables it lacks or has with another value.
+        """
+        if not self.worker_env or self._client is None:
+            return
+        seen = self._client.run(_environ, sorted(self.worker_env))
+        for addr, env in sorted(seen.items()):
+            bad = {k: v for k, v in self.worker_env.items() if env.get(k) != v}
+            if bad:
+                raise InputError(
+                    f"Dask worker {addr} was not started with the environment these jobs need "
+                    f"(it lacks or differs in {sorted(bad)}); start its 'dask worker' with "
+                    + " ".join(f"{k}={v!r}" for k, v in sorted(self.worker_env.items())))
 
     # -------------------------------------------------------------- shared filesystem
     def require_shared(self, *paths: str | os.PathLike, writable: Sequence[Any] = ()) -> None:
