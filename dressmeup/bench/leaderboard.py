@@ -39,7 +39,7 @@ FORMATS = ("md", "csv", "latex", "html")
 
 #: Stylesheet of the HTML leaderboard (shared by the report site).
 HTML_CSS = """  body { font-family: -apple-system, "Segoe UI", Roboto, Helvetica, Arial, sans-serif;
-         margin: 2rem auto; max-width: 1200px; padding: 0 1rem; color: #1d2330;
+         margin: 2rem auto; max-width: 1560px; padding: 0 1rem; color: #1d2330;
          background: #fff; line-height: 1.45; }
   h1 { font-size: 1.5rem; margin-bottom: .2rem; }
   .meta { color: #5b6475; font-size: .9rem; margin-bottom: 1.2rem; }

@@ -279,11 +279,26 @@ def _fmt(spec: Any, value: Any) -> str:
     return f"{spec.display(value):.{spec.digits}f}"
 
 
-def _item_table(table: Any, specs: list, unit: str | None) -> str:
+def _extra_specs(specs: list, extra: Sequence[str]) -> list:
+    """Specs for task extra columns named ``<metric>_<what>`` (``ir_gt`` -> ``IR (gt)``,
+    the same unit as IR); other extras are left out."""
+    import dataclasses
+
+    out = []
+    for col in extra:
+        base = next((sp for sp in specs if col.startswith(sp.name + "_")), None)
+        if base is not None:
+            what = col[len(base.name) + 1:]
+            out.append(dataclasses.replace(base, name=col, label=f"{base.label} ({what})",
+                                           description=f"{base.description} ({what})"))
+    return out
+
+
+def _item_table(table: Any, specs: list, unit: str | None, extra: Sequence[str] = ()) -> str:
     e = html.escape
     ids = [c for c in ("sample_id", "category", "track", unit) if c and c in table]
     ids = list(dict.fromkeys(ids))
-    metric_specs = [s for s in specs if s.name in table]
+    metric_specs = [s for s in [*specs, *_extra_specs(specs, extra)] if s.name in table]
     head = "".join(f'<th data-type="text">{e(c)}</th>' for c in ids)
     head += "".join(f'<th data-type="num" title="{e(s.description)}">{e(s.header())}</th>'
                     for s in metric_specs)
@@ -447,7 +462,8 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
     if table is not None:
         parts.append(f"<h2>Every item ({len(table)})</h2>"
                      '<p class="meta">Click a column header to sort.</p>'
-                     + _item_table(table, specs, getattr(task, "unit_column", None)))
+                     + _item_table(table, specs, getattr(task, "unit_column", None),
+                                   getattr(task, "extra_columns", ())))
     nav = '<nav><a href="index.html">&larr; leaderboard</a> · <a href="../index.html">all ' \
           "editions</a></nav>"
     path = ed_dir / f"{slug}.html"

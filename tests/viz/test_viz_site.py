@@ -37,6 +37,7 @@ def test_missing_submission_says_why(site):
     text = gone.read_text()
     assert "is gone" in text and "<img src=\"img/gone-best" not in text
     assert "Every item (18)" in text            # the numbers are still there
+    assert "IR (gt)" in text                    # the task's extra column, in %
     assert any("GONE" in n and "is gone" in n for n in site.notes)
 
 
