@@ -222,10 +222,11 @@ def load_result(path: str | os.PathLike, table: bool = True) -> Result:
         hint = (" (interrupted run: per_sample.parquet without summary.json)"
                 if (folder / PER_SAMPLE).is_file() else "")
         raise InputError(f"{folder} is not a result folder: {SUMMARY} not found{hint}")
-    try:
-        summary = json.loads(summary_path.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise InputError(f"{summary_path} cannot be read: {exc}") from exc
+    from dressmeup.io.jsonio import parse_json_file, validate_json
+
+    summary = parse_json_file(summary_path)
+    if isinstance(summary, dict) and summary.get("schema") in READABLE_SCHEMAS:
+        validate_json(summary, "result", str(summary_path))
     if summary.get("schema") not in READABLE_SCHEMAS:
         raise InputError(f"{summary_path}: schema {summary.get('schema')!r} is not one of "
                          f"{', '.join(READABLE_SCHEMAS)} (a newer toolkit wrote it? "

@@ -159,8 +159,10 @@ def _verify_data(data_root: Path, items: list[Any]) -> int:
     Items name their samples by id (the item id or a string in ``meta``); a data root
     without a manifest (a task not scored on a dataset) has nothing to verify.
     """
+    import pyarrow.parquet as pq
+
     from dressmeup.data import layout
-    from dressmeup.data.integrity import verify_checksums
+    from dressmeup.data.integrity import verify_checksums, verify_listed_files
 
     if not (data_root / layout.MANIFEST).is_file():
         return 0
@@ -168,6 +170,11 @@ def _verify_data(data_root: Path, items: list[Any]) -> int:
     for it in items:
         ids.add(str(it.item_id))
         ids.update(v for v in (getattr(it, "meta", None) or {}).values() if isinstance(v, str))
+    columns = set(pq.read_schema(data_root / layout.MANIFEST).names)
+    if "sample_id" not in columns and {"mesh_id", "path", "sha256"} <= columns:  # a mesh set
+        rows = pd.read_parquet(data_root / layout.MANIFEST).to_dict("records")
+        return verify_listed_files(data_root, [r for r in rows if r["mesh_id"] in ids],
+                                   "mesh_id", "path", "sha256")
     return verify_checksums(data_root, ids)
 
 

@@ -98,11 +98,13 @@ def read_info(folder: str | os.PathLike) -> tuple[dict[str, Any] | None, list[st
     path = Path(folder) / SUBMISSION_JSON
     if not path.is_file():
         return None, [f"{SUBMISSION_JSON} is missing (fields: {', '.join(REQUIRED_FIELDS)})"]
+    from dressmeup.io.jsonio import parse_json_file, schema_problems
+
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        data = parse_json_file(path)
+    except (OSError, InputError) as exc:
         return None, [f"{SUBMISSION_JSON} cannot be read: {exc}"]
-    problems = info_problems(data)
+    problems = info_problems(data) or schema_problems(data, "submission", SUBMISSION_JSON)
     return (data if isinstance(data, dict) else None), problems
 
 

@@ -104,14 +104,12 @@ class BodyParams:
         FileNotFoundError : the file does not exist.
         InputError : a field is missing or has the wrong shape (the message names it).
         """
+        from dressmeup.io.npz import load_npz
+
         path = Path(path)
-        if not path.is_file():
+        if not path.is_file() and not path.exists():
             raise FileNotFoundError(f"body parameter file not found: {path}")
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                arrays = {k: data[k] for k in data.files}
-        except ValueError as exc:
-            raise InputError(f"{path}: not a plain-array .npz body parameter file ({exc})") from exc
+        arrays = load_npz(path, what="body parameter file", max_bytes=64 << 20)
         missing = [k for k in ("model", "shape", "pose") if k not in arrays]
         if missing:
             raise InputError(f"{path}: missing field(s) {missing}; expected fields {list(FIELDS)}")

@@ -99,8 +99,9 @@ class SessionInfo:
     @classmethod
     def from_dict(cls, d: dict[str, Any], source: str = "session.json") -> SessionInfo:
         """Build and validate from a session.json dictionary; errors name ``source``."""
-        if not isinstance(d, dict):
-            raise InputError(f"{source}: expected a JSON object")
+        from dressmeup.io.jsonio import validate_json
+
+        validate_json(d, "session", source)
         if d.get("format", SESSION_FORMAT) != SESSION_FORMAT:
             raise InputError(f"{source}: format {d.get('format')!r} is not {SESSION_FORMAT!r}")
         for key in ("subject_id", "pose_id"):

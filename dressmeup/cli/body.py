@@ -73,7 +73,6 @@ def _load_scan(path: str):
 
 
 def _load_keypoints(path: str):
-    import json
     from pathlib import Path
 
     import numpy as np
@@ -82,8 +81,12 @@ def _load_keypoints(path: str):
     if not p.is_file():
         raise FileNotFoundError(f"keypoints file not found: {p}")
     if p.suffix.lower() == ".json":
-        return {k: np.asarray(v, dtype=float) for k, v in json.loads(p.read_text()).items()}
-    return np.load(p, allow_pickle=False)
+        from dressmeup.io.jsonio import read_json
+
+        return {k: np.asarray(v, dtype=float) for k, v in read_json(p, "keypoints").items()}
+    from dressmeup.io.npz import load_npz
+
+    return load_npz(p, what="keypoints file")
 
 
 def _run_register(args: argparse.Namespace) -> int:
@@ -96,6 +99,9 @@ def _run_register(args: argparse.Namespace) -> int:
         kw["gender"] = args.gender
         if args.model_path:
             kw["model_path"] = args.model_path
+    if Path(args.out).is_dir():
+        raise InputError(f"--out {args.out} is a folder; give the .npz file to write")
+    keypoints = _load_keypoints(args.keypoints) if args.keypoints else None  # before the fit
     model = get_body_model(args.model, **kw)
     options: dict = {}
     if args.registrar == "from-file":
@@ -123,7 +129,6 @@ def _run_register(args: argparse.Namespace) -> int:
         if args.naked:
             options.update(inside_weight=1.0, sigma_in=0.15)
     init = import_body_params(args.init, body_model=model) if args.init else None
-    keypoints = _load_keypoints(args.keypoints) if args.keypoints else None
     result = fit(scan, model, init=init, keypoints=keypoints, registrar=args.registrar,
                  return_result=True, **options)
     path = result.params.save(args.out)

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
+from dressmeup.errors import InputError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -47,6 +48,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, help="scan folder to write")
     _fusion_args(p)
     p.add_argument("--garments", action="store_true", help="also cut out, UV-map and texture each garment")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a scan already in --out (default: refuse)")
     p.set_defaults(func=_fuse)
 
     p = subparsers.add_parser(
@@ -133,10 +136,16 @@ def _fuse(args: argparse.Namespace) -> int:
     from dressmeup.capture.session import open_session
     from dressmeup.fusion.pipeline import fuse_session, save_scan
 
+    out = Path(args.out)
+    # outputs are checked before minutes of fusion work
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} is an existing file; give a folder for the scan")
+    if (out / "scan.ply").exists() and not args.overwrite:
+        raise InputError(f"--out {out} already holds scan.ply; choose a new folder or pass "
+                         "--overwrite to replace it")
     session = open_session(args.session)
     result = fuse_session(session, _fusion_config(args))
     extra: dict[str, Any] = {"session": str(Path(args.session).resolve())}
-    out = Path(args.out)
     if args.garments:
         from dressmeup.extraction.pipeline import extract_garments, save_garment
 

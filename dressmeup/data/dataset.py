@@ -12,7 +12,6 @@ build the same :class:`Sample` objects with their own loaders.
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -276,13 +275,26 @@ class Dataset:
                 raise FileNotFoundError(f"{mpath} not found: {self.root} is not a dressmeup "
                                         "dataset (run 'dressmeup synth' to make one)")
             _table = read_manifest(mpath).to_pandas()
+            dup = _table["sample_id"][_table["sample_id"].duplicated()].unique()
+            if len(dup):
+                raise InputError(f"{mpath}: duplicate sample_id {', '.join(map(str, dup[:5]))}"
+                                 " (each sample must appear once; run 'dressmeup "
+                                 "validate-dataset' for every problem)")
         self._df = _table.reset_index(drop=True)
 
     @property
     def info(self) -> dict[str, Any]:
-        """The contents of ``dataset.json`` (empty when absent)."""
+        """The contents of ``dataset.json`` (empty when absent).
+
+        Raises
+        ------
+        InputError
+            When ``dataset.json`` is not UTF-8 JSON fitting the dataset schema.
+        """
+        from dressmeup.io.jsonio import read_json
+
         p = self.root / layout.DATASET_JSON
-        return json.loads(p.read_text()) if p.is_file() else {}
+        return read_json(p, "dataset") if p.is_file() else {}
 
     @property
     def manifest(self):

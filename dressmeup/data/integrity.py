@@ -29,6 +29,34 @@ class ChecksumError(InputError):
         self.problems = problems
 
 
+def verify_listed_files(root: str | os.PathLike, rows: Iterable[dict], id_col: str,
+                        path_col: str, hash_col: str) -> int:
+    """Recompute the sha256 of files listed in ``rows`` (dicts with an id, a path relative to
+    ``root`` and its sha256), for tables other than a dataset manifest (e.g. a mesh set).
+
+    Returns the number of files verified; raises :class:`ChecksumError` on any mismatch.
+    """
+    from dressmeup.data.writer import sha256_file
+
+    root = Path(root)
+    problems: list[str] = []
+    n = 0
+    for r in rows:
+        rel, want = r.get(path_col), r.get(hash_col)
+        if rel is None:
+            continue
+        full = layout.resolve_inside(root, rel, path_col)
+        if not full.is_file():
+            problems.append(f"{r.get(id_col)}: {rel} is missing")
+        elif not want or sha256_file(full) != want:
+            problems.append(f"{r.get(id_col)}: {rel} sha256 differs from the manifest's "
+                            f"{hash_col}")
+        n += 1
+    if problems:
+        raise ChecksumError(root, problems)
+    return n
+
+
 def verify_checksums(root: str | os.PathLike, sample_ids: Iterable[str] | None = None,
                      columns: Iterable[str] = PATH_COLUMNS) -> int:
     """Recompute the sha256 of the dataset files of ``sample_ids`` (default: all samples).

@@ -7,7 +7,6 @@ Parquet) so that one run tells the dataset builder everything to fix.
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -123,18 +122,17 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
     if not info_path.is_file():
         P.append(f"{layout.DATASET_JSON}: missing")
     else:
+        from dressmeup.io.jsonio import parse_json_file, schema_problems
+
         try:
-            info = json.loads(info_path.read_text())
-            if not isinstance(info, dict):
-                P.append(f"{layout.DATASET_JSON}: expected a JSON object")
-            else:
-                if info.get("units", "m") != "m":
-                    P.append(f"{layout.DATASET_JSON}: units must be 'm', got {info.get('units')!r}")
-                if info.get("complete") is False:
-                    rep.warnings.append(f"{layout.DATASET_JSON}: build not finalized "
-                                        "(complete=false); re-run the build to finish it")
-        except json.JSONDecodeError as exc:
-            P.append(f"{layout.DATASET_JSON}: not valid JSON ({exc})")
+            info = parse_json_file(info_path)
+        except InputError as exc:
+            P.append(str(exc))
+        else:
+            P.extend(schema_problems(info, "dataset", layout.DATASET_JSON))
+            if isinstance(info, dict) and info.get("complete") is False:
+                rep.warnings.append(f"{layout.DATASET_JSON}: build not finalized "
+                                    "(complete=false); re-run the build to finish it")
     mpath = root / layout.MANIFEST
     if not mpath.is_file():
         P.append(f"{layout.MANIFEST}: missing")

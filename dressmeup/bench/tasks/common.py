@@ -80,10 +80,17 @@ def check_pin(edition: Any, root: str | os.PathLike) -> tuple[dict[str, Any], li
     if not ds_json.is_file():
         problems.append(f"{ds_json} not found (not a dataset root)")
     else:
+        from dressmeup.io.jsonio import parse_json_file, schema_problems
+
         try:
-            meta = json.loads(ds_json.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
+            meta = parse_json_file(ds_json)
+        except (OSError, InputError) as exc:
             problems.append(f"{ds_json} cannot be read: {exc}")
+        else:
+            found = schema_problems(meta, "dataset", str(ds_json))
+            problems.extend(found)
+            if found:
+                meta = {}
     info["name"] = meta.get("name")
     info["version"] = meta.get("version")
     try:
@@ -136,19 +143,27 @@ def _norm(v: Any) -> Any:
     return v
 
 
-def load_npz_arrays(path: Path, keys: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """Read ``keys`` (those present) from an ``.npz`` without pickle.
+#: Bound on the declared uncompressed size of one prediction file (checked before reading).
+MAX_PREDICTION_BYTES = 512 << 20
+#: Bound on the magnitude of a predicted coordinate (metres, or UV units).
+MAX_COORDINATE = 1e4
+
+
+def load_npz_arrays(path: Path, keys: tuple[str, ...],
+                    max_bytes: int = MAX_PREDICTION_BYTES) -> dict[str, np.ndarray]:
+    """Read ``keys`` (those present) from an ``.npz`` without pickle, after checking the
+    declared sizes of its arrays (:func:`dressmeup.io.npz.load_npz`).
 
     Raises
     ------
     InputError
-        Unreadable file or an object array (pickles are refused).
+        Unreadable or damaged file, an object array (pickles are refused), or arrays that
+        declare more than ``max_bytes`` uncompressed.
     """
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            return {k: np.asarray(z[k]) for k in keys if k in z.files}
-    except (OSError, ValueError, EOFError) as exc:
-        raise InputError(f"{path.name}: cannot read .npz ({type(exc).__name__}: {exc})") from exc
+    from dressmeup.io.npz import load_npz
+
+    arrays = load_npz(path, what="prediction", max_bytes=max_bytes)
+    return {k: np.asarray(arrays[k]) for k in keys if k in arrays}
 
 
 def array_problems(name: str, a: np.ndarray, cols: int, n_rows: int | None = None) -> list[str]:
@@ -156,8 +171,8 @@ def array_problems(name: str, a: np.ndarray, cols: int, n_rows: int | None = Non
     problems = []
     if a.ndim != 2 or a.shape[1] != cols:
         return [f"'{name}' has shape {a.shape}, expected (n, {cols})"]
-    if not np.issubdtype(a.dtype, np.floating) and not np.issubdtype(a.dtype, np.integer):
-        return [f"'{name}' has dtype {a.dtype}, expected float"]
+    if a.dtype not in (np.float32, np.float64):
+        return [f"'{name}' has dtype {a.dtype}, expected float32 or float64"]
     if n_rows is not None and a.shape[0] != n_rows:
         problems.append(f"'{name}' has {a.shape[0]} rows, expected {n_rows} "
                         "(the source garment's vertex count: predictions keep its topology)")
@@ -166,6 +181,9 @@ def array_problems(name: str, a: np.ndarray, cols: int, n_rows: int | None = Non
         idx = np.flatnonzero(bad)
         problems.append(f"'{name}' has {idx.size} rows with NaN/inf "
                         f"(first: {', '.join(map(str, idx[:5]))})")
+    elif a.size and float(np.abs(a).max()) > MAX_COORDINATE:
+        problems.append(f"'{name}' has values up to {float(np.abs(a).max()):.3g}, beyond "
+                        f"+-{MAX_COORDINATE:g} (metres): not a plausible prediction")
     return problems
 
 

@@ -1,0 +1,126 @@
+"""The bad-input campaign of issue #12 as regression tests: every case ends in a named error
+(no traceback), a refusal, or a validation problem — never silent acceptance."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from dressmeup.cli import main
+from dressmeup.errors import InputError
+
+
+@pytest.fixture
+def data_copy(bench_data, tmp_path):
+    root = tmp_path / "data"
+    shutil.copytree(bench_data, root)
+    return root
+
+
+def _run(capsys, *argv):
+    status = main(list(map(str, argv)))
+    out = capsys.readouterr()
+    assert "Traceback" not in out.err, out.err
+    return status, out.out + out.err
+
+
+@pytest.mark.parametrize("info, field", [
+    ({}, "name"), ({"name": 3, "format": "dressmeup-dataset", "manifest_version": "1.0"}, "name"),
+    ({"name": "x", "format": "zip", "manifest_version": "1.0"}, "format"),
+    ({"name": "x", "format": "dressmeup-dataset", "manifest_version": "9.0"},
+     "manifest_version"),
+])
+def test_validate_dataset_refuses_bad_dataset_json(data_copy, capsys, info, field):
+    (data_copy / "dataset.json").write_text(json.dumps(info))
+    status, text = _run(capsys, "validate-dataset", data_copy, "--no-hashes", "--no-meshes")
+    assert status != 0 and f"field {field}" in text
+
+
+def test_dataset_info_on_bad_json_is_named(data_copy):
+    from dressmeup.data import Dataset
+
+    (data_copy / "dataset.json").write_bytes(b'{"name": "\xff"}')
+    with pytest.raises(InputError, match="dataset.json"):
+        Dataset(data_copy).info
+
+
+def test_duplicate_sample_ids_are_refused(data_copy):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from dressmeup.data import Dataset
+
+    t = pq.read_table(data_copy / "manifest.parquet")
+    pq.write_table(pa.concat_tables([t, t.slice(0, 1)]), data_copy / "manifest.parquet")
+    with pytest.raises(InputError, match="duplicate sample_id"):
+        Dataset(data_copy)
+
+
+@pytest.mark.parametrize("bad", ["int64", "float16", "huge", "truncated", "npy"])
+def test_validate_submission_refuses_bad_predictions(scored, bench_edition, bench_data,
+                                                     tmp_path, capsys, bad):
+    sub = tmp_path / "sub"
+    shutil.copytree(scored["gt"]["sub"], sub)
+    victim = sorted(sub.glob("*.npz"))[0]
+    V = np.load(victim)["vertices"]
+    if bad == "int64":
+        np.savez(victim, vertices=V.astype(np.int64))
+    elif bad == "float16":
+        np.savez(victim, vertices=V.astype(np.float16))
+    elif bad == "huge":
+        V = V.copy()
+        V[0, 0] = 1e300
+        np.savez(victim, vertices=V)
+    elif bad == "truncated":
+        victim.write_bytes(victim.read_bytes()[:100])
+    else:
+        np.save(tmp_path / "v.npy", V)
+        victim.write_bytes((tmp_path / "v.npy").read_bytes())
+    status, text = _run(capsys, "validate-submission", sub, "--edition", bench_edition,
+                        "--data", bench_data)
+    assert status == 1 and victim.name in text
+
+
+def test_leaderboard_with_malformed_summary_is_one_line(scored, tmp_path, capsys):
+    res = tmp_path / "res"
+    shutil.copytree(scored["gt"]["res"].path, res)
+    s = json.loads((res / "summary.json").read_text())
+    s["edition"] = 5
+    (res / "summary.json").write_text(json.dumps(s))
+    status, text = _run(capsys, "leaderboard", res)
+    assert status == 2 and "summary.json" in text and "edition" in text
+
+
+def test_register_checks_keypoints_and_out_before_working(tmp_path, capsys):
+    kp = tmp_path / "kp.json"
+    kp.write_text("[[0, 1, 2]]")
+    status, text = _run(capsys, "register", tmp_path / "scan.ply", "--model", "procedural",
+                        "--out", tmp_path / "p.npz", "--keypoints", kp)
+    assert status == 2 and "kp.json" in text
+    status, text = _run(capsys, "register", tmp_path / "scan.ply", "--model", "procedural",
+                        "--out", tmp_path)
+    assert status == 2 and "is a folder" in text
+
+
+def test_register_refuses_a_scan_in_millimetres():
+    from dressmeup.body.registration.scan import prepare_scan
+
+    pts = np.random.default_rng(0).uniform(0, 1.7, (500, 3))
+    assert prepare_scan(pts).shape == (500, 3)
+    with pytest.raises(InputError, match="millimetres"):
+        prepare_scan(pts * 1000)
+
+
+def test_fuse_checks_out_before_fusing(tmp_path, capsys):
+    out = tmp_path / "scan.ply"
+    out.write_text("x")
+    status, text = _run(capsys, "fuse", tmp_path / "no-session", "--out", out)
+    assert status == 2 and "existing file" in text
+    folder = tmp_path / "scan"
+    folder.mkdir()
+    (folder / "scan.ply").write_text("x")
+    status, text = _run(capsys, "fuse", tmp_path / "no-session", "--out", folder)
+    assert status == 2 and "--overwrite" in text
