@@ -15,8 +15,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "dressmeup"
 # Lowest first. A unit may import units of its own layer only when listed together in
 # SIBLINGS_MAY_IMPORT; otherwise only units of lower layers.
 LAYERS: list[set[str]] = [
-    {"dressmeup", "errors", "cache", "progress", "io.atomic", "io.jsonable", "executors",
-     "hyperparameters"},
+    {"dressmeup", "errors", "cache", "progress", "io.atomic", "io.jsonable", "io.jsonio",
+     "io.npz", "executors", "hyperparameters"},
     {"geometry"},
     {"metrics", "io.mesh"},
     {"body"},
@@ -31,7 +31,7 @@ LAYERS: list[set[str]] = [
     {"demo"},
     {"cli", "__main__"},
 ]
-SIBLINGS_MAY_IMPORT = {("dressmeup", "errors"), ("executors", "errors"), ("hyperparameters", "errors"), ("cli", "__main__"), ("__main__", "cli")}
+SIBLINGS_MAY_IMPORT = {("dressmeup", "errors"), ("executors", "errors"), ("hyperparameters", "errors"), ("io.jsonio", "errors"), ("io.npz", "errors"), ("cli", "__main__"), ("__main__", "cli")}
 
 
 def _unit(module: str) -> str | None:
