@@ -1,26 +1,29 @@
 """Train the shipped ``isomap-refine`` weights (``dressmeup/methods/retarget/weights/``).
 
-    python benchmarks/train_retarget_weights.py --data DATA_ROOT --steps 120 --max-triplets 8
+    python benchmarks/train_retarget_weights.py --data DATA_ROOT --preset thesis --wall-minutes 38 \
+        --out dressmeup/methods/retarget/weights/isomap_refine_anny.pt
 
-Self-supervised on the train split of a synthetic dataset built by the generator (the shipped
-file was trained on the train garments of the synth-retarget-v2 data, 120 steps on 8
-triplets). Before training, the script checks that no training garment is a test garment of
-any shipped edition generated with the same generator version and seed (garments are compared
-by subject shape, type and parameters, so a garment is recognised across dataset sizes) and
-refuses to train otherwise.
-The network is narrower than the thesis' (width 256, 64-d PointNet codes, PointNet hidden 64
-instead of 512 / 128 / 128) to stay under the 5 MB budget of shipped files; everything else
-(6 layers, AdaIN conditioning, losses, k = 32) follows thesis 4.3.2/4.4.2. It is exactly
-``dressmeup baseline train-retarget`` with these settings.
+Presets: ``thesis`` (decoder 6 x 512, 128-d PointNet codes, PointNet hidden 128: thesis 4.4.2)
+and ``fast`` (6 x 256, 64-d codes, hidden 64: about 4x fewer operations per vertex).
+Self-supervised (``--method isomap-refine``) or supervised (``--method isomap-refine-sup``) on
+the train split of a synthetic dataset built by the generator; validation pairs choose the
+kept step; weights stored as float16. Before training, the script checks that no training
+garment is a test garment of any shipped edition generated with the same generator version and
+seed (garments are compared by subject shape, type and parameters, so a garment is recognised
+across dataset sizes) and refuses to train otherwise; ``dressmeup baseline train-retarget``
+(which this calls) also refuses garments shared by content with the dataset's val/test splits.
+Resumable: re-running continues from ``OUT.ckpt``.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path
 
-SHIPPED = dict(width=256, depth=6, code_dim=64, pointnet_hidden=64)
+PRESETS = {"thesis": dict(width=512, depth=6, code_dim=128, pointnet_hidden=128),
+           "fast": dict(width=256, depth=6, code_dim=64, pointnet_hidden=64)}
 
 
 def _garment_key(plan: dict, gid: str) -> str:
@@ -70,34 +73,38 @@ def main() -> None:
     import torch
 
     from dressmeup.data import Dataset
-    from dressmeup.methods.retarget import get_method
-    from dressmeup.methods.retarget.refine import WEIGHTS_DIR
-    from dressmeup.methods.retarget.run import training_triplets
+    from dressmeup.methods.retarget.train import train_from_dataset
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", required=True)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--method", default="isomap-refine", choices=["isomap-refine", "isomap-refine-sup"])
+    ap.add_argument("--preset", default="thesis", choices=sorted(PRESETS))
     ap.add_argument("--split", default="train")
     ap.add_argument("--exclude-garments", default="", help="comma-separated garment ids")
-    ap.add_argument("--max-triplets", type=int, default=16)
-    ap.add_argument("--steps", type=int, default=300)
+    ap.add_argument("--steps", type=int, default=5000, help="upper bound; the wall budget usually stops first")
+    ap.add_argument("--wall-minutes", type=float, default=38.0)
+    ap.add_argument("--max-val", type=int, default=12)
+    ap.add_argument("--val-every", type=int, default=40)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default=None, help="default: weights/isomap_refine_<body model>.pt")
+    ap.add_argument("--curves", default=None, help="PNG of the learning curves")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
-    triplets, model = training_triplets(Dataset(args.data), args.split, args.max_triplets, seed=args.seed,
-                                        exclude_garments=[g for g in args.exclude_garments.split(",") if g])
-    _check_no_test_garments(Dataset(args.data), args.split,
-                            [g for g in args.exclude_garments.split(",") if g])
-    method = get_method("isomap-refine", steps=args.steps, seed=args.seed, **SHIPPED)
+    exclude = [g for g in args.exclude_garments.split(",") if g]
+    _check_no_test_garments(Dataset(args.data), args.split, exclude)
     t = time.perf_counter()
-    method.fit(triplets, model, callback=lambda s, total, terms: print(  # noqa: T201
-        f"step {s:4d} loss {total:.5f} " + " ".join(f"{k} {v:.5f}" for k, v in terms.items()), flush=True)
-        if s % 10 == 0 else None)
-    out = Path(args.out) if args.out else WEIGHTS_DIR / f"isomap_refine_{model.name}.pt"
-    method.save(out)
-    print(f"trained {args.steps} steps on {len(triplets)} triplets in {time.perf_counter() - t:.0f} s; "  # noqa: T201
-          f"saved {out} ({out.stat().st_size / 1e6:.2f} MB)")
+    info = train_from_dataset(args.data, args.out, method=args.method, params=PRESETS[args.preset],
+                              split=args.split, steps=args.steps, max_val=args.max_val, seed=args.seed,
+                              wall_minutes=args.wall_minutes, val_every=args.val_every, half=True,
+                              curves=args.curves, exclude_garments=exclude,
+                              callback=lambda s, total, terms: print(  # noqa: T201
+                                  f"step {s:4d} loss {total:.5f} " + " ".join(f"{k} {v:.5f}" for k, v in terms.items()),
+                                  flush=True) if s % 20 == 0 else None)
+    print(json.dumps({k: v for k, v in info.items() if k != "hyperparameters"}, default=str))  # noqa: T201
+    print(f"{args.method} ({args.preset}): {info['steps_done']} steps, {info['wall_seconds']:.0f} s wall, "  # noqa: T201
+          f"{info['cpu_seconds']:.0f} s CPU in training ({time.perf_counter() - t:.0f} s in all); "
+          f"kept step {info['kept_step']}; {Path(args.out)} {info['file_mb']} MB")
 
 
 if __name__ == "__main__":

@@ -3,7 +3,9 @@
 Methods: ``rigid`` (root-joint alignment, the lower bound), ``skinning`` (skinning-weight
 transfer, unpose, repose: the classical baseline), ``isomap`` (thesis 4.3.1: Isomap
 correspondences through the body template), ``isomap-refine`` (thesis 4.3.2: self-supervised
-refinement network). Post-processes chain with ``+``: ``detail`` (Laplacian detail transfer,
+refinement network; ``isomap-refine-fast``: a narrower network; ``isomap-refine-sup``: the same
+network trained with ground truth, thesis 4.3.3.1), ``isomap-offset`` (the loose-garment
+variant of ``isomap``). Post-processes chain with ``+``: ``detail`` (Laplacian detail transfer,
 thesis 4.3.3.2) and ``penetration`` (push penetrating vertices out), e.g.
 ``get_method("isomap-refine+detail+penetration")``. Hyperparameters of a post-process are
 given as ``<post>__<name>`` (``detail__anchor_fraction=0.5``); the others go to the method.
@@ -28,6 +30,7 @@ METHODS = {
     "isomap": ("dressmeup.methods.retarget.isomap", "IsomapRetarget"),
     "isomap-offset": ("dressmeup.methods.retarget.isomap", "IsomapOffset"),
     "isomap-refine": ("dressmeup.methods.retarget.refine", "IsomapRefine"),
+    "isomap-refine-fast": ("dressmeup.methods.retarget.refine", "IsomapRefineFast"),
     "isomap-refine-sup": ("dressmeup.methods.retarget.refine_sup", "IsomapRefineSup"),
 }
 POSTPROCESSES = {

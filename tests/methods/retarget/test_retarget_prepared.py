@@ -179,3 +179,15 @@ def test_leakage_check_by_content_not_id(tmp_path):
     reposed = _DS({"train": [_S("A", base)], "val": [_S("Q", base @ np.linalg.qr(rng.normal(size=(3, 3)))[0])]})
     with pytest.raises(InputError, match="same garment under another id"):
         check_split_leakage(reposed)
+
+
+def test_fast_variant_is_narrower_and_looks_for_its_own_weights(tiny, body_model, tmp_path, monkeypatch):
+    from dressmeup.errors import MissingModelError
+    from dressmeup.methods.retarget import refine
+
+    fast, full = get_method("isomap-refine-fast"), get_method("isomap-refine")
+    assert (fast.width, fast.code_dim, fast.pointnet_hidden) == (256, 64, 64)
+    assert (full.width, full.code_dim, full.pointnet_hidden) == (512, 128, 128)
+    monkeypatch.setattr(refine, "WEIGHTS_DIR", tmp_path)
+    with pytest.raises(MissingModelError, match="isomap_refine_fast_procedural"):
+        fast.retarget(tiny["V"], tiny["F"], tiny["source"], tiny["target"], body_model)
