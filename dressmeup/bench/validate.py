@@ -144,7 +144,17 @@ def validate_submission(submission: str | os.PathLike, edition: str | os.PathLik
 
     suffixes = tuple(task.file_suffixes)
     by_id: dict[str, list[Path]] = {}
+    sub_root = Path(sub).resolve()
     for p in submission_files(sub):
+        if p.is_symlink() and not p.resolve().is_relative_to(sub_root):
+            add(Problem("unreadable", f"{p.name} is a symbolic link leaving the submission "
+                                      f"folder (to {p.resolve()}); copy the file in",
+                        path=str(p)))
+            continue
+        if not p.is_dir() and not p.is_file():  # a FIFO would block every read forever
+            add(Problem("unreadable", f"{p.name} is not a regular file (FIFO, socket or "
+                                      "device); store plain files", path=str(p)))
+            continue
         if p.is_dir():
             add(Problem("extra", f"unexpected folder {p.name}/", path=str(p)))
             continue

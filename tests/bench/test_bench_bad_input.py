@@ -44,7 +44,7 @@ def test_dataset_info_on_bad_json_is_named(data_copy):
 
     (data_copy / "dataset.json").write_bytes(b'{"name": "\xff"}')
     with pytest.raises(InputError, match="dataset.json"):
-        Dataset(data_copy).info
+        _ = Dataset(data_copy).info
 
 
 def test_duplicate_sample_ids_are_refused(data_copy):
@@ -124,3 +124,42 @@ def test_fuse_checks_out_before_fusing(tmp_path, capsys):
     (folder / "scan.ply").write_text("x")
     status, text = _run(capsys, "fuse", tmp_path / "no-session", "--out", folder)
     assert status == 2 and "--overwrite" in text
+
+
+@pytest.mark.parametrize("kind", ["fifo", "symlink-out", "symlink-in"])
+def test_validate_submission_refuses_fifos_and_escaping_symlinks(scored, bench_edition,
+                                                                 bench_data, tmp_path, kind):
+    import os
+
+    from dressmeup.bench.validate import validate_submission
+
+    sub = tmp_path / "sub"
+    shutil.copytree(scored["gt"]["sub"], sub)
+    victim = sorted(sub.glob("*.npz"))[0]
+    outside = tmp_path / "outside.npz"
+    shutil.move(victim, outside)
+    if kind == "fifo":
+        os.mkfifo(victim)
+    elif kind == "symlink-out":
+        victim.symlink_to(outside)
+    else:
+        inside = sub / ".keep"
+        inside.mkdir()
+        shutil.move(outside, inside / victim.name)
+        victim.symlink_to(inside / victim.name)
+    import signal
+
+    def hang(*_):
+        raise TimeoutError("validate_submission blocked on a FIFO")
+
+    old = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(120)  # fail instead of hanging CI forever
+    try:
+        report = validate_submission(sub, bench_edition, bench_data)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    if kind == "symlink-in":
+        assert report.ok, report.summary()
+    else:
+        assert not report.ok and victim.name in report.summary()
