@@ -16,7 +16,8 @@ from dressmeup.body.registration import (
 from dressmeup.body.synthetic import named_pose, synthetic_scan, vertex_joint_errors
 from dressmeup.errors import InputError
 
-FAST = dict(iterations=(30, 120, 120), n_scan_points=2500, n_body_points=1500, verbose=False)
+FAST = dict(iterations=(30, 120, 120), n_scan_points=2500, n_body_points=1500, verbose=False,
+            hypothesis_steps=(10, 8, 20), hypothesis_keep=2)
 
 
 @pytest.fixture(scope="module")
@@ -112,8 +113,7 @@ def test_hypotheses_find_a_t_pose_the_rest_pose_start_misses(model):
     pose[0] = (0.0, 2.0, 0.0)  # facing away from the start
     truth = BodyParams("procedural", shape=np.full(6, 0.45), pose=pose, transl=[0.1, 0.0, 0.2])
     scan = synthetic_scan(model, truth, n_points=6000, noise=0.002, seed=3)
-    fast = dict(FAST, hypothesis_steps=(10, 10, 25), hypothesis_keep=2)
-    res = register(scan, model, return_result=True, **fast)
+    res = register(scan, model, return_result=True, **FAST)
     v_err, j_err = vertex_joint_errors(model, res.params, truth)
     old = register(scan, model, hypotheses=(), **FAST)
     v_old, _ = vertex_joint_errors(model, old, truth)

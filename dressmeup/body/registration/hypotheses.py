@@ -61,11 +61,21 @@ def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarra
     def idx(n):
         return names.index(n) if n in names else None
 
+    from scipy.spatial.transform import Rotation
+
+    trunk = Rotation.identity()  # the spine's rotation, which the shoulders inherit
+    if spec.get("spine"):
+        parts = [n for n in ("spine1", "spine2", "spine3") if n in names]
+        for n in parts:
+            pose[names.index(n)] = (np.deg2rad(spec["spine"]) / len(parts), 0.0, 0.0)
+            trunk = trunk * Rotation.from_rotvec(pose[names.index(n)])
     for side, sx in (("left", 1.0), ("right", -1.0)):
         for root, child, key in (("shoulder", "elbow", "arm"), ("hip", "knee", "thigh")):
             r, c = idx(f"{side}_{root}"), idx(f"{side}_{child}")
             if key in spec and r is not None and c is not None:
                 target = np.asarray(spec[key], dtype=np.float64) * (sx, 1.0, 1.0)
+                if key == "arm":  # the target is in the world: undo the trunk's rotation
+                    target = trunk.inv().apply(target)
                 pose[r] = _align(J[c] - J[r], target)
         k = idx(f"{side}_knee")
         if k is not None and spec.get("knee"):
@@ -73,8 +83,4 @@ def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarra
         e = idx(f"{side}_elbow")
         if e is not None and spec.get("elbow"):
             pose[e] = (0.0, -sx * np.deg2rad(spec["elbow"]), 0.0)
-    if spec.get("spine"):
-        parts = [n for n in ("spine1", "spine2", "spine3") if n in names]
-        for n in parts:
-            pose[names.index(n)] = (np.deg2rad(spec["spine"]) / len(parts), 0.0, 0.0)
     return pose
