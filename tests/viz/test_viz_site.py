@@ -123,3 +123,28 @@ def test_fusion_results_get_error_maps(site_inputs, tmp_path):
     pics = sorted((tmp_path / "site").glob("*/img/shifted-*.png"))
     assert len([p for p in pics if "per_" not in p.name]) == 2, pics   # best + worst
     assert "is gone" not in page and "could not be drawn" not in page
+
+
+def test_changed_submission_gets_no_pictures(site_inputs, tmp_path):
+    """A submission edited after scoring no longer holds the scored predictions: the page
+    says so instead of drawing the wrong ones."""
+    import json
+    import shutil
+
+    from dressmeup.viz.site import write_site
+
+    res = tmp_path / "res"
+    shutil.copytree(site_inputs["results"][0], res)
+    summary = json.loads((res / "summary.json").read_text())
+    sub = tmp_path / "sub"
+    shutil.copytree(summary["submission"]["path"], sub)
+    victim = sorted(sub.glob("*.npz"))[0]
+    with np.load(victim) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["vertices"] = arrays["vertices"] + 0.01
+    np.savez(victim, **arrays)
+    summary["submission"]["path"] = str(sub)
+    (res / "summary.json").write_text(json.dumps(summary))
+    site = write_site([res], tmp_path / "site", data_roots=[site_inputs["data"]])
+    text = site.method_pages[0].read_text()
+    assert "changed since it was scored" in text and "-best-" not in text
