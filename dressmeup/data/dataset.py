@@ -56,6 +56,26 @@ _PLY_FACE = "property list uchar int vertex_indices"
 _PLY_TEX = "property list uchar double texcoord"
 
 
+def _plausible_size(header: bytes, body_bytes: int) -> bool:
+    """True when the body is exactly what the writer's layout needs for the declared counts
+    (so a huge or damaged file is never read whole on this fast path)."""
+    n = m = None
+    has_uv = b"property list uchar double texcoord" in header
+    for ln in header.decode("ascii", "replace").splitlines():
+        parts = ln.split()
+        if len(parts) == 3 and parts[0] == "element":
+            try:
+                if parts[1] == "vertex":
+                    n = int(parts[2])
+                elif parts[1] == "face":
+                    m = int(parts[2])
+            except ValueError:
+                return False
+    if n is None or m is None:
+        return False
+    return body_bytes == 24 * n + (13 + (49 if has_uv else 0)) * m
+
+
 def read_dataset_ply(path: str | os.PathLike) -> GarmentMesh | None:
     """Fast path for the exact binary PLY layout that :func:`dressmeup.io.mesh.save_mesh`
     writes (float64 xyz; triangles; optional per-corner ``texcoord``): one
@@ -64,10 +84,16 @@ def read_dataset_ply(path: str | os.PathLike) -> GarmentMesh | None:
     """
     path = Path(path)
     with open(path, "rb") as fh:
-        data = fh.read()
-    end = data.find(b"end_header\n", 0, 65536)
-    if not data.startswith(b"ply\n") or end < 0:
-        return None
+        head = fh.read(65536)
+    end = head.find(b"end_header\n")
+    if not head.startswith(b"ply\n") or end < 0:
+        return None  # not this layout: the general reader checks the header and names faults
+    data = head
+    if path.stat().st_size > len(head):
+        if not _plausible_size(head[:end], path.stat().st_size - end - len(b"end_header\n")):
+            return None
+        with open(path, "rb") as fh:
+            data = fh.read()
     lines = [ln.strip() for ln in data[:end].decode("ascii", "replace").splitlines()[1:]]
     tex = None
     for ln in lines:

@@ -107,4 +107,14 @@ def read_manifest(path: str | os.PathLike) -> pa.Table:
     missing = [n for n, _t, nl, _d in COLUMNS if not nl and n not in table.column_names]
     if missing:
         raise InputError(f"{path}: manifest lacks required columns {missing}")
+    for name, typ, _nl, _d in COLUMNS:
+        if name in table.column_names:
+            got = table.schema.field(name).type
+            numeric = pa.types.is_integer(typ) or pa.types.is_floating(typ)
+            if (numeric and not (pa.types.is_integer(got) or pa.types.is_floating(got))) or \
+                    (pa.types.is_string(typ) and not (pa.types.is_string(got)
+                                                      or pa.types.is_large_string(got)
+                                                      or pa.types.is_null(got))):
+                raise InputError(f"{path}: manifest column {name!r} has type {got}, "
+                                 f"expected {typ}")
     return table

@@ -36,6 +36,13 @@ __all__ = ["MeshData", "load_mesh", "save_mesh", "write_ply"]
 log = logging.getLogger(__name__)
 
 MESH_SUFFIXES = (".ply", ".obj")
+#: Largest mesh file read (bytes; ``DRESSMEUP_MAX_MESH_BYTES`` overrides): a bound on memory,
+#: checked before reading (the OBJ reader holds Python lists, about 2x the file size).
+MAX_MESH_BYTES = 1 << 30
+_PLY_HEADER_MAX = 65536
+_PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2,
+              "int16": 2, "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4,
+              "float": 4, "float32": 4, "double": 8, "float64": 8}
 
 
 @dataclass
@@ -99,10 +106,19 @@ def load_mesh(path: str | os.PathLike) -> MeshData:
     """
     path = Path(path)
     if not path.is_file():
+        if path.exists():
+            raise InputError(f"{path}: not a regular file (expected a .ply or .obj mesh)")
         raise FileNotFoundError(f"mesh file not found: {path}")
     suffix = path.suffix.lower()
     if suffix not in MESH_SUFFIXES:
         raise InputError(f"{path}: unsupported mesh format {suffix!r} (expected .ply or .obj)")
+    size = path.stat().st_size
+    limit = int(os.environ.get("DRESSMEUP_MAX_MESH_BYTES", MAX_MESH_BYTES))
+    if size > limit:
+        raise InputError(f"{path}: {size / 1e6:.0f} MB is over the mesh size limit of "
+                         f"{limit / 1e6:.0f} MB (set DRESSMEUP_MAX_MESH_BYTES to allow it)")
+    if suffix == ".ply":
+        check_ply_header(path)
     try:
         mesh = _load_obj(path) if suffix == ".obj" else _load_ply(path)
     except InputError:
@@ -112,6 +128,70 @@ def load_mesh(path: str | os.PathLike) -> MeshData:
     mesh.path = path
     _check_loaded(mesh, path)
     return mesh
+
+
+def check_ply_header(path: str | os.PathLike) -> dict[str, int]:
+    """Read and check a PLY header before the body is parsed.
+
+    Returns the declared element counts (e.g. ``{"vertex": n, "face": m}``).
+
+    Raises
+    ------
+    InputError
+        Not a PLY file, no ``end_header`` within 64 KiB, an unknown format, or declared
+        counts that the file is too small to hold (so a damaged or hostile header never makes
+        the reader allocate for it).
+    """
+    path = Path(path)
+    with open(path, "rb") as fh:
+        head = fh.read(_PLY_HEADER_MAX)
+    if not (head.startswith(b"ply\n") or head.startswith(b"ply\r\n")):
+        raise InputError(f"{path}: not a PLY file (it does not start with 'ply')")
+    end = head.find(b"end_header")
+    if end < 0:
+        raise InputError(f"{path}: PLY header has no 'end_header' within "
+                         f"{_PLY_HEADER_MAX // 1024} KiB")
+    lines = head[:end].decode("ascii", "replace").splitlines()[1:]
+    fmt, counts, min_row = None, {}, {}
+    current = None
+    for ln in lines:
+        parts = ln.split()
+        if not parts or parts[0] in ("comment", "obj_info"):
+            continue
+        if parts[0] == "format" and len(parts) >= 2:
+            fmt = parts[1]
+        elif parts[0] == "element" and len(parts) == 3:
+            try:
+                counts[parts[1]] = int(parts[2])
+            except ValueError:
+                raise InputError(f"{path}: PLY header: element {parts[1]!r} count "
+                                 f"{parts[2]!r} is not an integer") from None
+            if counts[parts[1]] < 0:
+                raise InputError(f"{path}: PLY header: negative count for {parts[1]!r}")
+            current = parts[1]
+            min_row[current] = 0
+        elif parts[0] == "property" and current is not None:
+            if parts[1] == "list" and len(parts) >= 5:  # at least the count of each list
+                min_row[current] += _PLY_SIZES.get(parts[2], 1)
+            else:
+                min_row[current] += _PLY_SIZES.get(parts[1], 1)
+    if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
+        raise InputError(f"{path}: PLY header: unknown format {fmt!r}")
+    body = path.stat().st_size - (end + len("end_header"))
+    # ASCII rows take at least two bytes ("0\n"); binary rows their fixed part
+    need = sum(counts[e] * (2 if fmt == "ascii" else min_row.get(e, 0)) for e in counts)
+    if need > body:
+        decl = ", ".join(f"{n} {e}" for e, n in counts.items())
+        raise InputError(f"{path}: PLY header declares {decl} but the file holds only "
+                         f"{body} bytes after the header (truncated or damaged)")
+    return counts
+
+
+def _fan(F: np.ndarray) -> np.ndarray:
+    """Fan-triangulate polygons ``(m, k)`` with ``k > 3`` corners into ``(m (k-2), 3)``."""
+    k = F.shape[1]
+    tris = [F[:, [0, j, j + 1]] for j in range(1, k - 1)]
+    return np.stack(tris, axis=1).reshape(-1, 3)
 
 
 def _check_loaded(mesh: MeshData, path: Path) -> None:
@@ -232,12 +312,14 @@ def _obj_texture(path: Path, mtllibs: list[str], material: str | None) -> Path |
 def _load_ply(path: Path) -> MeshData:
     from trimesh.exchange.ply import load_ply
 
-    tlog = logging.getLogger("trimesh")
+    # the texture is resolved below from the header; trimesh would try too and log a
+    # traceback ("unable to load image!", logger trimesh.util) when it cannot
+    tlog = logging.getLogger("trimesh.util")
     was_disabled = tlog.disabled
-    tlog.disabled = True  # trimesh logs a traceback when it cannot resolve the texture itself
+    tlog.disabled = True
     try:
         with open(path, "rb") as fh:
-            kwargs = load_ply(fh, fix_texture=False)
+            kwargs = load_ply(fh, fix_texture=False, skip_materials=True)
     finally:
         tlog.disabled = was_disabled
     raw = kwargs.get("metadata", {}).get("_ply_raw", {})
@@ -249,8 +331,11 @@ def _load_ply(path: Path) -> MeshData:
     if F is None:
         raise InputError(f"{path}: the mesh has no triangle faces")
     F = np.asarray(F, dtype=np.int64)
+    polygons = F.ndim == 2 and F.shape[1] > 3
+    if polygons:  # quads and other polygons: fan-triangulated, as OBJ
+        F = _fan(F)
     if F.ndim != 2 or F.shape[1] != 3:
-        raise InputError(f"{path}: expected triangle faces, got shape {F.shape}")
+        raise InputError(f"{path}: expected polygon faces, got shape {F.shape}")
     uv = uvf = None
     names = set(vdata.dtype.names or ()) if hasattr(vdata, "dtype") else set(vdata)
     for su, sv in (("s", "t"), ("texture_u", "texture_v"), ("u", "v"), ("texture_s", "texture_t")):
@@ -265,7 +350,7 @@ def _load_ply(path: Path) -> MeshData:
         texcoord = fdata["texcoord"]
     elif hasattr(fdata, "dtype") and fdata.dtype.names and "texcoord" in fdata.dtype.names:
         texcoord = fdata["texcoord"]["f1"] if fdata["texcoord"].dtype.names else fdata["texcoord"]
-    if texcoord is not None and uv is None:
+    if texcoord is not None and uv is None and not polygons:
         tc = np.asarray(texcoord, dtype=np.float64)
         if tc.ndim == 2 and tc.shape == (F.shape[0], 6):
             uv = tc.reshape(-1, 2)

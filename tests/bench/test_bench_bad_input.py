@@ -163,3 +163,17 @@ def test_validate_submission_refuses_fifos_and_escaping_symlinks(scored, bench_e
         assert report.ok, report.summary()
     else:
         assert not report.ok and victim.name in report.summary()
+
+
+def test_non_numeric_manifest_column_is_named(data_copy):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from dressmeup.data import Dataset
+
+    t = pq.read_table(data_copy / "manifest.parquet")
+    i = t.column_names.index("garment_vertices")
+    t = t.set_column(i, "garment_vertices", pa.array(["many"] * len(t)))
+    pq.write_table(t, data_copy / "manifest.parquet")
+    with pytest.raises(InputError, match="manifest.parquet: manifest column 'garment_vertices'"):
+        Dataset(data_copy)
