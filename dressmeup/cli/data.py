@@ -90,8 +90,14 @@ def _synth_edition(args: argparse.Namespace) -> int:
     pin = ed.dataset
     if pin.kind != "generated":
         raise InputError(f"--edition {ed.name} is scored on a real dataset; it cannot be generated")
-    kw = {"workers": args.workers} if str(pin.params.get("version", "")).startswith("2.") else {}
-    root = generate_dataset(args.out, seed=pin.seed, **pin.params, **kw)
+    if ed.task == "uvparam":  # a mesh set, not a garment dataset
+        from dressmeup.bench.runs import build_data
+
+        root = build_data(ed, args.out)
+    else:
+        kw = ({"workers": args.workers} if str(pin.params.get("version", "")).startswith("2.")
+              else {})
+        root = generate_dataset(args.out, seed=pin.seed, **pin.params, **kw)
     sha = manifest_sha256(root)
     sys.stdout.write(f"wrote the data of edition {ed.name} to {root}\nmanifest sha256 {sha}\n")
     expected = pin.expected_manifest_sha256
