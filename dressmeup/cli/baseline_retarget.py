@@ -83,7 +83,7 @@ def _run(args: argparse.Namespace) -> int:
     out = run_retarget_baseline(args.method, edition, args.data, args.out, train_steps=0,
                                 limit=args.limit, overwrite=args.overwrite,
                                 executor=executor_from_args(args, default_workers=1),
-                                url="https://github.com/dressmeup (docs/baselines.md)",
+                                url="https://github.com/dressmeup/dressmeup/blob/main/docs/baselines.md",
                                 log=lines.append, **params)
     sys.stdout.write(f"wrote {out} ({lines[-1].strip() if lines else args.method})\n")
     return 0
