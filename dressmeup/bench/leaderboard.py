@@ -151,6 +151,7 @@ class Leaderboard:
     custom_edition: str | None = None
     unit: str | None = None
     n_units: int | None = None
+    pareto: tuple[str, ...] = ()
 
     # ----------------------------------------------------------------- ranks and marks
     def rank(self, i: int) -> str:
@@ -169,7 +170,8 @@ class Leaderboard:
     def method_text(self, row: dict[str, Any]) -> str:
         """The method's name as plain text (escape it per format), with the
         "not comparable" mark."""
-        return row["method"] + ("" if row.get("comparable", True) else " (not comparable)")
+        return (row["method"] + (" ◆" if row.get("pareto") else "")
+                + ("" if row.get("comparable", True) else " (not comparable)"))
 
     def interval(self, row: dict[str, Any], col: Column) -> str:
         """Printed 95 % interval ``[lo, hi]`` of a cell (display units), ``[–]`` when the
@@ -232,6 +234,11 @@ class Leaderboard:
                     "or an older result). "
                     "Sep.: paired bootstrap of the primary column says the rank is separated "
                     f"from the next (yes/no; – below {MIN_UNITS_SEPARATION} shared units).")
+        if self.pareto:
+            labels = {c.spec.name: c.spec.label for c in self.columns}
+            pair = " and ".join(labels.get(m, m) for m in self.pareto)
+            out += (f" ◆: on the Pareto front of {pair} (no other method is at least as good "
+                    "on both and better on one).")
         if any(not r.get("comparable", True) for r in self.rows):
             out += " Not comparable: scored on data other than the edition pins; unranked."
         return out
@@ -244,7 +251,9 @@ class Leaderboard:
 
     def to_markdown(self) -> str:
         """GitHub-flavoured Markdown table with a caption line."""
-        head = ["#", "Method", *[c.header() for c in self.columns], "Failed",
+        head = ["#", "Method",
+                *[c.spec.header() + (f" · {md_text(c.group)}" if c.group else "")
+                  for c in self.columns], "Failed",
                 "Runtime [s/sample]"] + (["Sep."] if self.show_ci else [])
         lines = ["| " + " | ".join(head) + " |",
                  "|" + "|".join([":-:", ":--"] + ["--:"] * (len(head) - 2)) + "|"]
@@ -272,7 +281,7 @@ class Leaderboard:
             if self.show_ci:
                 head += [c.header() + " ci95 lo", c.header() + " ci95 hi"]
         head += ["failed", "items", "runtime_s_per_sample", "best_in", "comparable",
-                 "separated_from_next", "schema_version"]
+                 "separated_from_next", "schema_version", "pareto"]
         w.writerow([csv_text(h) for h in head])
         for i, row in enumerate(self.rows):
             rank = self.rank(i)
@@ -298,7 +307,8 @@ class Leaderboard:
                      "" if rt is None else f"{rt:.4f}", ";".join(best_in),
                      str(bool(row.get("comparable", True))).lower(),
                      "" if sep is None else str(bool(sep)).lower(),
-                     row.get("schema_version", "")]
+                     row.get("schema_version", ""),
+                     str(bool(row.get("pareto"))).lower() if self.pareto else ""]
             w.writerow(vals)
         return buf.getvalue()
 
@@ -319,7 +329,7 @@ class Leaderboard:
                              "Time [s]"] + (["Sep."] if self.show_ci else [])) + r" \\",
                  r"\midrule"]
         for i, row in enumerate(self.rows):
-            cells = [esc(self.method_text(row))]
+            cells = [esc(self.method_text(row)).replace("◆", r"$\diamond$")]
             for c in self.columns:
                 t = self.cell(row, c).replace("±", r"$\pm$").replace("–", "--")
                 cells.append(rf"\textbf{{{t}}}" if i in self.best.get(c.key, ()) else t)
@@ -328,7 +338,8 @@ class Leaderboard:
                 cells.append(self.separated(i).replace("–", "--"))
             lines.append(" & ".join(cells) + r" \\")
         lines += [r"\bottomrule", r"\end{tabular}",
-                  rf"\caption{{{esc(self._caption(ascii_only=True))}}}",
+                  rf"\caption{{{esc(self._caption(ascii_only=True))}}}".replace(
+                      "◆", r"$\diamond$"),
                   rf"\label{{tab:{esc(self.edition.name)}}}", r"\end{table}"]
         return "\n".join(lines) + "\n"
 
@@ -369,6 +380,9 @@ class Leaderboard:
                 name = f'<a href="{e(link)}">{e(m)}</a>'
             else:
                 name = e(m)
+            if row.get("pareto"):
+                name += (' <span class="pareto" title="on the Pareto front of '
+                         f'{e(" and ".join(self.pareto))}">◆</span>')
             if not row.get("comparable", True):
                 why = e(str(row.get("not_comparable_reason") or "scored on other data"))
                 name += f' <span class="nc" title="{why}">not comparable</span>'
@@ -575,11 +589,14 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
     spec = next(c.spec for c in columns if c.key == primary)
 
     def sort_key(row: dict[str, Any]) -> tuple:
-        v = row["values"][primary][0]
         nc = 0 if row["comparable"] else 1
-        if v is None or not math.isfinite(v):
-            return (nc, 1, 0.0, row["method"])
-        return (nc, 0, v if spec.better == "lower" else -v, row["method"])
+        # a row without the primary value (e.g. a per-mesh uvparam method when the primary
+        # track is 'pretrained') follows the others, ordered by the metric overall
+        for missing, key in enumerate((primary, primary.split("#")[0])):
+            v = row["values"].get(key, (None,))[0]
+            if v is not None and math.isfinite(v):
+                return (nc, missing, v if spec.better == "lower" else -v, row["method"])
+        return (nc, 2, 0.0, row["method"])
 
     rows.sort(key=sort_key)
     boot = next((r.summary.get("bootstrap") for r in loaded if r.summary.get("bootstrap")),
@@ -592,6 +609,7 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
                         n_units=boot.get("n_units"))
     board.custom_edition = edition_check.source if edition_check.custom else None
     _mark_separation(rows, primary, getattr(task, "unit_column", None))
+    board.pareto = _mark_pareto(ed, rows)
     for row in rows:
         row.pop("_result", None)
     for c in columns:
@@ -605,6 +623,28 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
         best_val = (min if c.spec.better == "lower" else max)(v for v, _ in printed)
         board.best[c.key] = {i for v, i in printed if v == best_val}
     return board
+
+
+def _mark_pareto(ed: Edition, rows: list[dict[str, Any]]) -> tuple[str, ...]:
+    """Set ``row["pareto"]`` for tasks with a Pareto pair (uvparam: QCE vs seam length) when
+    the edition lists both metrics; returns the metric names (empty: not marked)."""
+    import importlib
+
+    try:
+        config = importlib.import_module(f"dressmeup.bench.tasks.{ed.task}.config")
+        render = importlib.import_module(f"dressmeup.bench.tasks.{ed.task}.render")
+    except ImportError:
+        return ()
+    names = tuple(getattr(config, "PARETO", ()))
+    front_of = getattr(render, "pareto_front", None)
+    if not names or front_of is None or not all(m in ed.metrics for m in names):
+        return ()
+    scores = {str(i): {m: row["values"][m][0] for m in names}
+              for i, row in enumerate(rows) if row["comparable"]}
+    front = front_of(scores, names)
+    for i, row in enumerate(rows):
+        row["pareto"] = str(i) in front
+    return names
 
 
 def _tracks(ed: Edition, loaded: Sequence[Result]) -> list[str]:

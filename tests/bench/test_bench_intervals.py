@@ -278,3 +278,35 @@ def test_no_separation_verdict_below_four_units(scored):
                               sort_by="ed")
     assert [r["separated"] for r in board.rows] == [None, None]
     assert "below 4 shared units" in board.render("md")
+
+
+def test_pareto_front_marked_for_uvparam():
+    """uvparam editions listing QCE and seam length mark the Pareto front (◆) in every
+    format (uv's request: is a low distortion bought by cutting the mesh)."""
+    from types import SimpleNamespace
+
+    from dressmeup.bench.edition import load_edition
+    from dressmeup.bench.leaderboard import Column, Leaderboard, _mark_pareto
+    from dressmeup.bench.tasks import get_task
+
+    ed = SimpleNamespace(task="uvparam", metrics=("qce", "seam_length", "flip"))
+    rows = [{"method": m, "comparable": True,
+             "values": {"qce": (q, None, 3), "seam_length": (sl, None, 3)}}
+            for m, q, sl in (("few-cuts", 1.20, 0.5), ("low-qce", 1.01, 3.0),
+                             ("dominated", 1.30, 4.0))]
+    assert _mark_pareto(ed, rows) == ("qce", "seam_length")
+    assert [r["pareto"] for r in rows] == [True, True, False]
+    assert _mark_pareto(SimpleNamespace(task="uvparam", metrics=("qce",)), rows) == ()
+    assert _mark_pareto(SimpleNamespace(task="retarget", metrics=("p2s",)), rows) == ()
+    for r in rows:
+        r.update(failed=0, items=3, runtime=None, ci={})
+    ed2 = load_edition("synth-uvparam-v2")
+    specs = {sp.name: sp for sp in get_task("uvparam").metric_specs(ed2)}
+    board = Leaderboard(edition=ed2, manifest_sha256=None,
+                        columns=[Column(m, specs[m]) for m in ("qce", "seam_length")],
+                        rows=rows, primary="qce", pareto=("qce", "seam_length"))
+    assert "| few-cuts ◆ |" in board.render("md") and "Pareto front" in board.render("md")
+    assert [r.split(",")[-1] for r in board.render("csv").splitlines()[1:]] == [
+        "true", "true", "false"]
+    assert r"few-cuts $\diamond$" in board.render("latex")
+    assert board.render("html").count('class="pareto"') == 2
