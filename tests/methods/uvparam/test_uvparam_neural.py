@@ -185,8 +185,12 @@ def test_proxy_inference_agrees_with_full_inference(tiny_model):
     full = infer(tiny_model, V, F, proxy_vertices=None)
     prox = infer(tiny_model, V, F, proxy_vertices=1200)
     assert prox.info["proxy_vertices"] > 0 and full.info["proxy_vertices"] == 0
-    assert prox.n_charts == full.n_charts
-    assert np.mean(prox.chart_ids == full.chart_ids) > 0.9
+    # charts matched by overlap: nearly every face lands in the corresponding chart (a chart
+    # of ~1 % of the faces may merge into a neighbour at this coarse a proxy)
+    C = np.zeros((prox.n_charts, full.n_charts))
+    np.add.at(C, (prox.chart_ids, full.chart_ids), 1)
+    assert C.max(axis=1).sum() / len(F) > 0.95 and C.max(axis=0).sum() / len(F) > 0.95
+    assert abs(prox.n_charts - full.n_charts) <= 1
     # (the tiny model's maps are too distorted for a QCE comparison to mean much; the perf
     # script compares proxy and full inference of a trained model on large meshes)
     assert np.isfinite(qce(V, F, prox.uv, prox.uv_faces))

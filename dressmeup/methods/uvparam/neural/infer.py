@@ -23,7 +23,7 @@ from dressmeup.methods.uvparam.neural.patchnet import (
 )
 from dressmeup.methods.uvparam.neural.train import NeuralUVModel, chart_codes, chart_rows
 
-__all__ = ["infer", "chart_uvs"]
+__all__ = ["infer", "chart_uvs", "cluster_decimate"]
 
 
 def chart_uvs(uv_rows: np.ndarray, Vn: np.ndarray, F: np.ndarray, row_vertex: np.ndarray,
@@ -54,6 +54,41 @@ def _vertex_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     """Barycentric lumped vertex areas (n,) float64."""
     a = face_areas(V, F) / 3.0
     return np.bincount(F.reshape(-1), weights=np.repeat(a, 3), minlength=len(V))
+
+
+def cluster_decimate(V: np.ndarray, F: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """Vertex-clustering decimation to about ``n_vertices`` (fast; the inference proxy).
+
+    Vertices are grouped by a regular grid whose cell size ``h = sqrt(1.4 area / n_vertices)``
+    gives about ``n_vertices`` occupied cells on a surface; each group becomes its mean
+    position; faces that collapse or repeat are dropped. Much faster than edge collapse (0.1 s
+    instead of ~1 s at 100k vertices) and good enough for PatchNet's smooth outputs; surfaces
+    closer than ``h`` may be merged.
+
+    Returns
+    -------
+    V : (n2, 3) float64
+    F : (m2, 3) int64
+    """
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    # a surface cuts ~1.4 area / h^2 grid cells (cells meet it obliquely)
+    h = float(np.sqrt(1.4 * face_areas(V, F).sum() / max(int(n_vertices), 1))) or 1.0
+    cell = np.floor((V - V.min(axis=0)) / h).astype(np.int64)
+    dims = cell.max(axis=0) + 1
+    key = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
+    _, group = np.unique(key, return_inverse=True)
+    group = group.reshape(-1)
+    count = np.bincount(group)
+    Vc = np.stack([np.bincount(group, weights=V[:, k]) for k in range(3)], axis=1) / count[:, None]
+    Fc = group[F]
+    Fc = Fc[(Fc[:, 0] != Fc[:, 1]) & (Fc[:, 1] != Fc[:, 2]) & (Fc[:, 2] != Fc[:, 0])]
+    _, first = np.unique(np.sort(Fc, axis=1), axis=0, return_index=True)
+    Fc = Fc[np.sort(first)]
+    used = np.unique(Fc)
+    remap = np.full(len(Vc), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return Vc[used], remap[Fc]
 
 
 def _patchnet_on(model: NeuralUVModel, Vn: np.ndarray, F: np.ndarray, use_operator_cache: bool,
@@ -87,8 +122,8 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
     threads : int, optional
         torch intra-op threads for this call.
     proxy_vertices : int or None
-        Meshes with more than twice this many vertices run PatchNet on a decimated proxy of
-        about this many vertices (the network is discretisation-agnostic; its patch
+        Meshes with more than twice this many vertices run PatchNet on a proxy of about this
+        many vertices (:func:`cluster_decimate`) (the network is discretisation-agnostic; its patch
         probabilities and features are smooth) and take each vertex's values from the
         nearest proxy vertex; charts, codes psi (mass-weighted on the full mesh) and the UV
         MLP are evaluated on the full mesh. The proxy's eigenbasis uses the two-level
@@ -113,9 +148,7 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
         if proxy:
             from scipy.spatial import cKDTree
 
-            from dressmeup.methods.uvparam.neural.method import decimate_for_training
-
-            Vp, Fp = decimate_for_training(V, F, int(proxy_vertices))
+            Vp, Fp = cluster_decimate(V, F, int(proxy_vertices))
             lo, hi = V.min(axis=0), V.max(axis=0)  # the full mesh's normalisation
             Vpn = (Vp - 0.5 * (lo + hi)) / (float(np.linalg.norm(hi - lo)) or 1.0)
             t1, c1 = time.perf_counter(), time.process_time()
