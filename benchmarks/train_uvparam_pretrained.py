@@ -87,7 +87,7 @@ def plot_curves(hist: dict, title: str, path: Path) -> None:
                             (ax[1], "uv_total", "val_uv", "UV MLPs")):
         y = np.asarray(hist[tr], float)
         if y.size:
-            k = max(1, y.size // 50)
+            k = max(1, y.size // 20)
             sm = np.convolve(y, np.ones(k) / k, mode="valid")
             a.plot(np.arange(1, y.size + 1), y, color="0.8", lw=0.6, label="train (per step)")
             a.plot(np.arange(k, y.size + 1), sm, color="C0", lw=1.2, label=f"train ({k}-step mean)")
