@@ -439,7 +439,8 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
         for label, sel in (("best", best), ("worst", worst)):
             rows = []
             for r in sel.to_dict("records"):
-                group = r["category"] + (f", track {r['track']}" if r.get("track") else "")
+                track = r.get("track")
+                group = r["category"] + (f", track {track}" if isinstance(track, str) else "")
                 r["_caption"] = (f"{r['sample_id']} ({group}): {pspec.label} "
                                  f"{_fmt(pspec, r[primary_name])} {pspec.unit}")
                 rows.append(r)
