@@ -59,6 +59,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "are skipped. A session that fails is reported and skipped.")
     p.add_argument("sessions", nargs="+", help="session folders, or folders containing sessions")
     p.add_argument("--out", required=True, help="dataset root")
+    p.add_argument("--scans", default=None,
+                   help="folder of scans made by 'dressmeup fuse' (SCANS/<session name>/"
+                        "scan.ply): those sessions are not fused again")
     _fusion_args(p)
     p.add_argument("--body", default="auto", choices=["auto", "register", "session", "ground-truth", "none"],
                    help="body source: 'register' fits the body model to the scan; 'session' reads "
@@ -77,7 +80,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _fusion_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--voxel", type=float, default=0.004, help="TSDF voxel size in metres (default 0.004)")
-    p.add_argument("--refine", action="store_true", help="refine extrinsics by multiway ICP first")
+    p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=True,
+                   help="refine the extrinsics by multiway ICP before fusing (default; "
+                        "--no-refine skips it)")
     p.add_argument("--colored-icp", action="store_true", help="use coloured ICP at the finest ICP scale")
     p.add_argument("--device", default="cpu", help="cpu or cuda[:N]")
     p.add_argument("--poisson-depth", type=int, default=None, help="screened Poisson remesh at this depth")
@@ -176,6 +181,7 @@ def _build_dataset(args: argparse.Namespace) -> int:
                                            texture=not args.no_texture,
                                            texture_size=args.texture_size),
         body=args.body, body_model=args.body_model, split=args.split, name=args.name,
+        scans=args.scans,
         executor=executor_from_args(args, default_workers=1))
     for session, error in report.failed:
         sys.stderr.write(f"build-dataset: skipped session {session}: {error}\n")

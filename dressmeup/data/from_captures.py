@@ -123,11 +123,18 @@ def build_session(job: dict[str, Any]) -> dict[str, Any]:
     """
     from dressmeup.capture.session import open_session
     from dressmeup.extraction.pipeline import extract_garments
-    from dressmeup.fusion.pipeline import fuse_session
+    from dressmeup.fusion.pipeline import fuse_session, reuse_scan
 
     session = open_session(job["session"])
     info = session.info
-    result = fuse_session(session, job["fusion"])
+    scan_dir = job.get("scan_dir")
+    if scan_dir:  # the scan 'dressmeup fuse' already made (with its refined calibration)
+        result = reuse_scan(session, scan_dir, job["fusion"])
+        fusion_done = f"reused {scan_dir}"
+    else:
+        result = fuse_session(session, job["fusion"])
+        fusion_done = ("fused, extrinsics refined by ICP" if job["fusion"].refine
+                       else "fused without ICP refinement")
     ex = extract_garments(result, info, job["extraction"])
     params, T, body_src = body_for_session(session, result.vertices, result.faces,
                                            job["body"], job["body_model"])
@@ -142,7 +149,7 @@ def build_session(job: dict[str, Any]) -> dict[str, Any]:
                  "texture": g.texture} for g in ex.garments]
     return {"subject_id": info.subject_id, "pose_id": info.pose_id, "garments": garments,
             "scan": (tf(result.vertices), result.faces), "body": params,
-            "labels_from": ex.method, "body_source": body_src}
+            "labels_from": ex.method, "body_source": body_src, "fusion": fusion_done}
 
 
 def _failure(exc: BaseException) -> str:
@@ -154,7 +161,8 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
                                 fusion_config: Any = None, extraction_config: Any = None,
                                 body: str = "auto", body_model: str = "anny",
                                 split: str = "train", name: str = "captured",
-                                executor: Any = None) -> BuildReport:
+                                executor: Any = None,
+                                scans: str | Path | None = None) -> BuildReport:
     """Fuse, extract and register every session into the dataset at ``out``.
 
     Parameters
@@ -165,6 +173,10 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     extraction_config : ``dressmeup.extraction.pipeline.ExtractionConfig`` (defaults when None).
     body, body_model : see :func:`body_for_session`.
     split : split of the garments written; name : dataset name in dataset.json.
+    scans : folder of scans made by ``dressmeup fuse`` (``SCANS/<session folder name>/``
+        holding ``scan.ply``); a session whose scan is there is not fused again. Sessions
+        without one are fused with ``fusion_config`` (default: ICP refinement on). What was
+        done per session is recorded in ``dataset.json`` under ``build``.
     executor : where the per-session jobs (:func:`build_session`) run
         (:mod:`dressmeup.executors`; default: one after the other in this process). This
         process writes every sample, in session order, so the dataset is the same whatever
@@ -186,10 +198,10 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     folders = find_sessions(sessions)
     if not folders:
         raise InputError("sessions: no session folder given")
-    fusion_config = fusion_config or FusionConfig()
+    fusion_config = fusion_config or FusionConfig(refine=True)
     extraction_config = extraction_config or ExtractionConfig()
     writer = DatasetWriter(out, {"name": name, "source": "dressmeup build-dataset",
-                                 "body_model": body_model})
+                                 "body_model": None if body == "none" else body_model})
     report = BuildReport()
     todo: list[tuple[Path, list[str]]] = []
     for sdir in folders:
@@ -207,8 +219,14 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
             todo.append((sdir, ids))
     executor = executor or LocalExecutor(1)
     executor.require_shared(*(s for s, _ in todo))
+    def scan_of(sdir: Path) -> str | None:
+        cand = Path(scans) / Path(sdir).name if scans else None
+        return str(cand) if cand is not None and (cand / "scan.ply").is_file() else None
+
     jobs = [{"session": str(sdir), "fusion": fusion_config, "extraction": extraction_config,
-             "body": body, "body_model": body_model} for sdir, _ in todo]
+             "body": body, "body_model": body_model, "scan_dir": scan_of(sdir)}
+            for sdir, _ in todo]
+    built: dict[str, dict[str, str]] = {}
     done = progress(executor.run(build_session, jobs), desc="sessions", total=len(jobs))
     for i, res in in_order(done):
         sdir, ids = todo[i]
@@ -225,12 +243,17 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
                                   garment=g["mesh"], body=res["body"], scan=res["scan"],
                                   texture=g["texture"], sample_id=sid)
                 report.written += 1
-            log.info("%s: %d garment(s), labels from %s, body from %s", sdir,
-                     len(res["garments"]), res["labels_from"], res["body_source"])
+            built[Path(sdir).name] = {"scan": res["fusion"], "body": res["body_source"],
+                                      "labels": res["labels_from"]}
+            log.info("%s: %d garment(s), %s, labels from %s, body from %s", sdir,
+                     len(res["garments"]), res["fusion"], res["labels_from"],
+                     res["body_source"])
         except Exception as exc:  # noqa: BLE001 - one bad session must not stop the build
             report.failed.append((str(sdir), _failure(exc)))
             log.warning("build-dataset: skipped session %s: %s", sdir, _failure(exc))
-    writer.finalize()
+    writer.finalize(build={"fusion": {"refine": bool(fusion_config.refine),
+                                      "voxel_size": fusion_config.voxel_size},
+                           "body": body, "sessions": built})
     rank = {str(s): k for k, s in enumerate(folders)}
     report.failed.sort(key=lambda f: rank.get(f[0], len(rank)))  # in the order given
     if report.failed:

@@ -12,8 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.capture.rig import Rig, save_rig
+from dressmeup.capture.rig import Rig, load_rig, save_rig
 from dressmeup.capture.session import RGBDFrame, Session, open_session
+from dressmeup.errors import InputError
 from dressmeup.fusion.cleanup import CleanupConfig, cleanup_mesh
 from dressmeup.fusion.filtering import DepthFilterConfig, filter_depth, undistort_frame
 from dressmeup.fusion.icp import ICPConfig, ICPReport, refine_extrinsics
@@ -174,6 +175,40 @@ def save_scan(result: FusionResult, out_dir: str | os.PathLike, extra: dict[str,
             **(extra or {})}
     atomic_write_text(out / "fusion.json", json.dumps(info, indent=2, default=json_default) + "\n")
     return out
+
+
+def reuse_scan(session: Session | str | os.PathLike, scan_dir: str | os.PathLike,
+               config: FusionConfig | None = None) -> FusionResult:
+    """A :class:`FusionResult` from a scan folder that ``dressmeup fuse`` wrote for
+    ``session`` (its ``scan.ply`` and refined ``rig.json``), without fusing again: the
+    session's frames are prepared with that rig, for garment extraction.
+
+    Raises
+    ------
+    InputError
+        When ``scan_dir`` was fused from another session (``fusion.json`` says which).
+    FileNotFoundError
+        When ``scan_dir`` holds no ``scan.ply``.
+    """
+    from dressmeup.io.jsonio import read_json
+
+    cfg = config or FusionConfig()
+    if not isinstance(session, Session):
+        session = open_session(session)
+    scan_dir = Path(scan_dir)
+    meta = read_json(scan_dir / "fusion.json") if (scan_dir / "fusion.json").is_file() else {}
+    made_from = meta.get("session") if isinstance(meta, dict) else None
+    if made_from and Path(made_from).resolve() != Path(session.root).resolve():
+        raise InputError(f"{scan_dir}: fused from session {made_from}, not {session.root}")
+    V, F, C = load_scan(scan_dir)
+    rig = load_rig(scan_dir / "rig.json") if (scan_dir / "rig.json").is_file() else session.rig
+    idx = cfg.frames if cfg.frames is not None else list(range(session.info.n_frames))
+    frames = [fr for i in idx for fr in session.load_frames(i)]
+    prepared = [replace(f, camera=rig.camera(f.serial))
+                for f in prepare_frames(frames, rig, cfg.filter)]
+    if C is None:
+        C = np.full((len(V), 3), 200, np.uint8)
+    return FusionResult(V, F, C, rig, prepared, {"reused": 0.0}, None)
 
 
 def load_scan(scan_dir: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
