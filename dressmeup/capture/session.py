@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.capture.rig import Rig, load_rig, save_rig
+from dressmeup.capture.rig import Camera, Rig, load_rig, save_rig
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path, atomic_write_text
 
@@ -33,6 +33,7 @@ __all__ = [
     "GarmentInfo",
     "SessionInfo",
     "RGBDFrame",
+    "frame_camera",
     "Session",
     "open_session",
     "validate_session",
@@ -147,6 +148,10 @@ class RGBDFrame:
     color : (h, w, 3) uint8 RGB.
     depth : (h, w) float32 metres, 0 where there is no measurement.
     labels : (h, w) uint8 label mask, or None.
+    camera : the calibrated camera that took it, or None (then :func:`frame_camera` looks it
+        up in a rig by serial). Set by ``Session.load_frame`` (the session's rig),
+        ``render_frames`` (the rendering rig) and ``fusion.prepare_frames`` (the rig it is
+        given; after ICP, ``fuse_frames`` attaches the refined cameras).
     """
 
     serial: str
@@ -154,6 +159,22 @@ class RGBDFrame:
     color: np.ndarray
     depth: np.ndarray
     labels: np.ndarray | None = None
+    camera: Camera | None = None
+
+
+def frame_camera(frame: RGBDFrame, rig: Rig | None = None) -> Camera:
+    """The camera of a frame: the one it carries, else ``rig``'s camera of its serial.
+
+    Raises
+    ------
+    InputError
+        When the frame carries no camera and no rig is given.
+    """
+    if frame.camera is not None:
+        return frame.camera
+    if rig is None:
+        raise InputError(f"frame {frame.serial}/{frame.index} carries no camera and no rig was given")
+    return rig.camera(frame.serial)
 
 
 def _frame_name(index: int) -> str:
@@ -273,7 +294,7 @@ class Session:
         lp = self.path(serial, "labels", index)
         if labels and lp.is_file():
             lab = read_label_png(lp, cam.width, cam.height)
-        return RGBDFrame(serial, index, color, depth, lab)
+        return RGBDFrame(serial, index, color, depth, lab, cam)
 
     def load_frames(self, index: int = 0, labels: bool = True) -> list[RGBDFrame]:
         """Every camera's frame at ``index``, in rig order."""

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dressmeup.capture.rig import Rig
-from dressmeup.capture.session import RGBDFrame
+from dressmeup.capture.session import RGBDFrame, frame_camera
 from dressmeup.capture.visibility import raycasting_scene, visible_from
 from dressmeup.geometry.laplacian import adjacency
 from dressmeup.geometry.mesh import vertex_normals
@@ -63,7 +63,7 @@ def vote_labels(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFr
     ----------
     vertices : (n, 3) float, faces : (m, 3) int, the fused mesh (rig world frame).
     frames : undistorted frames with ``labels`` (frames without labels are skipped).
-    rig : Rig, n_labels : int (labels are 0 .. n_labels-1).
+    rig : Rig, the cameras of frames that carry none; n_labels : int (labels are 0 .. n_labels-1).
     config : LabelConfig
 
     Returns
@@ -81,7 +81,7 @@ def vote_labels(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFr
     for fr in frames:
         if fr.labels is None:
             continue
-        cam = rig.camera(fr.serial)
+        cam = frame_camera(fr, rig)
         uv, z = cam.project(V)
         u = np.round(uv[:, 0]).astype(np.int64)
         v = np.round(uv[:, 1]).astype(np.int64)
@@ -225,7 +225,7 @@ def label_mesh(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFra
     ----------
     vertices : (n, 3) float, faces : (m, 3) int.
     frames : undistorted frames with label masks.
-    rig : Rig, n_labels : int (max label + 1).
+    rig : Rig, the cameras of frames that carry none; n_labels : int (max label + 1).
     config : LabelConfig
 
     Returns

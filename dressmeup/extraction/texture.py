@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from dressmeup.capture.rig import Rig
-from dressmeup.capture.session import RGBDFrame
+from dressmeup.capture.session import RGBDFrame, frame_camera
 
 __all__ = ["uv_atlas", "rasterize_uv", "bake_texture", "fill_gutters"]
 
@@ -130,7 +130,8 @@ def bake_texture(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, uv_fac
     ----------
     vertices : (n, 3) float, faces : (m, 3) int, the garment.
     uv : (k, 2) float, uv_faces : (m, 3) int, its atlas.
-    frames : undistorted frames (colour registered to depth), rig : Rig.
+    frames : undistorted frames (colour registered to depth), rig : Rig (cameras of frames that
+        carry none).
     size : int, texture side in texels.
     occluders : (V, F) whole scan used for the visibility test (default: the garment).
     sharpness : float, exponent of the view weights (large: pure best view).
@@ -157,7 +158,7 @@ def bake_texture(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, uv_fac
     acc = np.zeros((len(pts), 3))
     wsum = np.zeros(len(pts))
     for fr in frames:
-        cam = rig.camera(fr.serial)
+        cam = frame_camera(fr, rig)
         to_cam = cam.center - pts
         to_cam /= np.maximum(np.linalg.norm(to_cam, axis=1, keepdims=True), 1e-20)
         cos = np.einsum("ij,ij->i", nrm, to_cam)

@@ -91,12 +91,13 @@ def prepare_frames(frames: list[RGBDFrame], rig: Rig, config: DepthFilterConfig 
 
     Returns
     -------
-    list of RGBDFrame
+    list of RGBDFrame, each carrying its camera of ``rig``.
     """
     out = []
     for fr in frames:
-        und = undistort_frame(fr, rig.camera(fr.serial))
-        out.append(replace(und, depth=filter_depth(und.depth, config, rig.camera(fr.serial))))  # inputs stay untouched
+        cam = rig.camera(fr.serial)  # the rig given here is the calibration used from now on
+        und = undistort_frame(fr, cam)
+        out.append(replace(und, depth=filter_depth(und.depth, config, cam), camera=cam))  # inputs stay untouched
     return out
 
 
@@ -126,6 +127,7 @@ def fuse_frames(frames: list[RGBDFrame], rig: Rig, config: FusionConfig | None =
         for fr in prepared:
             firsts.setdefault(fr.serial, fr)
         used_rig, report = refine_extrinsics(list(firsts.values()), rig, cfg.icp)
+        prepared = [replace(f, camera=used_rig.camera(f.serial)) for f in prepared]
         timings["icp"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     n_sets = max(sum(1 for f in prepared if f.serial == s) for s in {f.serial for f in prepared})

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from dressmeup.capture.rig import Rig
-from dressmeup.capture.session import RGBDFrame
+from dressmeup.capture.session import RGBDFrame, frame_camera
 
 __all__ = ["resolve_device", "integrate_tsdf"]
 
@@ -51,7 +51,8 @@ def integrate_tsdf(frames: Sequence[RGBDFrame], rig: Rig, voxel_size: float = 0.
     ----------
     frames : sequence of RGBDFrame (pinhole images: see ``filtering.undistort_frame``),
         depth in metres; several frames of one camera are allowed.
-    rig : Rig giving each frame's intrinsics and camera-to-world transform (by serial).
+    rig : Rig giving the intrinsics and camera-to-world transform (by serial) of frames that
+        carry no camera (:func:`~dressmeup.capture.session.frame_camera`).
     voxel_size : float, metres.
     trunc_voxels : float, truncation distance in voxels.
     depth_max : float, metres; deeper measurements are ignored.
@@ -85,7 +86,7 @@ def integrate_tsdf(frames: Sequence[RGBDFrame], rig: Rig, voxel_size: float = 0.
 
     inputs = []
     for fr in frames:
-        cam = rig.camera(fr.serial)
+        cam = frame_camera(fr, rig)
         if fr.depth.shape != (cam.height, cam.width):
             raise ValueError(f"frame {fr.serial}/{fr.index}: depth is {fr.depth.shape}, rig says "
                              f"{(cam.height, cam.width)}")

@@ -127,5 +127,5 @@ def render_frames(subject: SyntheticSubject, rig: Rig, noise: NoiseModel | None 
         if noise.enabled and noise.color_sigma > 0:
             c8 = c8 + rng.normal(scale=noise.color_sigma, size=c8.shape) * hit[..., None]
         frames.append(RGBDFrame(cam.serial, index, np.clip(np.round(c8), 0, 255).astype(np.uint8),
-                                noisy, labels))
+                                noisy, labels, cam))
     return frames
