@@ -83,6 +83,8 @@ def read_dataset_ply(path: str | os.PathLike) -> GarmentMesh | None:
     uses the general reader), and validates like it (finite, faces in range, non-empty).
     """
     path = Path(path)
+    if not path.is_file():
+        return None  # a folder, FIFO or missing file: the general reader names the fault
     with open(path, "rb") as fh:
         head = fh.read(65536)
     end = head.find(b"end_header\n")

@@ -177,3 +177,23 @@ def test_non_numeric_manifest_column_is_named(data_copy):
     pq.write_table(t, data_copy / "manifest.parquet")
     with pytest.raises(InputError, match="manifest.parquet: manifest column 'garment_vertices'"):
         Dataset(data_copy)
+
+
+def test_sample_garment_on_a_folder_is_named(data_copy):
+    from dressmeup.data import Dataset
+
+    ds = Dataset(data_copy)
+    s = ds[0]
+    path = data_copy / s.row["garment_path"]
+    path.unlink()
+    path.mkdir()
+    with pytest.raises(InputError, match="not a regular file"):
+        s.garment()
+
+
+def test_session_json_with_garments_not_a_list_is_named(tmp_path):
+    from dressmeup.capture.session import SessionInfo
+
+    with pytest.raises(InputError, match="field garments"):
+        SessionInfo.from_dict({"subject_id": "S1", "pose_id": "P1", "garments": 5},
+                              "session.json")
