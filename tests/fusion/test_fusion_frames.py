@@ -1,0 +1,45 @@
+"""Frames carry their camera through fusion (no rig look-ups downstream)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dressmeup.capture.session import RGBDFrame, frame_camera
+from dressmeup.errors import InputError
+
+
+def test_frame_camera_prefers_the_frame_and_falls_back_to_the_rig(small_rig):
+    cam = small_rig.cameras[0]
+    other = small_rig.cameras[1]
+    bare = RGBDFrame(cam.serial, 0, np.zeros((1, 1, 3), np.uint8), np.zeros((1, 1), np.float32))
+    assert frame_camera(bare, small_rig) is small_rig.camera(cam.serial)
+    with pytest.raises(InputError, match="carries no camera"):
+        frame_camera(bare)
+    carried = RGBDFrame(cam.serial, 0, bare.color, bare.depth, camera=other)
+    assert frame_camera(carried, small_rig) is other
+
+
+def test_prepared_frames_carry_the_given_rig_and_fusion_the_refined_one(clean_frames, small_rig):
+    from dressmeup.capture.rig import perturb_rig
+    from dressmeup.fusion.pipeline import FusionConfig, fuse_frames, prepare_frames
+
+    drifted = perturb_rig(small_rig, 0.5, 0.005, seed=4)
+    assert all(f.camera is not None for f in clean_frames)  # render_frames sets it
+    prepared = prepare_frames(clean_frames, drifted)
+    for f in prepared:
+        assert f.camera is drifted.camera(f.serial)  # the rig passed in wins
+    res = fuse_frames(clean_frames, drifted, FusionConfig(voxel_size=0.01, refine=True))
+    for f in res.frames:
+        np.testing.assert_array_equal(f.camera.camera_to_world, res.rig.camera(f.serial).camera_to_world)
+    moved = [not np.allclose(res.rig.camera(s).camera_to_world, drifted.camera(s).camera_to_world)
+             for s in drifted.serials]
+    assert any(moved)  # ICP changed some extrinsics, and the frames follow them
+
+
+def test_session_frames_carry_the_session_rig(session_dir):
+    from dressmeup.capture.session import open_session
+
+    s = open_session(session_dir)
+    for f in s.load_frames(0):
+        assert f.camera is s.rig.camera(f.serial)
