@@ -204,11 +204,15 @@ class UVMeshJob:
 
 def run_uvparam_baseline(method_name: str, edition: str | Edition, data_root: str | os.PathLike,
                          out: str | os.PathLike, *, log: Log = _quiet, executor: Any = None,
-                         **hyperparameters: Any) -> Path:
+                         overwrite: bool = False, **hyperparameters: Any) -> Path:
     """Run one UV baseline over the edition's meshes into a submission folder.
 
+    The one path from a UV method to a submission of an edition's mesh set
+    (``dressmeup baseline uvparam --data``, ``dressmeup demo``, ``benchmarks/run_baselines.py``).
     ``executor`` (:mod:`dressmeup.executors`) runs one job per mesh (default: in this
-    process); the first mesh that fails fails the run, as in the loop."""
+    process); the first mesh that fails fails the run, as in the loop. Hyperparameters, when
+    given, are recorded in ``submission.json`` with ``repr``; ``overwrite`` writes into a
+    non-empty ``out``."""
     from dressmeup.bench.submission import write_submission
     from dressmeup.bench.tasks.uvparam.data import meshes
     from dressmeup.executors import LocalExecutor, in_order
@@ -235,10 +239,13 @@ def run_uvparam_baseline(method_name: str, edition: str | Edition, data_root: st
     runtime = float(np.mean(secs)) if secs else 0.0
     # the pretrained track only when every mesh was unseen by the method (checked, not declared)
     extra = {"track": "pretrained" if tracks == {"pretrained"} else "per-mesh"} \
-        if getattr(ed, "tracks", None) else None
+        if getattr(ed, "tracks", None) else {}
+    if hyperparameters:
+        extra["hyperparameters"] = {k: repr(v) for k, v in hyperparameters.items()}
     path = write_submission(out, preds, edition=ed, method=method_name,
                             authors=BASELINE_AUTHORS, url="",
-                            hardware=hardware(), runtime_per_sample_s=runtime, extra=extra)
+                            hardware=hardware(), runtime_per_sample_s=runtime, extra=extra or None,
+                            overwrite=overwrite)
     log(f"  {method_name}: {len(preds)} meshes, {runtime:.2f} s/mesh")
     return path
 

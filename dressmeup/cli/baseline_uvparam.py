@@ -25,7 +25,9 @@ def register(tasks: argparse._SubParsersAction) -> None:
         "uvparam", help="run a UV parameterisation method into a submission folder",
         description="Parameterise meshes with one method and write per-corner UV submissions "
                     "(<mesh_id>.npz with uv, uv_faces, chart_ids, seconds + submission.json, the "
-                    "dressmeup.bench submission format). Meshes are "
+                    "dressmeup.bench submission format). Meshes are an edition's mesh set built "
+                    "with build_data (--edition with --data ROOT: every mesh of its split, the "
+                    "way the demo and benchmarks/run_baselines.py run it), or "
                     "test-mesh ids (sphere-2k, torus-30k, blob-3k, sheet-2k, skirt-3k, body-native, "
                     "...) or mesh files (.obj/.ply/.off, id = file stem).")
     p.add_argument("--method", required=True, choices=METHOD_NAMES)
@@ -34,6 +36,9 @@ def register(tasks: argparse._SubParsersAction) -> None:
     p.add_argument("--edition", default=None,
                    help="take the mesh ids from this uvparam edition (name or JSON path); also "
                         "recorded in submission.json (default synth-uvparam-v1)")
+    p.add_argument("--data", type=Path, default=None,
+                   help="the edition's mesh set (a folder built by build_data, e.g. by 'dressmeup "
+                        "demo'); needs --edition; replaces --meshes")
     p.add_argument("--out", required=True, type=Path, help="submission folder to write")
     p.add_argument("--config", default="fast", choices=("fast", "reference"),
                    help="neural method: network configuration")
@@ -110,6 +115,8 @@ def _run_uvparam(args: argparse.Namespace) -> int:
         params.setdefault("config", args.config)
         if args.checkpoint is not None:
             params["checkpoint"] = args.checkpoint
+    if args.data is not None:
+        return _run_on_mesh_set(args, params)
     method = get_method(args.method, **params)
     if args.meshes:
         specs = args.meshes
@@ -144,6 +151,21 @@ def _run_uvparam(args: argparse.Namespace) -> int:
                      extra={"hyperparameters": {k: repr(v) for k, v in params.items()},
                             "runtime_seconds": times})
     sys.stdout.write(f"wrote {len(times)} UV maps to {out}\n")
+    return 0
+
+
+def _run_on_mesh_set(args: argparse.Namespace, params: dict) -> int:
+    """``--data``: every mesh of the edition's split, through :func:`bench.runs.run_uvparam_baseline`."""
+    from dressmeup.bench.runs import run_uvparam_baseline
+
+    if args.edition is None:
+        raise InputError("--data needs --edition (the edition whose mesh set --data holds)")
+    if args.meshes or args.images:
+        raise InputError("--data runs the edition's whole mesh set: drop --meshes and --images")
+    lines: list[str] = []
+    out = run_uvparam_baseline(args.method, args.edition, args.data, args.out,
+                               overwrite=args.overwrite, log=lines.append, **params)
+    sys.stdout.write(f"wrote {out} ({lines[-1].strip() if lines else args.method})\n")
     return 0
 
 
