@@ -320,6 +320,8 @@ def _load_ply(path: Path) -> MeshData:
     try:
         with open(path, "rb") as fh:
             kwargs = load_ply(fh, fix_texture=False, skip_materials=True)
+    except Exception as exc:  # noqa: BLE001 - a third-party parser on untrusted bytes
+        raise InputError(f"{path}: cannot parse PLY ({type(exc).__name__}: {exc})") from exc
     finally:
         tlog.disabled = was_disabled
     raw = kwargs.get("metadata", {}).get("_ply_raw", {})

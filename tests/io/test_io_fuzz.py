@@ -9,7 +9,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from dressmeup.errors import InputError
@@ -72,6 +72,7 @@ def _write(name: str, data: bytes) -> Path:
 @FUZZ
 @given(st.sampled_from(["ply", "ascii.ply", "obj"]).flatmap(
     lambda k: st.tuples(st.just(k), mutated(SEEDS[k]))))
+@example(case=("ascii.ply", SEEDS["ascii.ply"].replace(b"vertex_indices", b"\x00ertex_indices")))
 def test_mesh_reader_never_crashes(case):
     from dressmeup.io.mesh import load_mesh
 
