@@ -23,7 +23,6 @@ Pickles are read with the restricted unpickler (no code can run).
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -53,16 +52,13 @@ def _read_mapping(path: Path) -> dict:
         raise FileNotFoundError(f"body parameter file not found: {path}")
     suffix = path.suffix.lower()
     if suffix == ".json":
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise InputError(f"{path}: not valid JSON ({exc})") from exc
+        from dressmeup.io.jsonio import parse_json_file
+
+        data = parse_json_file(path)  # not UTF-8 / not JSON: InputError naming the file
     elif suffix == ".npz":
-        try:
-            with np.load(path, allow_pickle=False) as npz:
-                data = {k: npz[k] for k in npz.files}
-        except ValueError as exc:
-            raise InputError(f"{path}: not a plain-array .npz ({exc})") from exc
+        from dressmeup.io.npz import load_npz
+
+        data = load_npz(path, what="body parameter file", max_bytes=256 << 20)
     elif suffix in (".pkl", ".pickle"):
         data = safe_load_pickle(path)
     else:

@@ -319,11 +319,9 @@ def load_rig(path: str | os.PathLike) -> Rig:
         path = path / "rig.json"
     if not path.is_file():
         raise FileNotFoundError(f"rig file not found: {path}")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path}: not valid JSON ({exc})") from exc
-    return Rig.from_dict(data, source=str(path))
+    from dressmeup.io.jsonio import parse_json_file
+
+    return Rig.from_dict(parse_json_file(path), source=str(path))
 
 
 def save_rig(rig: Rig, path: str | os.PathLike) -> Path:

@@ -88,3 +88,17 @@ def test_keypoints_and_session_schemas():
     assert not schema_problems({"pelvis": [0.0, 1.0, 0.1]}, "keypoints")
     assert any("garments" in p for p in
                schema_problems({"subject_id": "S1", "pose_id": "P1", "garments": 5}, "session"))
+
+
+def test_rig_and_imported_params_name_bad_files(tmp_path):
+    from dressmeup.body.importers import import_body_params
+    from dressmeup.capture.rig import load_rig
+
+    rig = tmp_path / "rig.json"
+    rig.write_bytes(b"\xff\xfe not utf-8")
+    with pytest.raises(InputError, match="rig.json: not UTF-8"):
+        load_rig(rig)
+    params = tmp_path / "params.npz"
+    params.write_bytes(b"PK\x03\x04 truncated")
+    with pytest.raises(InputError, match="params.npz"):
+        import_body_params(params, body_model="procedural")
