@@ -183,3 +183,59 @@ def render_category_bars(categories: Sequence[str], means: Sequence[float],
         fig.savefig(tmp, dpi=dpi, format="png")
     plt.close(fig)
     return path
+
+
+def render_grouped_bars(groups: Sequence[str], series: dict[str, Sequence[float]],
+                        intervals: dict[str, Sequence[tuple[float, float] | None]],
+                        path: str | os.PathLike, *, ylabel: str, title: str = "",
+                        dpi: int = 90) -> Path:
+    """Write a PNG: for each group (category or track) one bar per series (method) with its
+    95 % interval as an error bar.
+
+    Parameters
+    ----------
+    groups : group labels on the x axis, k of them.
+    series : ``{name: (k,) means}`` in display units (NaN: no bar), in legend order.
+    intervals : ``{name: k x ((lo, hi) or None)}`` in display units.
+    path : output PNG (atomic).
+    ylabel : axis label with its unit.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    from dressmeup.io.atomic import atomic_path
+
+    names = list(series)
+    k, n = len(groups), max(len(names), 1)
+    width = 0.8 / n
+    fig, ax = plt.subplots(figsize=(max(4.0, 1.0 + 0.35 * n * k + 0.6 * k), 3.0))
+    cmap = plt.get_cmap("tab10")
+    x = np.arange(k)
+    for j, name in enumerate(names):
+        m = np.asarray(series[name], np.float64)
+        xs = x - 0.4 + width * (j + 0.5)
+        ax.bar(xs, np.nan_to_num(m), width=width * 0.92, color=cmap(j % 10), label=name)
+        ivs = intervals.get(name, [None] * k)
+        has = np.array([iv is not None and np.isfinite(m[i]) for i, iv in enumerate(ivs)])
+        if has.any():
+            lo = np.array([m[i] - ivs[i][0] if has[i] else 0.0 for i in range(k)])
+            hi = np.array([ivs[i][1] - m[i] if has[i] else 0.0 for i in range(k)])
+            ax.errorbar(xs[has], m[has], yerr=[np.maximum(lo[has], 0), np.maximum(hi[has], 0)],
+                        fmt="none", ecolor="#1d2330", capsize=2, linewidth=0.8)
+    ax.set_xticks(x, [str(g) for g in groups], fontsize=8)
+    ax.set_ylabel(ylabel, fontsize=8)
+    ax.tick_params(axis="y", labelsize=7)
+    ax.spines[["top", "right"]].set_visible(False)
+    ax.legend(fontsize=6.5, frameon=False, ncol=min(n, 4), loc="upper left",
+              bbox_to_anchor=(0, -0.12))
+    if title:
+        ax.set_title(title, fontsize=8)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path, suffix=".png") as tmp:
+        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
+    plt.close(fig)
+    return path

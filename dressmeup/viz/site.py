@@ -473,6 +473,37 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
     return path
 
 
+def _edition_charts(board: Any, ed_dir: Path, report: SiteReport, max_methods: int = 8
+                    ) -> str:
+    """HTML of the edition's grouped bar charts: the primary metric per category and per
+    track, one bar per ranked method (the first ``max_methods``) with its interval."""
+    from dressmeup.viz.result_images import render_grouped_bars
+
+    e = html.escape
+    metric = board.primary.split("#")[0]
+    out = []
+    for kind, attr in (("category", "category"), ("track", "track")):
+        cols = [c for c in board.columns if c.spec.name == metric and getattr(c, attr)]
+        if len(cols) < 2:
+            continue
+        rows = [r for r in board.rows if r.get("comparable", True)][:max_methods]
+        spec = cols[0].spec
+        series = {r["method"]: [spec.display(r["values"][c.key][0])
+                                if r["values"][c.key][0] is not None else float("nan")
+                                for c in cols] for r in rows}
+        ivs = {r["method"]: [tuple(sorted(spec.display(x) for x in r["ci"][c.key]))
+                             if c.key in r.get("ci", {}) else None for c in cols]
+               for r in rows}
+        png = ed_dir / "img" / f"_edition-per-{kind}.png"
+        render_grouped_bars([getattr(c, attr) for c in cols], series, ivs, png,
+                            ylabel=f"{spec.label} [{spec.unit}]" if spec.unit else spec.label,
+                            title=f"{spec.label} per {kind} (bars: 95 % interval)")
+        report.images += 1
+        out.append(f'<img class="chart" src="img/{e(png.name)}" alt="{e(spec.label)} per '
+                   f'{kind}, one bar per method">')
+    return ("<h3>Per category and track</h3>" + "".join(out)) if out else ""
+
+
 def _write(path: Path, text: str) -> None:
     from dressmeup.io.atomic import atomic_write_text
 
@@ -543,7 +574,9 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
         e = html.escape
         head = (f"<h1>{e(board.edition.name)} <small>v{board.edition.version}</small></h1>\n"
                 f"{board.html_meta()}")
-        page_body = f"{head}\n{board.html_table(links)}\n{board.html_notes()}"
+        charts = _edition_charts(board, ed_dir, report)
+        page_body = (f"{head}\n{board.html_table(links)}\n{board.html_notes()}\n"
+                     + charts)
         ed_index = ed_dir / "index.html"
         _write(ed_index, _page(f"{board.edition.name} leaderboard", page_body,
                                '<nav><a href="../index.html">&larr; all editions</a></nav>'))
@@ -551,7 +584,8 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
         root_links = {m: f"{ed_slug}/{u}" for m, u in links.items()}
         sections.append(f'<h2><a href="{e(ed_slug)}/index.html">{e(board.edition.name)}</a> '
                         f"<small>v{board.edition.version}</small></h2>\n{board.html_meta()}\n"
-                        f"{board.html_table(root_links)}\n{board.html_notes()}")
+                        f"{board.html_table(root_links)}\n{board.html_notes()}\n"
+                        + charts.replace('src="img/', f'src="{e(ed_slug)}/img/'))
     body = ("<h1>Benchmark results</h1>\n<p class=\"meta\">One leaderboard per edition; "
             "click a method for its per-item numbers and pictures, a column header to "
             "sort.</p>\n" + "\n".join(sections))

@@ -53,6 +53,8 @@ def test_index(drv, base_url, site_inputs):
 
     _load(drv, f"{base_url}/index.html")
     assert browser.console_errors(drv) == []
+    imgs = browser.images_state(drv)        # the per-category chart of the edition
+    assert len(imgs) == 1 and all(ok and width > 0 for _, ok, width in imgs), imgs
     table = drv.find_element(By.CSS_SELECTOR, "table.leaderboard")
     rows = table.find_elements(By.CSS_SELECTOR, "tbody tr")
     assert len(rows) == len(site_inputs["results"])          # one row per method
