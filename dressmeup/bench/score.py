@@ -62,7 +62,8 @@ def _now() -> str:
 def score_submission(submission: str | os.PathLike, edition: str | os.PathLike | Edition,
                      data_root: str | os.PathLike, out: str | os.PathLike, *,
                      executor: Executor | None = None, workers: int | None = None,
-                     show_progress: bool | None = None) -> ScoreResult:
+                     show_progress: bool | None = None,
+                     allow_other_data: bool = False) -> ScoreResult:
     """Validate then score a submission; write ``out/`` (per-sample Parquet + summary JSON).
 
     Parameters
@@ -74,6 +75,10 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     executor : where jobs run (default :class:`LocalExecutor` with ``workers``).
     workers : worker processes for the default executor (default: every core).
     show_progress : progress bar on stderr (default: unless ``DRESSMEUP_NO_PROGRESS``).
+    allow_other_data : score data whose manifest differs from the edition's
+        ``dataset.expected_manifest_sha256`` anyway; the result is marked
+        ``"comparable": false`` (with ``"not_comparable_reason"``) and every leaderboard shows
+        it unranked as "not comparable".
 
     Returns
     -------
@@ -84,7 +89,8 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     InvalidSubmissionError
         When validation finds any problem (nothing is scored, nothing is written).
     InputError
-        When ``out`` already holds anything.
+        When ``out`` already holds anything, or the data is not the edition's pinned data
+        (see ``allow_other_data``).
     dressmeup.data.integrity.ChecksumError
         When a dataset file the items read differs from the manifest's sha256.
     """
@@ -99,6 +105,11 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     report = validate_submission(submission, ed, data_root)
     if not report.ok:
         raise InvalidSubmissionError(report)
+    other_data = other_data_reason(ed, report.dataset or {}, data_root)
+    if other_data and not allow_other_data:
+        raise InputError(f"{other_data}. Regenerate the data (dressmeup.bench.runs.build_data) "
+                         "on a supported machine, or pass --allow-other-data to score it anyway "
+                         "as 'not comparable'")
     report.dataset["files_verified"] = _verify_data(Path(data_root), report.items)
     sub_hash = submission_hash(submission)
     jobs = task.jobs(ed, Path(data_root), report.files, report.items,
@@ -149,8 +160,29 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
             "workers": getattr(executor, "workers", None),
         },
     }
+    if other_data:
+        summary["comparable"] = False
+        summary["not_comparable_reason"] = other_data
     path = write_result(out, table, summary, ed.to_dict())
     return ScoreResult(path=path, summary=summary, table=table)
+
+
+def other_data_reason(ed: Edition, dataset: dict[str, Any],
+                      data_root: str | os.PathLike) -> str | None:
+    """Why the data at ``data_root`` is not the edition's pinned data, or None when it is.
+
+    Only generated editions that record ``dataset.expected_manifest_sha256`` (v3) are checked
+    here (a real dataset's pin is checked by validation and cannot be overridden).
+    """
+    pin = ed.dataset
+    expected = pin.expected_manifest_sha256 if pin.kind == "generated" else None
+    got = dataset.get("manifest_sha256")
+    if not expected or got == expected:
+        return None
+    return (f"the data at {data_root} has manifest sha256 {str(got)[:12]}..., but edition "
+            f"{ed.name} expects {expected[:12]}... (what generator {pin.generator} "
+            f"{pin.generator_version} writes for its parameters); its scores are not comparable "
+            "with the edition's reference results")
 
 
 def _verify_data(data_root: Path, items: list[Any]) -> int:

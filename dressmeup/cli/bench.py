@@ -36,6 +36,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--edition", "-e", required=True, help="edition name or JSON path")
     p.add_argument("--data", "-d", required=True, help="dataset root the edition is scored on")
     p.add_argument("--out", "-o", required=True, help="new results folder")
+    p.add_argument("--allow-other-data", action="store_true",
+                   help="score data whose manifest differs from the edition's expected one "
+                        "(the result is marked 'not comparable' in every leaderboard)")
     add_executor_args(p, default_workers=None, what="scored item")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.set_defaults(func=_score)
@@ -126,7 +129,8 @@ def _score(args: argparse.Namespace) -> int:
     try:
         res = score_submission(args.submission, args.edition, args.data, args.out,
                                executor=executor,
-                               show_progress=False if args.no_progress else None)
+                               show_progress=False if args.no_progress else None,
+                               allow_other_data=args.allow_other_data)
     except InvalidSubmissionError as exc:
         sys.stderr.write(f"dressmeup score: not scored, the submission is invalid:\n"
                          f"{exc.report.summary(max_per_kind=20)}\n")

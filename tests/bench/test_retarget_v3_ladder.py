@@ -105,3 +105,23 @@ def test_source_garment_worse_than_rigid_on_cross(tiny, tmp_path):
     assert cross(source) >= 1.10 * cross(rigid)
     # the skinning operator is not the ground truth's: clearly off on re-shape pairs
     assert cross(skin, track="re-shape") > 2e-3
+
+
+def test_other_data_is_refused_unless_allowed(tiny, tmp_path):
+    from dressmeup.bench.edition import edition_from_dict
+    from dressmeup.errors import InputError
+
+    ed, data = tiny
+    d = ed.to_dict()
+    d["dataset"]["expected_manifest_sha256"] = "0" * 64  # what another machine might expect
+    other = edition_from_dict(d, source="test")
+    pairs = _pairs(ed, data)
+    sub = write_submission(tmp_path / "sub", {p.pair_id: p.source.garment().vertices
+                                              for p in pairs}, edition=other, method="source")
+    with pytest.raises(InputError, match="--allow-other-data"):
+        score_submission(sub, other, data, tmp_path / "refused", workers=1, show_progress=False)
+    assert not (tmp_path / "refused").exists() or not any((tmp_path / "refused").iterdir())
+    res = score_submission(sub, other, data, tmp_path / "allowed", workers=1,
+                           show_progress=False, allow_other_data=True)
+    assert res.summary["comparable"] is False
+    assert "not comparable" in res.summary["not_comparable_reason"]
