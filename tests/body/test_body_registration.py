@@ -104,12 +104,12 @@ def test_canonical_poses_point_the_limbs():
         canonical_pose("moonwalk", names, rest.joints)
 
 
-def test_hypotheses_find_a_t_pose_the_rest_pose_start_misses(model):
-    # arms horizontal: the old start (rest pose + yaw search) fits the arms down
+def test_hypotheses_find_a_sitting_pose_the_rest_pose_start_misses(model):
+    # thighs forward, knees bent: the old start (rest pose + yaw search) fits it standing
     from dressmeup.body.registration.hypotheses import canonical_pose
 
     rest = model.posed(model.default_params())
-    pose = canonical_pose("t-pose", model.joint_names, rest.joints)
+    pose = canonical_pose("sitting", model.joint_names, rest.joints)
     pose[0] = (0.0, 2.0, 0.0)  # facing away from the start
     truth = BodyParams("procedural", shape=np.full(6, 0.45), pose=pose, transl=[0.1, 0.0, 0.2])
     scan = synthetic_scan(model, truth, n_points=6000, noise=0.002, seed=3)
@@ -117,7 +117,7 @@ def test_hypotheses_find_a_t_pose_the_rest_pose_start_misses(model):
     v_err, j_err = vertex_joint_errors(model, res.params, truth)
     old = register(scan, model, hypotheses=(), **FAST)
     v_old, _ = vertex_joint_errors(model, old, truth)
-    assert res.info["init"].startswith("hypothesis t-pose")
+    assert res.info["init"].startswith("hypothesis sitting")
     assert v_err < 0.025 and j_err < 0.03
     assert v_err < 0.5 * v_old
 
