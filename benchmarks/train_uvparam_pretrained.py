@@ -145,12 +145,12 @@ def main(argv=None) -> int:
         save_model(m, ckpt, half=True)
         log = {k: v for k, v in m.history.items()}
         RESULTS.mkdir(parents=True, exist_ok=True)
-        from dressmeup.methods.uvparam.neural.train import _plain
+        from dressmeup.methods.uvparam.neural.train import plain_values
 
         (RESULTS / f"uvparam_pretrained_{model}.json").write_text(json.dumps(
             {"config": args.config, "budget_minutes": args.budget_minutes,
              "checkpoint_bytes": ckpt.stat().st_size, "n_parameters": m.n_parameters,
-             **_plain(log)}, indent=1) + "\n")
+             **plain_values(log)}, indent=1) + "\n")
         plot_curves(m.history, f"neural UV '{model}' ({args.config} sizes): {len(train)} train / "
                     f"{len(val)} val meshes, {m.history['patch_steps']} + {m.history['uv_steps']} "
                     f"steps in {m.history['seconds_total'] / 60:.1f} min (load ~{os.getloadavg()[0]:.0f})",

@@ -28,7 +28,7 @@ from dressmeup.methods.uvparam.neural.patchnet import (
 )
 from dressmeup.methods.uvparam.neural.uv_mlp import build_mlp, count_parameters
 
-__all__ = ["NeuralConfig", "CONFIGS", "NeuralUVModel", "train", "get_config",
+__all__ = ["NeuralConfig", "CONFIGS", "NeuralUVModel", "train", "get_config", "plain_values",
            "chart_codes", "chart_rows", "save_model", "load_model"]
 
 log = logging.getLogger(__name__)
@@ -363,12 +363,12 @@ def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool,
     return model
 
 
-def _plain(value: Any) -> Any:
+def plain_values(value: Any) -> Any:
     """Loss histories as plain Python numbers/strings/lists (loadable with weights_only)."""
     if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
+        return {str(k): plain_values(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
+        return [plain_values(v) for v in value]
     if isinstance(value, (str, bool, int)) or value is None:
         return value
     return float(value)
@@ -397,7 +397,7 @@ def save_model(model: NeuralUVModel, path: str | Path, half: bool = False) -> No
 
     state = {"format": "dressmeup-neural-uv-v1", "config": asdict(model.config),
              "patchnet": weights(model.patchnet), "forward_mlp": weights(model.forward_mlp),
-             "backward_mlp": weights(model.backward_mlp), "history": _plain(model.history)}
+             "backward_mlp": weights(model.backward_mlp), "history": plain_values(model.history)}
     buf = io.BytesIO()
     torch.save(state, buf)
     atomic_write_bytes(path, buf.getvalue())
