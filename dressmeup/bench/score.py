@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import os
-import platform
-import socket
 import time
 import traceback
 from dataclasses import dataclass
@@ -17,6 +15,7 @@ import pandas as pd
 
 from dressmeup.bench.edition import Edition, load_edition
 from dressmeup.bench.executor import Executor, LocalExecutor
+from dressmeup.bench.provenance import environment
 from dressmeup.bench.results import (
     RESULT_SCHEMA,
     RESULT_SCHEMA_VERSION,
@@ -154,8 +153,7 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
             "submission_sha256": sub_hash,
             "started_utc": started, "finished_utc": _now(),
             "duration_s": round(time.perf_counter() - t_start, 3),
-            "host": socket.gethostname(), "platform": platform.platform(),
-            "python": platform.python_version(),
+            **environment(),  # host, platform, python
             "executor": getattr(executor, "name", type(executor).__name__),
             "workers": getattr(executor, "workers", None),
         },
