@@ -37,8 +37,14 @@ def main() -> None:
         for page, name in ((args.site / "index.html", "report-index.png"),
                            (pages[0], "report-method.png")):
             drv.get(page.resolve().as_uri())
+            drv.execute_async_script(   # wait for every picture, then measure the page
+                "const done = arguments[arguments.length - 1];"
+                "Promise.all(Array.from(document.images).map(i => i.decode().catch(() => 0)))"
+                ".then(() => done(true));")
             h = drv.execute_script("return document.documentElement.scrollHeight;")
-            drv.set_window_size(args.width, min(int(h) + 20, args.max_height))
+            chrome = drv.execute_script("return window.outerHeight - window.innerHeight;")
+            drv.set_window_size(args.width, min(int(h) + int(chrome or 0) + 20,
+                                                args.max_height))
             drv.save_screenshot(str(args.out / name))
             print(f"{args.out / name}: {page}")
 
