@@ -24,7 +24,7 @@ import sys
 import time
 from pathlib import Path
 
-REFERENCE_EDITIONS = ("synth-retarget-v2", "synth-uvparam-v1")
+REFERENCE_EDITIONS = ("synth-retarget-v3", "synth-retarget-mini-v3", "synth-uvparam-v1")
 RESULTS = Path(__file__).resolve().parent / "results"
 
 

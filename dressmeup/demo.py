@@ -1,7 +1,8 @@
 """``dressmeup demo``: the whole journey on built-in synthetic data, in a few minutes.
 
-1. generate a small synthetic DressMeUp-style dataset (the ``synth-retarget-mini-v2``
-   edition's pinned parameters; ``--quick``: ``synth-retarget-tiny-v2``);
+1. generate a small synthetic DressMeUp-style dataset (the ``synth-retarget-mini-v3``
+   edition's pinned parameters: three garments each worn by two very different bodies;
+   ``--quick``: ``synth-retarget-tiny-v3``);
 2. run every retargeting baseline the toolkit provides into submissions;
 3. validate and score them, and print the leaderboard;
 4. when the UV stage is installed: build the ``synth-uvparam-mini-v1`` mesh set, run the UV
@@ -26,8 +27,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-DEMO_EDITION = "synth-retarget-mini-v2"
-QUICK_EDITION = "synth-retarget-tiny-v2"
+DEMO_EDITION = "synth-retarget-mini-v3"
+QUICK_EDITION = "synth-retarget-tiny-v3"
 UV_EDITION = "synth-uvparam-mini-v1"
 #: UV baselines run by the demo (the neural method trains per mesh: too slow for a demo).
 UV_DEMO_METHODS = ("xatlas", "lscm", "harmonic", "slim")

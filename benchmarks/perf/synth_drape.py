@@ -50,17 +50,17 @@ def main() -> None:
 
     from dressmeup.body import BodyParams, get_body_model
     from dressmeup.data.synth.garments import BodyFrame, build_garment, sample_params
-    from dressmeup.data.synth.generate import _garment_weights, _skin
+    from dressmeup.data.synth.generate import garment_weights
     from dressmeup.data.synth.poses import pose_axis_angle
     from dressmeup.data.synth.wardrobe import (
         BODY_DECIMALS,
         DEFAULT_EDGE_LENGTH,
         SUBJECTS,
+        FittedGarment,
         PoseDraper,
-        _Fitted,
-        _q,
         drape,
         drape_stats,
+        quantize,
         single_threaded,
         transfer_to_body,
     )
@@ -69,7 +69,7 @@ def main() -> None:
     edge = args.edge_length or DEFAULT_EDGE_LENGTH.get(args.body_model, 0.02)
     with single_threaded():
         model = get_body_model(args.body_model)
-        keep, skin_F = _skin(model)
+        keep, skin_F = model.skin()
         names = tuple(model.joint_names)
         body_W = np.asarray(model.skinning_weights)[keep]
         labels = np.array(names)[body_W.argmax(1)]
@@ -79,7 +79,7 @@ def main() -> None:
             shape = np.asarray(SUBJECTS[row][1])
             rest = model.posed(BodyParams(model=model.name, shape=shape,
                                           pose=np.zeros((len(names), 3))))
-            bodies.append((shape, _q(rest.rest_vertices[keep], BODY_DECIMALS),
+            bodies.append((shape, quantize(rest.rest_vertices[keep], BODY_DECIMALS),
                            BodyFrame.from_joints(rest.rest_joints, names)))
         print(f"# {args.body_model}: garments made on {SUBJECTS[DESIGN][0]}, worn by "
               f"{SUBJECTS[WEARER][0]}; load at start {os.getloadavg()[0]:.1f}")
@@ -91,13 +91,13 @@ def main() -> None:
             params = sample_params(gtype, np.random.default_rng([0, 3, k, 0]))
             (s0, V_d, fr_d), (s1, V_w, fr_w) = bodies
             g = build_garment(gtype, params, V_d, skin_F, labels, fr_d, edge_length=edge)
-            V0 = _q(g.vertices, 6)
+            V0 = quantize(g.vertices, 6)
             for name, (settings, steps) in chosen.items():
                 t0 = time.process_time()
                 start = transfer_to_body(V0, V_d, V_w, skin_F)
                 fitted = drape(V0, g.faces, start, g.support, V_w, skin_F, fr_w.up,
                                settings).vertices
-                W = _garment_weights(_Fitted(fitted, g.faces, gtype), V_w, skin_F, body_W,
+                W = garment_weights(FittedGarment(fitted, g.faces, gtype), V_w, skin_F, body_W,
                                      names, fr_w)
                 draper = PoseDraper(model, keep, skin_F, V0, g.faces, g.support, fitted, W,
                                     s1, settings, steps)

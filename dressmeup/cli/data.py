@@ -7,6 +7,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from dressmeup.cli.executor_args import add_executor_args, executor_from_args
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Register ``synth`` and ``validate-dataset``."""
@@ -32,9 +34,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="generate exactly the data this edition pins (e.g. synth-retarget-v3; "
                         "the options above are then taken from the edition) and check its "
                         "manifest against the edition's expected sha256")
-    p.add_argument("--workers", "-j", type=int, default=1,
-                   help="processes for generator 2.x (--edition ...-v3); the data do not "
-                        "depend on it (default 1)")
+    add_executor_args(p, default_workers=1,
+                      what="garment of generator 2.x (--edition ...-v3; the data do not depend "
+                           "on where they run)")
     p.set_defaults(func=_synth)
 
     v = subparsers.add_parser(
@@ -80,6 +82,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     i.set_defaults(func=_import)
 
 
+def _generator_1_is_serial(args: argparse.Namespace) -> None:
+    from dressmeup.errors import InputError
+
+    if args.executor or args.scheduler or (args.workers or 1) > 1:
+        raise InputError("--executor/--workers/--scheduler run generator 2.x (--edition "
+                         "...-v3) in parallel; generator 1.1.0 runs in this process")
+
+
 def _synth_edition(args: argparse.Namespace) -> int:
     from dressmeup.bench.edition import load_edition
     from dressmeup.bench.tasks.common import manifest_sha256
@@ -95,8 +105,13 @@ def _synth_edition(args: argparse.Namespace) -> int:
 
         root = build_data(ed, args.out)
     else:
-        kw = ({"workers": args.workers} if str(pin.params.get("version", "")).startswith("2.")
-              else {})
+        kw: dict = {}
+        if not str(pin.params.get("version", "")).startswith("2."):
+            _generator_1_is_serial(args)
+        elif args.executor or args.scheduler:
+            kw["executor"] = executor_from_args(args, default_workers=1)
+        else:
+            kw["workers"] = args.workers or 1
         root = generate_dataset(args.out, seed=pin.seed, **pin.params, **kw)
     sha = manifest_sha256(root)
     sys.stdout.write(f"wrote the data of edition {ed.name} to {root}\nmanifest sha256 {sha}\n")
@@ -116,6 +131,7 @@ def _synth(args: argparse.Namespace) -> int:
 
     if args.edition:
         return _synth_edition(args)
+    _generator_1_is_serial(args)
     kw = {}
     if args.edge_length is not None:
         kw["edge_length"] = args.edge_length

@@ -1,6 +1,6 @@
 """The whole journey, tiny: synthetic data -> baselines -> validate -> score -> leaderboard.
 
-Uses the ``synth-retarget-tiny-v2`` edition (procedural body, 2 test pairs). The generated
+Uses the ``synth-retarget-tiny-v3`` edition (procedural body, 12 test pairs in three tracks). The generated
 data go to the test cache (``$DRESSMEUP_CACHE/e2e/<edition>-<hash>``) and are reused by later
 runs: the generator resumes and is deterministic, so a cached dataset is the same dataset.
 """
@@ -13,7 +13,7 @@ import pandas as pd
 
 from dressmeup.cli import main
 
-EDITION = "synth-retarget-tiny-v2"
+EDITION = "synth-retarget-tiny-v3"
 
 
 def test_synth_to_leaderboard(tmp_path, capsys):
@@ -33,10 +33,12 @@ def test_synth_to_leaderboard(tmp_path, capsys):
                      "--workers", "1", "--no-progress"]) == 0
         results.append(out)
         summary = json.loads((out / "summary.json").read_text())
-        assert summary["counts"] == {"items": 2, "ok": 2, "failed": 0}
+        assert summary["counts"] == {"items": 12, "ok": 12, "failed": 0}
         assert summary["edition"]["hash"] == ed.hash
         table = pd.read_parquet(out / "per_sample.parquet")
-        assert list(table["status"]) == ["ok", "ok"]
+        assert set(table["status"]) == {"ok"}
+        assert table["track"].value_counts().to_dict() == {"re-pose": 4, "re-shape": 4,
+                                                           "cross": 4}
     # Scoring again into the same folder is refused (exit 2), the result stays.
     assert main(["score", str(subs["rigid"]), "-e", EDITION, "-d", str(data),
                  "-o", str(results[0]), "--workers", "1"]) == 2

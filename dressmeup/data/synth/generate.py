@@ -57,7 +57,10 @@ def _skin(model) -> tuple[np.ndarray, np.ndarray]:
     return model.skin()
 
 
-def _garment_weights(garment, body_V, body_F, body_W, joint_names, frame):
+def garment_weights(garment, body_V, body_F, body_W, joint_names, frame):
+    """Skinning weights ``(n, j)`` of a garment (``.vertices``, ``.faces``, ``.garment_type``)
+    transferred from a rest body (skirts and dresses: leg bones folded into the hips and
+    blended towards the pelvis below them)."""
     from dressmeup.body.skinning import transfer_weights
 
     W = transfer_weights(body_V, body_F, body_W, garment.vertices, faces=garment.faces,
@@ -77,6 +80,9 @@ def _garment_weights(garment, body_V, body_F, body_W, joint_names, frame):
         W = (1 - beta) * W + beta * pel
         W /= W.sum(1, keepdims=True)
     return W
+
+
+_garment_weights = garment_weights  # old private name
 
 
 def plan_dataset(subjects: int, garments: int, poses: int, seed: int, types: Sequence[str],
@@ -126,15 +132,16 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                      version: str = GENERATOR_VERSION,
                      garments_per_split: tuple[int, int, int] | list[int] | None = None,
                      categories: list[str] | None = None, pose_steps: int = 3,
-                     workers: int = 1) -> Path:
+                     workers: int = 1, executor: Any = None) -> Path:
     """Generate (or resume) the synthetic dataset in ``out``.
 
     ``version="2.0.0"`` runs generator 2.0.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
     every garment worn by every subject, identical poses; it reads ``subjects``, ``poses``,
     ``seed``, ``body_model``, ``edge_length``, ``write_scan``, ``texture_size``,
     ``drape_settings``, ``garments_per_split``, ``categories``, ``pose_steps`` and ``workers``
-    (processes; the output does not depend on it)); any other version runs generator 1.1.0
-    below (the ``*-v2`` editions' data), which ignores the last four.
+    (processes; the output does not depend on it) or ``executor`` (one job per garment on a
+    :mod:`dressmeup.executors` executor, e.g. Dask; same output)); any other version runs
+    generator 1.1.0 below (the ``*-v2`` editions' data), which ignores the last five.
 
     Parameters
     ----------
@@ -170,7 +177,8 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                            body_model=body_model, categories=categories,
                            edge_length=edge_length, write_scan=write_scan,
                            texture_size=texture_size, pose_steps=pose_steps,
-                           drape_settings=drape_settings, workers=workers)
+                           drape_settings=drape_settings, workers=workers,
+                           **({"executor": executor} if executor is not None else {}))
     if version != GENERATOR_VERSION:
         raise InputError(f"version: expected {GENERATOR_VERSION!r} or '2.0.0', got {version!r}")
     for v, n in ((subjects, "subjects"), (garments, "garments"), (poses, "poses")):
@@ -244,7 +252,7 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
         rest_V = rest.rest_vertices[keep]
         garment = build_garment(g["type"], g["params"], rest_V, skin_F, labels, frame,
                                 edge_length=edge)
-        W = _garment_weights(garment, rest_V, skin_F, np.asarray(model.skinning_weights)[keep],
+        W = garment_weights(garment, rest_V, skin_F, np.asarray(model.skinning_weights)[keep],
                              names, frame)
         from dressmeup.io.mesh import save_mesh
 

@@ -145,7 +145,8 @@ class Body:
     frame: BodyFrame
 
 
-def _q(a: np.ndarray, decimals: int) -> np.ndarray:
+def quantize(a: np.ndarray, decimals: int) -> np.ndarray:
+    """``a`` as float64 rounded to ``decimals`` decimals (metres), without negative zeros."""
     return np.round(np.asarray(a, np.float64), decimals) + 0.0  # + 0.0: no negative zeros
 
 
@@ -288,8 +289,8 @@ class PoseDraper:
         from dressmeup.body import BodyParams
 
         out = self.model.posed(BodyParams(model=self.model.name, shape=self.shape, pose=pose))
-        return (_q(np.asarray(out.vertices)[self.keep], BODY_DECIMALS),
-                _q(out.transforms, TRANSFORM_DECIMALS))
+        return (quantize(np.asarray(out.vertices)[self.keep], BODY_DECIMALS),
+                quantize(out.transforms, TRANSFORM_DECIMALS))
 
     def __call__(self, pose: np.ndarray, up: np.ndarray):
         """Drape at ``pose``; returns ``(DrapeResult of the last step, posed skin vertices)``."""
@@ -311,7 +312,8 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
                 body_model: str = "anny", categories: list[str] | None = None,
                 edge_length: float | None = None, write_scan: bool = True,
                 texture_size: int = 256, pose_steps: int = 3,
-                drape_settings: DrapeSettings | None = None, workers: int = 1) -> Path:
+                drape_settings: DrapeSettings | None = None, workers: int = 1,
+                executor: Any = None) -> Path:
     """Generate (or resume) a generator-2.0.0 dataset in ``out`` (see the module docstring).
 
     Parameters
@@ -386,7 +388,9 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
         if missing:
             todo.append((gid, g, missing))
     setup = (body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan)
-    if todo:
+    if todo and executor is not None:
+        _run_on(executor, setup, todo, writer, out, bar)
+    elif todo:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
@@ -417,10 +421,8 @@ def _setup(body_model, plan, edge, settings, pose_steps, seed, texture_size, wri
     if _STATE.get("key") == key:
         return
     from dressmeup.body import BodyParams, get_body_model
-    from dressmeup.data.synth.generate import _skin
-
     model = get_body_model(body_model)
-    keep, skin_F = _skin(model)
+    keep, skin_F = model.skin()
     names = tuple(model.joint_names)
     body_W = np.asarray(model.skinning_weights)[keep]
     frame0 = BodyFrame.from_joints(model.posed(model.default_params()).rest_joints, names)
@@ -429,8 +431,8 @@ def _setup(body_model, plan, edge, settings, pose_steps, seed, texture_size, wri
         shape = np.asarray(s["shape"], np.float64)
         rest = model.posed(BodyParams(model=model.name, shape=shape,
                                       pose=np.zeros((len(names), 3))))
-        bodies[sid] = Body(sid, shape, _q(rest.rest_vertices[keep], BODY_DECIMALS),
-                           BodyFrame.from_joints(_q(rest.rest_joints, BODY_DECIMALS), names))
+        bodies[sid] = Body(sid, shape, quantize(rest.rest_vertices[keep], BODY_DECIMALS),
+                           BodyFrame.from_joints(quantize(rest.rest_joints, BODY_DECIMALS), names))
     _STATE.clear()
     _STATE.update(key=key, model=model, keep=keep, skin_F=skin_F, names=names, body_W=body_W,
                   labels=np.array(names)[body_W.argmax(1)], bodies=bodies,
@@ -438,6 +440,40 @@ def _setup(body_model, plan, edge, settings, pose_steps, seed, texture_size, wri
                          for pid, name in plan["poses"].items()},
                   edge=edge, settings=settings, pose_steps=pose_steps, seed=seed,
                   texture_size=texture_size, write_scan=write_scan)
+
+
+class GarmentJob:
+    """One garment's job for an executor (:mod:`dressmeup.executors`):
+    ``GarmentJob(setup)(job) -> result of _garment_job(job)``; the worker sets up its state
+    once (:func:`_setup`, cached by its key) and holds torch and BLAS at one thread."""
+
+    __name__ = "synth_garment"
+
+    def __init__(self, setup: tuple) -> None:
+        self.setup = setup
+
+    def __call__(self, job) -> dict[str, Any]:
+        import torch
+
+        torch.set_num_threads(1)
+        _setup(*self.setup)
+        return _garment_job(job)
+
+
+def _run_on(executor: Any, setup: tuple, todo: list, writer: Any, out: Path, bar: Any) -> None:
+    """Compute the garments of ``todo`` on ``executor`` (one job per garment; a Dask cluster's
+    workers start with :data:`CANONICAL_ENV`) and write them here, in plan order."""
+    from dressmeup.executors import in_order
+
+    if hasattr(executor, "worker_env"):  # Dask: the numerics are set at worker start
+        executor.worker_env = {**CANONICAL_ENV, **executor.worker_env}
+        if getattr(executor, "_client", None) is not None:
+            executor.check_worker_env()
+    with canonical_numerics():  # inherited by local pool workers started inside
+        for _i, res in in_order(executor.run(GarmentJob(setup), todo)):
+            if isinstance(res, BaseException):
+                raise res
+            _write_garment(writer, out, res, bar)
 
 
 def _init_worker(parent_pid: int, *setup) -> None:
@@ -459,7 +495,7 @@ def _init_worker(parent_pid: int, *setup) -> None:
 def _garment_job(job) -> dict[str, Any]:
     """Build one garment on its design body, fit it to the subjects, drape the missing
     samples; returns every array to write (computed in a worker or in the main process)."""
-    from dressmeup.data.synth.generate import _garment_weights
+    from dressmeup.data.synth.generate import garment_weights
     from dressmeup.data.synth.texture import procedural_texture
 
     gid, g, missing = job
@@ -469,7 +505,7 @@ def _garment_job(job) -> dict[str, Any]:
     design = bodies[g["design_subject"]]
     garment = build_garment(g["type"], g["params"], design.rest_V, skin_F, S["labels"],
                             design.frame, edge_length=S["edge"])
-    V0, F = _q(garment.vertices, STORE_DECIMALS), garment.faces
+    V0, F = quantize(garment.vertices, STORE_DECIMALS), garment.faces
     tex, pattern = procedural_texture(np.random.default_rng([S["seed"], 7919, int(gid[1:])]),
                                       S["texture_size"])
     res: dict[str, Any] = {"gid": gid, "g": g, "V0": V0, "F": F, "uv": garment.uv,
@@ -485,10 +521,10 @@ def _garment_job(job) -> dict[str, Any]:
             start = transfer_to_body(V0, design.rest_V, body.rest_V, skin_F)
             fit = drape(V0, F, start, garment.support, body.rest_V, skin_F, body.frame.up,
                         S["settings"])
-            fitted = _q(fit.vertices, STORE_DECIMALS)
+            fitted = quantize(fit.vertices, STORE_DECIMALS)
             fit_stats = {"fit": "fitted", **{f"fit_{k}": v for k, v in fit.stats.items()}}
         res["fitted"][sid] = fitted
-        W = _garment_weights(_Fitted(fitted, F, garment.garment_type), body.rest_V, skin_F,
+        W = garment_weights(FittedGarment(fitted, F, garment.garment_type), body.rest_V, skin_F,
                              S["body_W"], S["names"], body.frame)
         draper = PoseDraper(model, S["keep"], skin_F, V0, F, garment.support, fitted, W,
                             body.shape, S["settings"], S["pose_steps"])
@@ -497,12 +533,12 @@ def _garment_job(job) -> dict[str, Any]:
             t0 = time.process_time()
             pose = S["poses"][pid]
             out, body_V = draper(pose, body.frame.up)
-            Vd = _q(out.vertices, STORE_DECIMALS)
+            Vd = quantize(out.vertices, STORE_DECIMALS)
             scan = None
             if S["write_scan"]:
                 from dressmeup.body import BodyParams
 
-                BV = _q(model.posed(BodyParams(model=model.name, shape=body.shape,
+                BV = quantize(model.posed(BodyParams(model=model.name, shape=body.shape,
                                                pose=pose)).vertices, STORE_DECIMALS)
                 scan = (np.vstack([BV, Vd]),
                         np.vstack([np.asarray(model.faces, np.int64), F + len(BV)]))
@@ -544,7 +580,9 @@ def _write_garment(writer, out: Path, res: dict[str, Any], bar) -> None:
 
 
 @dataclass
-class _Fitted:
+class FittedGarment:
+    """A fitted garment for :func:`garment_weights`: vertices ``(n, 3)``, faces, type."""
+
     vertices: np.ndarray
     faces: np.ndarray
     garment_type: str

@@ -48,9 +48,9 @@ def tiny(body_model):
 
 
 @pytest.fixture(scope="session")
-def tiny_v2_data(tmp_path_factory):
-    """The synth-retarget-tiny-v2 data (procedural body), built once per run."""
+def tiny_v3_data(tmp_path_factory):
+    """The synth-retarget-tiny-v3 data (procedural body, 2 subjects), built once per run."""
     pytest.importorskip("dressmeup.bench.runs")
     from dressmeup.bench.runs import build_data
 
-    return build_data("synth-retarget-tiny-v2", tmp_path_factory.mktemp("data") / "tiny")
+    return build_data("synth-retarget-tiny-v3", tmp_path_factory.mktemp("data") / "tiny")

@@ -7,23 +7,24 @@ import pytest
 
 
 @pytest.fixture
-def tiny_data(tiny_v2_data):
-    return tiny_v2_data
+def tiny_data(tiny_v3_data):
+    return tiny_v3_data
 
 
 @pytest.mark.parametrize("method", ["rigid", "skinning+detail"])
 def test_cli_writes_valid_submission(tiny_data, tmp_path, method):
-    from dressmeup.bench import validate_submission
+    from dressmeup.bench import load_edition, validate_submission
+    from dressmeup.bench.tasks.retarget.data import edition_pairs
     from dressmeup.cli import main
     from dressmeup.data import Dataset
 
     out = tmp_path / "sub"
     status = main(["baseline", "retarget", "--method", method, "--data", str(tiny_data),
-                   "--edition", "synth-retarget-tiny-v2", "--out", str(out)])
+                   "--edition", "synth-retarget-tiny-v3", "--out", str(out)])
     assert status == 0
-    report = validate_submission(out, "synth-retarget-tiny-v2", tiny_data)
+    report = validate_submission(out, "synth-retarget-tiny-v3", tiny_data)
     assert report.ok, report
-    pairs = Dataset(tiny_data).retarget_pairs("test")
+    pairs = edition_pairs(load_edition("synth-retarget-tiny-v3"), Dataset(tiny_data))
     assert sorted(p.name for p in out.glob("*.npz")) == sorted(f"{p.pair_id}.npz" for p in pairs)
     for p in pairs:
         with np.load(out / f"{p.pair_id}.npz") as z:
@@ -34,6 +35,6 @@ def test_cli_rejects_bad_param(tiny_data, tmp_path, capsys):
     from dressmeup.cli import main
 
     status = main(["baseline", "retarget", "--method", "skinning", "--param", "nope=1", "--data",
-                   str(tiny_data), "--edition", "synth-retarget-tiny-v2", "--out", str(tmp_path / "s")])
+                   str(tiny_data), "--edition", "synth-retarget-tiny-v3", "--out", str(tmp_path / "s")])
     assert status == 2
     assert "unknown hyperparameter" in capsys.readouterr().err

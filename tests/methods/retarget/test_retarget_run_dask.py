@@ -8,8 +8,8 @@ import pytest
 
 
 @pytest.fixture
-def tiny_data(tiny_v2_data):
-    return tiny_v2_data
+def tiny_data(tiny_v3_data):
+    return tiny_v3_data
 
 
 @pytest.mark.parametrize("name", ["skinning", "skinning+detail"])
@@ -50,9 +50,13 @@ def test_baseline_retarget_command_on_an_existing_scheduler(dask_cluster, tiny_d
     addr = dask_cluster.client.scheduler.address
     out = tmp_path / "sub"
     assert main(["baseline", "retarget", "--method", "skinning", "--data", str(tiny_data),
-                 "--edition", "synth-retarget-tiny-v2", "--out", str(out),
+                 "--edition", "synth-retarget-tiny-v3", "--out", str(out),
                  "--scheduler", addr]) == 0
-    serial, _ = predict_pairs(get_method("skinning"), Dataset(tiny_data).retarget_pairs("test"))
+    from dressmeup.bench import load_edition
+    from dressmeup.bench.tasks.retarget.data import edition_pairs
+
+    pairs = edition_pairs(load_edition("synth-retarget-tiny-v3"), Dataset(tiny_data))
+    serial, _ = predict_pairs(get_method("skinning"), pairs)
     for pid, V in serial.items():
         with np.load(out / f"{pid}.npz") as z:
             assert np.array_equal(z["vertices"], V)
