@@ -97,14 +97,12 @@ def joint_mask(points: np.ndarray, joints: np.ndarray, joint_names, radius: floa
 
 
 def face_pairs(F: np.ndarray) -> np.ndarray:
-    """Pairs of faces sharing an edge that exactly two faces hold: (b, 2) int64."""
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=0), axis=1)
-    fid = np.tile(np.arange(len(F)), 3)
-    key = e[:, 0] * (int(F.max()) + 1) + e[:, 1]
-    order = np.argsort(key, kind="stable")
-    _, start, counts = np.unique(key[order], return_index=True, return_counts=True)
-    two = start[counts == 2]
-    return np.stack([fid[order][two], fid[order][two + 1]], axis=1).astype(np.int64)
+    """Pairs of faces sharing an edge that exactly two faces hold: (b, 2) int64 (the pair order
+    the shipped weights were trained with: :func:`dressmeup.geometry.topology.face_adjacency`
+    with ``order="corner"``)."""
+    from dressmeup.geometry.topology import face_adjacency
+
+    return face_adjacency(F, manifold_only=True, order="corner")
 
 
 def subsample(points: np.ndarray, n: int, seed: int) -> np.ndarray:
