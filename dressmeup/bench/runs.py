@@ -43,7 +43,8 @@ def _shipped_weights(method: Any, body_model: str) -> Path | None:
     wdir = getattr(mod, "WEIGHTS_DIR", None)
     if wdir is None:
         return None
-    hits = sorted(Path(wdir).glob(f"*_{body_model}.pt"))
+    stem = getattr(getattr(method, "method", method), "weights_stem", None)  # a chain's base method
+    hits = sorted(Path(wdir).glob(f"{stem}_{body_model}.pt" if stem else f"*_{body_model}.pt"))
     return hits[0] if hits else None
 
 

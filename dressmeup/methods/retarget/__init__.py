@@ -40,7 +40,8 @@ POSTPROCESSES = {
 
 
 # the rows of the reference leaderboards: every base method and the chains worth comparing
-LEADERBOARD = ("rigid", "skinning", "isomap", "isomap+penetration", "isomap-refine", "isomap-refine+penetration")
+LEADERBOARD = ("rigid", "skinning", "isomap", "isomap+penetration", "isomap-offset", "isomap-refine",
+               "isomap-refine+penetration", "isomap-refine-sup")
 
 
 def available_methods() -> list[str]:
@@ -63,7 +64,8 @@ def get_method(name: str, **hyperparameters: Any):
     ----------
     name : str
         ``"<method>[+<post>...]"`` with method in ``rigid``, ``skinning``, ``isomap``,
-        ``isomap-refine`` and post in ``detail``, ``penetration``.
+        ``isomap-offset``, ``isomap-refine``, ``isomap-refine-fast``, ``isomap-refine-sup`` and
+        post in ``detail``, ``penetration``.
     **hyperparameters
         Keyword arguments of the method; ``<post>__<key>=value`` goes to a post-process.
 

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.methods.retarget.refine import IsomapRefine
+from dressmeup.methods.retarget.refine import WEIGHTS_DIR, IsomapRefine  # noqa: F401  (shipped weights)
 from dressmeup.methods.retarget.refine_losses import RefineSample
 
 __all__ = ["IsomapRefineSup", "supervised_losses"]
