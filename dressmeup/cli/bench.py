@@ -48,7 +48,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Build a leaderboard from result folders of ONE edition and dataset: one "
                     "row per method, a column per metric (and per category), units and "
                     "direction arrows in the headers, best values marked, sorted by the "
-                    "primary metric. Mixing editions or datasets is refused.")
+                    "primary metric. Results of schema dressmeup-result/2 show 95 % bootstrap "
+                    "intervals over the task's independent unit as 'mean [lo, hi]', a 'Sep.' "
+                    "column (paired bootstrap: is the rank separated from the next?) and one "
+                    "column per track; older results show '–'. Mixing editions or datasets "
+                    "is refused, except results marked not comparable (--allow-other-data), "
+                    "which are listed last, unranked. For a website with pictures see "
+                    "'dressmeup report'.")
     p.add_argument("results", nargs="+", help="result folders written by 'dressmeup score'")
     p.add_argument("--format", "-f", choices=("md", "csv", "latex", "html"), default="md")
     p.add_argument("--out", "-o", default=None, help="output file (default: print)")
