@@ -36,6 +36,15 @@ def _cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
+def _vm_hwm_mb() -> float:
+    """Peak resident memory of this process in MB (VmHWM: ru_maxrss would include the peak
+    of the parent that started it)."""
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--jobs", nargs="+", default=list(JOBS), choices=JOBS)
@@ -116,7 +125,7 @@ def measure(job: str, score_data: str | None) -> dict:
     cpu = _cpu() - c
     return {"job": job, "what": what, "items": n, "cpu_per_item_s": cpu / n,
             "wall_s": time.perf_counter() - t,
-            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+            "peak_rss_mb": _vm_hwm_mb(),
             "load": "{:.1f}/{:.1f}/{:.1f}".format(*os.getloadavg())}
 
 

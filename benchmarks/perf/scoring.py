@@ -83,8 +83,15 @@ def _own_cpu_s() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def _peak_rss_mb(_=None) -> float:
-    """Peak resident memory of the calling process in MB (Linux ru_maxrss is in kB)."""
+def _peak_rss_mb() -> float:
+    """Peak resident memory of the calling process in MB: VmHWM (ru_maxrss would carry the
+    parent's peak over into a spawned child on Linux)."""
+    try:
+        for line in open("/proc/self/status"):
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        pass
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
@@ -178,13 +185,13 @@ def main() -> None:
             ex.__exit__(None, None, None)
         else:
             cpu[mode] = cpu_s() - c
-            mem[mode] = (_peak_rss_mb() if mode == "serial" else
-                         resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024)
+            # pool workers are gone by now: their peak is not measured
+            mem[mode] = _peak_rss_mb() if mode == "serial" else float("nan")
         tables[mode] = res.table
         assert res.summary["counts"]["failed"] == 0, res.summary["counts"]
         print(f"{mode:6s}: {len(pairs)} pairs in {wall[mode]:6.1f} s wall = "
               f"{len(pairs) / wall[mode]:5.2f} pairs/s; CPU {cpu[mode]:6.1f} s = "
-              f"{cpu[mode] / len(pairs):5.2f} CPU-s/pair; peak worker RSS {mem[mode]:5.0f} MB "
+              f"{cpu[mode] / len(pairs):5.2f} CPU-s/pair; peak RSS of a worker {mem[mode]:5.0f} MB "
               f"({loads[mode]})")
     if startup:
         print(f"LocalCluster start-up ({args.workers} workers): {startup[0]:.1f} s ({startup[1]})")

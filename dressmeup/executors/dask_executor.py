@@ -155,8 +155,10 @@ class DaskExecutor:
     memory_limit : per-worker memory limit of the LocalCluster (Dask syntax, e.g. ``"4GB"``;
         default: the machine's memory divided by ``workers``).
     worker_env : environment variables the jobs need in their worker processes from the
-        start (e.g. the synthetic generator's canonical numerics): a LocalCluster starts its
-        workers with them; on an existing cluster every worker is checked to have them.
+        start (e.g. the synthetic generator's canonical numerics): a LocalCluster starts (and
+        restarts) its workers with them, setting them in this process too as Dask does for
+        its pre-spawn environment; on an existing cluster every worker is checked to have
+        them.
     log : one-line messages (cluster started, dashboard address); default stderr.
 
     Use as a context manager to keep one cluster over several ``run`` calls; otherwise each
@@ -227,8 +229,18 @@ class DaskExecutor:
 
             # the scheduler's HTTP server (dashboard with bokeh, else health/metrics only)
             # always runs: keep it on loopback, on a free port
+            # workers inherit this config; their statistical profiler (a stack sample every
+            # 10 ms) only feeds the dashboard and costs CPU on every job
+            # worker_env must be there before a worker imports numpy: Dask's pre-spawn
+            # environment is set in this process (the nanny's) before each worker process is
+            # (re)started, and values already in os.environ win over the config
+            pre_spawn = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}),
+                         **self.worker_env}
+            os.environ.update(self.worker_env)
             with dask.config.set({"distributed.scheduler.allowed-failures":
-                                  self.allowed_failures}):
+                                  self.allowed_failures,
+                                  "distributed.worker.profile.enabled": False,
+                                  "distributed.nanny.pre-spawn-environ": pre_spawn}):
                 self._cluster = distributed.LocalCluster(
                     n_workers=self.workers, threads_per_worker=1, processes=True,
                     host=LOOPBACK, dashboard_address=f"{LOOPBACK}:0", silence_logs=logging.CRITICAL,
