@@ -99,3 +99,14 @@ def test_interrupted_synth_resumes_on_dask_to_the_pinned_manifest(canon_cluster,
     assert _manifest_sha(out) == pin.expected_manifest_sha256
     stats = sorted(p.stem for p in (out / "generator" / "stats").glob("[!.]*.json"))
     assert stats == sorted(man["sample_id"])
+
+
+def test_synth_with_a_one_worker_local_executor_still_uses_a_canonical_worker(tmp_path, capsys):
+    """``--executor local -j 1`` must not compute in this process (its numerics libraries
+    were not loaded with CANONICAL_ENV): the data are still the pinned ones."""
+    from dressmeup.cli import main
+
+    out = tmp_path / "tiny"
+    assert main(["synth", str(out), "--edition", TINY, "--executor", "local", "-j", "1"]) == 0
+    assert "matches the edition's expected manifest" in capsys.readouterr().out
+    assert _manifest_sha(out) == load_edition(TINY).dataset.expected_manifest_sha256

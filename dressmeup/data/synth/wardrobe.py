@@ -334,6 +334,9 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     workers : processes computing garments in parallel (one thread each; at least one is
         always started, see :data:`CANONICAL_ENV`); the files and the manifest are the same for
         any number (this process writes them in plan order).
+    executor : instead, a :mod:`dressmeup.executors` executor running one job per garment
+        (:class:`GarmentJob`): a Dask one starts its workers with :data:`CANONICAL_ENV`; a
+        ``LocalExecutor`` means the spawned pool above with its number of workers.
 
     Returns
     -------
@@ -341,6 +344,7 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     """
     from dressmeup.data.synth.generate import summarize_stats
     from dressmeup.data.writer import DatasetWriter
+    from dressmeup.executors import LocalExecutor
     from dressmeup.progress import progress
 
     gps = tuple(int(x) for x in garments_per_split)
@@ -388,6 +392,10 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
         if missing:
             todo.append((gid, g, missing))
     setup = (body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan)
+    if isinstance(executor, LocalExecutor):
+        # its one-worker mode runs jobs in THIS process, whose libraries did not load with
+        # CANONICAL_ENV: the spawned pool below (same size) always starts fresh workers
+        workers, executor = executor.workers, None
     if todo and executor is not None:
         _run_on(executor, setup, todo, writer, out, bar)
     elif todo:
