@@ -219,11 +219,13 @@ def _obj_index(tok: str, count: int) -> int:
 
 
 def _load_obj(path: Path) -> MeshData:
-    verts: list[list[float]] = []
-    colors: list[list[float]] = []
-    uvs: list[list[float]] = []
-    faces: list[tuple[int, int, int]] = []
-    uv_faces: list[tuple[int, int, int]] = []
+    # compact buffers (8 bytes per number) instead of lists of Python floats: a large OBJ
+    # costs about its own size in memory, not several times it
+    from array import array
+
+    verts, colors, uvs = array("d"), array("d"), array("d")
+    faces, uv_faces = array("q"), array("q")
+    n_v = n_c = n_t = 0
     missing_vt = False
     mtllibs: list[str] = []
     first_mtl: str | None = None
@@ -237,47 +239,55 @@ def _load_obj(path: Path) -> MeshData:
             key = parts[0]
             try:
                 if key == "v":
-                    vals = [float(x) for x in parts[1:]]
-                    verts.append(vals[:3])
+                    vals = [float(x) for x in parts[1:7]]
+                    if len(vals) < 3:
+                        raise ValueError("a vertex needs three coordinates")
+                    verts.extend(vals[:3])
+                    n_v += 1
                     if len(vals) >= 6:
-                        colors.append(vals[3:6])
+                        colors.extend(vals[3:6])
+                        n_c += 1
                 elif key == "vt":
-                    uvs.append([float(x) for x in parts[1:3]])
+                    vals = [float(x) for x in parts[1:3]]
+                    if len(vals) < 2:
+                        raise ValueError("a texture coordinate needs u and v")
+                    uvs.extend(vals)
+                    n_t += 1
                 elif key == "f":
                     vi: list[int] = []
                     ti: list[int] = []
                     for corner in parts[1:]:
                         sub = corner.split("/")
-                        vi.append(_obj_index(sub[0], len(verts)))
+                        vi.append(_obj_index(sub[0], n_v))
                         if len(sub) > 1 and sub[1]:
-                            ti.append(_obj_index(sub[1], len(uvs)))
+                            ti.append(_obj_index(sub[1], n_t))
                     if len(vi) < 3:
                         raise InputError("a face needs at least three corners")
                     if len(ti) != len(vi):
                         missing_vt = True
                     for k in range(1, len(vi) - 1):
-                        faces.append((vi[0], vi[k], vi[k + 1]))
+                        faces.extend((vi[0], vi[k], vi[k + 1]))
                         if len(ti) == len(vi):
-                            uv_faces.append((ti[0], ti[k], ti[k + 1]))
+                            uv_faces.extend((ti[0], ti[k], ti[k + 1]))
                 elif key == "mtllib":
                     mtllibs.append(line.strip()[len("mtllib") :].strip())
                 elif key == "usemtl" and first_mtl is None:
                     first_mtl = line.strip()[len("usemtl") :].strip()
-            except (ValueError, IndexError) as exc:
+            except (ValueError, IndexError, OverflowError) as exc:
                 raise InputError(
                     f"{path}: line {lineno}: cannot parse {line.strip()[:60]!r} ({exc})"
                 ) from exc
-    V = np.asarray(verts, dtype=np.float64).reshape(-1, 3) if verts else np.zeros((0, 3))
-    F = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    V = np.frombuffer(verts, dtype=np.float64).reshape(-1, 3).copy() if n_v else np.zeros((0, 3))
+    F = np.frombuffer(faces, dtype=np.int64).reshape(-1, 3).copy()
     uv = uvf = None
-    if uvs and faces and not missing_vt and len(uv_faces) == len(faces):
-        uv = np.asarray(uvs, dtype=np.float64).reshape(-1, 2)
-        uvf = np.asarray(uv_faces, dtype=np.int64).reshape(-1, 3)
-    elif uvs and faces:
+    if n_t and len(faces) and not missing_vt and len(uv_faces) == len(faces):
+        uv = np.frombuffer(uvs, dtype=np.float64).reshape(-1, 2).copy()
+        uvf = np.frombuffer(uv_faces, dtype=np.int64).reshape(-1, 3).copy()
+    elif n_t and len(faces):
         log.warning("%s: some faces have no texture coordinates; UVs ignored", path)
     vc = None
-    if colors and len(colors) == len(verts):
-        c = np.asarray(colors, dtype=np.float64)
+    if n_c and n_c == n_v:
+        c = np.frombuffer(colors, dtype=np.float64).reshape(-1, 3)
         vc = np.clip(np.round(c * 255.0 if c.max() <= 1.0 else c), 0, 255).astype(np.uint8)
     tex = _obj_texture(path, mtllibs, first_mtl)
     return MeshData(V, F, uv, uvf, tex, vc)

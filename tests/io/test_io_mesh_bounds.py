@@ -81,3 +81,24 @@ def test_ply_with_unresolvable_texture_logs_no_trimesh_traceback(tmp_path, caplo
         m = load_mesh(path)
     assert m.texture_path is None
     assert not any("unable to load image" in r.getMessage() for r in caplog.records)
+
+
+def test_obj_reader_memory_is_about_the_file_size(tmp_path):
+    """Compact buffers: peak allocation stays within 3x the file (lists of floats took ~8x)."""
+    import tracemalloc
+
+    n = 60_000
+    rng = np.random.default_rng(0)
+    path = tmp_path / "big.obj"
+    with open(path, "w") as fh:
+        np.savetxt(fh, rng.random((n, 3)), fmt="v %.6f %.6f %.6f")
+        np.savetxt(fh, rng.integers(1, n + 1, (2 * n, 3)), fmt="f %d %d %d")
+    size = path.stat().st_size
+    tracemalloc.start()
+    try:
+        m = load_mesh(path)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert m.vertices.shape == (n, 3) and m.faces.shape == (2 * n, 3)
+    assert peak < 3 * size, (peak, size)
