@@ -87,7 +87,7 @@ def test_obj_reader_memory_is_about_the_file_size(tmp_path):
     """Compact buffers: peak allocation stays within 3x the file (lists of floats took ~8x)."""
     import tracemalloc
 
-    n = 60_000
+    n = 20_000
     rng = np.random.default_rng(0)
     path = tmp_path / "big.obj"
     with open(path, "w") as fh:
