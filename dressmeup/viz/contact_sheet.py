@@ -73,19 +73,24 @@ def draw_cell(ax, layers: Sequence[MeshLayer], right: np.ndarray, up: np.ndarray
         ax.set_title(title, fontsize=7)
 
 
-def render_contact_sheet(cells: Sequence[Sequence[MeshLayer]], path: str | os.PathLike,
+def render_contact_sheet(cells: Sequence[Sequence[MeshLayer] | None], path: str | os.PathLike,
                          right: np.ndarray, up: np.ndarray, ncols: int,
                          titles: Sequence[str] | None = None, cell_size: float = 1.6,
-                         dpi: int = 110, suptitle: str = "") -> None:
+                         dpi: int = 110, suptitle: str = "",
+                         cell_height: float | None = None) -> None:
     """Render a grid of cells to a PNG (atomically).
 
     Parameters
     ----------
-    cells : one list of :class:`MeshLayer` per cell, row-major.
+    cells : one list of :class:`MeshLayer` per cell, row-major; an empty list or None leaves
+        the cell blank.
     path : output PNG.
     right, up : (3,) screen axes in world coordinates.
     ncols : cells per row.
     titles : optional caption per cell.
+    cell_size, cell_height : cell width and height in inches (height default
+        ``1.25 * cell_size``).
+    dpi : pixels per inch; suptitle : optional title of the sheet.
     """
     import matplotlib
 
@@ -95,10 +100,11 @@ def render_contact_sheet(cells: Sequence[Sequence[MeshLayer]], path: str | os.Pa
     from dressmeup.io.atomic import atomic_path
 
     nrows = max(1, int(np.ceil(len(cells) / ncols)))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(cell_size * ncols, cell_size * 1.25 * nrows),
+    height = cell_size * 1.25 if cell_height is None else cell_height
+    fig, axes = plt.subplots(nrows, ncols, figsize=(cell_size * ncols, height * nrows),
                              squeeze=False)
     for k, ax in enumerate(axes.ravel()):
-        if k < len(cells):
+        if k < len(cells) and cells[k]:
             draw_cell(ax, cells[k], right, up, titles[k] if titles else "")
         else:
             ax.axis("off")
@@ -181,78 +187,5 @@ def render_dataset_contact_sheet(root: str | os.PathLike, path: str | os.PathLik
     up = frame.up if frame is not None else np.array([0.0, 1.0, 0.0])
     right = (frame.left if view == "front" else frame.forward) if frame is not None else \
         np.array([1.0, 0.0, 0.0])
-    filled = [c if c else None for c in cells]
-    _render_sparse(filled, path, right, up, max_poses, titles)
-
-
-def _render_sparse(cells, path, right, up, ncols, titles):
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    from dressmeup.io.atomic import atomic_path
-
-    nrows = max(1, int(np.ceil(len(cells) / ncols)))
-    fig, axes = plt.subplots(nrows, ncols, figsize=(1.9 * ncols, 2.4 * nrows), squeeze=False)
-    for k, ax in enumerate(axes.ravel()):
-        if k < len(cells) and cells[k]:
-            draw_cell(ax, cells[k], right, up, titles[k])
-        else:
-            ax.axis("off")
-    fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=100, format="png")
-    plt.close(fig)
-
-
-def render_garment_on_bodies(root: str | os.PathLike, garment_id: str, path: str | os.PathLike,
-                             view: str = "front", max_poses: int = 6) -> None:
-    """Contact sheet of one garment worn by every subject: one row per subject, one column
-    per pose (generator 2.x data, where a garment is fitted to several bodies).
-
-    Parameters
-    ----------
-    root : dataset folder.
-    garment_id : the garment to show.
-    path : output PNG.
-    view : ``front`` or ``side``.
-    max_poses : columns at most.
-    """
-    from dressmeup.body import get_body_model
-    from dressmeup.data.dataset import Dataset
-    from dressmeup.data.synth.garments import BodyFrame
-
-    ds = Dataset(root)
-    m = ds.manifest[ds.manifest["garment_id"] == garment_id]
-    if m.empty:
-        from dressmeup.errors import InputError
-
-        raise InputError(f"garment {garment_id!r} not found in {root}")
-    pids = sorted(m["pose_id"].unique())[:max_poses]
-    cells, titles, frame = [], [], None
-    subjects = ds.info.get("subjects", {})
-    for sid in sorted(m["subject_id"].unique()):
-        for pid in pids:
-            rows = m[(m["subject_id"] == sid) & (m["pose_id"] == pid)]
-            if rows.empty:
-                cells.append(None)
-                titles.append("")
-                continue
-            s = ds[rows["sample_id"].iloc[0]]
-            b = s.body()
-            model = get_body_model(b.model)
-            out = model.posed(b)
-            if frame is None:
-                frame = BodyFrame.from_joints(out.rest_joints, tuple(model.joint_names))
-            gm = s.garment()
-            cells.append([MeshLayer(out.vertices, model.faces, (0.75, 0.75, 0.75)),
-                          MeshLayer(gm.vertices, gm.faces, (0.8, 0.35, 0.3),
-                                    _face_colors_from_texture(gm))])
-            name = subjects.get(sid, {}).get("name", sid)
-            pose = ds.info.get("poses", {}).get(pid, pid)
-            titles.append(f"{sid} {name}\n{pid} {pose}")
-    up = frame.up if frame is not None else np.array([0.0, 1.0, 0.0])
-    right = (frame.left if view == "front" else frame.forward) if frame is not None else \
-        np.array([1.0, 0.0, 0.0])
-    _render_sparse(cells, path, right, up, len(pids), titles)
+    render_contact_sheet(cells, path, right, up, max_poses, titles, cell_size=1.9, cell_height=2.4,
+                         dpi=100)
