@@ -162,3 +162,28 @@ def test_hand_weight_down_weights_hand_points(model):
     assert hand.any() and np.allclose(prob.point_weight.numpy()[hand], 0.25)
     assert np.allclose(prob.point_weight.numpy()[~hand], 1.0)
     assert FitProblem(OptimizationRegistrar(hand_weight=1.0), model, P, None).point_weight is None
+
+
+def test_registration_poses_and_scan_variants(model):
+    from dressmeup.data.synth.poses import pose_axis_angle, pose_names
+
+    generator = pose_names()
+    assert generator[:3] == ["arms-down", "a-pose", "arms-raised"] and len(generator) == 10
+    hard = pose_names("registration")
+    assert {"t-pose", "wide-stance", "sitting-box", "arms-crossed", "one-knee-up",
+            "bending-forward"} <= set(hard) and not set(hard) & set(generator)
+    assert pose_names("all") == generator + hard
+
+    class Frame:
+        up, left, forward = np.eye(3)[1], np.eye(3)[0], np.eye(3)[2]
+        joints: dict = {}
+
+    for name in hard:
+        assert np.isfinite(pose_axis_angle(name, model.joint_names, Frame)).all()
+    truth = _truth(model, "sitting", 6)
+    full = synthetic_scan(model, truth, n_points=6000, noise=0.0, seed=6)
+    side = synthetic_scan(model, truth, n_points=6000, noise=0.0, seed=6, missing_side=(1, 0, 0))
+    assert 0.5 * len(full) < len(side) < 0.9 * len(full)
+    boxed = synthetic_scan(model, truth, n_points=6000, noise=0.0, seed=6, seat_box=True)
+    extra = boxed[len(full):]
+    assert len(extra) > 100 and extra[:, 1].min() >= model.posed(truth).vertices[:, 1].min() - 1e-9
