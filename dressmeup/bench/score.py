@@ -114,6 +114,9 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     jobs = task.jobs(ed, Path(data_root), report.files, report.items,
                      show_progress=show_progress)
     executor = executor or LocalExecutor(workers)
+    require_shared = getattr(executor, "require_shared", None)
+    if require_shared is not None:  # a distributed executor checks its workers see them
+        require_shared(data_root, submission, *_job_folders(jobs))
     rows: list[dict[str, Any]] = []
     bar = progress(executor.run(task.score_job, jobs), desc=f"scoring {ed.name}",
                    total=len(jobs), disable=None if show_progress is None else not show_progress)
@@ -206,6 +209,13 @@ def _verify_data(data_root: Path, items: list[Any]) -> int:
         return verify_listed_files(data_root, [r for r in rows if r["mesh_id"] in ids],
                                    "mesh_id", "path", "sha256")
     return verify_checksums(data_root, ids)
+
+
+def _job_folders(jobs: list[dict[str, Any]]) -> list[str]:
+    """The folders of every file a job reads (``*_path`` fields: predictions, posed bodies in
+    the toolkit cache, ...): a worker on another machine must see them too."""
+    return sorted({str(Path(v).parent) for job in jobs for k, v in job.items()
+                   if k.endswith("_path") and isinstance(v, str) and v})
 
 
 def _to_table(rows: list[dict[str, Any]], metrics: list[str], extra: list[str]) -> pd.DataFrame:

@@ -131,7 +131,6 @@ def _score(args: argparse.Namespace) -> int:
     from dressmeup.bench.score import InvalidSubmissionError, score_submission
 
     executor = executor_from_args(args)
-    executor.require_shared(args.data, args.submission)  # workers read both
     try:
         res = score_submission(args.submission, args.edition, args.data, args.out,
                                executor=executor,

@@ -161,3 +161,19 @@ def test_score_command_on_an_existing_scheduler(cluster, scored, bench_edition, 
                  str(bench_data), "-o", str(tmp_path / "x"), "--scheduler", addr,
                  "--workers", "2"]) == 2
     assert "drop --workers" in capsys.readouterr().err
+
+
+def test_score_asks_the_executor_for_every_folder_its_jobs_read(scored, bench_edition,
+                                                               bench_data, tmp_path):
+    from dressmeup.executors import LocalExecutor
+
+    class Recording(LocalExecutor):
+        def require_shared(self, *paths, writable=()):
+            self.paths = [str(p) for p in paths]
+
+    ex = Recording(1)
+    score_submission(scored["noisy"]["sub"], bench_edition, bench_data, tmp_path / "r",
+                     executor=ex, show_progress=False)
+    assert str(bench_data) in ex.paths and str(scored["noisy"]["sub"]) in ex.paths
+    # the posed target bodies the IR metric reads live in the toolkit cache: shared too
+    assert any("bench-bodies" in p for p in ex.paths), ex.paths
