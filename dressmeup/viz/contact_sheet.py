@@ -189,3 +189,56 @@ def render_dataset_contact_sheet(root: str | os.PathLike, path: str | os.PathLik
         np.array([1.0, 0.0, 0.0])
     render_contact_sheet(cells, path, right, up, max_poses, titles, cell_size=1.9, cell_height=2.4,
                          dpi=100)
+
+
+def render_garment_on_bodies(root: str | os.PathLike, garment_id: str, path: str | os.PathLike,
+                             view: str = "front", max_poses: int = 6) -> None:
+    """Contact sheet of one garment worn by every subject: one row per subject, one column
+    per pose (generator 2.x data, where a garment is fitted to several bodies).
+
+    Parameters
+    ----------
+    root : dataset folder.
+    garment_id : the garment to show.
+    path : output PNG.
+    view : ``front`` or ``side``.
+    max_poses : columns at most.
+    """
+    from dressmeup.body import get_body_model
+    from dressmeup.data.dataset import Dataset
+    from dressmeup.data.synth.garments import BodyFrame
+
+    ds = Dataset(root)
+    m = ds.manifest[ds.manifest["garment_id"] == garment_id]
+    if m.empty:
+        from dressmeup.errors import InputError
+
+        raise InputError(f"garment {garment_id!r} not found in {root}")
+    pids = sorted(m["pose_id"].unique())[:max_poses]
+    cells, titles, frame = [], [], None
+    subjects = ds.info.get("subjects", {})
+    for sid in sorted(m["subject_id"].unique()):
+        for pid in pids:
+            rows = m[(m["subject_id"] == sid) & (m["pose_id"] == pid)]
+            if rows.empty:
+                cells.append(None)
+                titles.append("")
+                continue
+            s = ds[rows["sample_id"].iloc[0]]
+            b = s.body()
+            model = get_body_model(b.model)
+            out = model.posed(b)
+            if frame is None:
+                frame = BodyFrame.from_joints(out.rest_joints, tuple(model.joint_names))
+            gm = s.garment()
+            cells.append([MeshLayer(out.vertices, model.faces, (0.75, 0.75, 0.75)),
+                          MeshLayer(gm.vertices, gm.faces, (0.8, 0.35, 0.3),
+                                    _face_colors_from_texture(gm))])
+            name = subjects.get(sid, {}).get("name", sid)
+            pose = ds.info.get("poses", {}).get(pid, pid)
+            titles.append(f"{sid} {name}\n{pid} {pose}")
+    up = frame.up if frame is not None else np.array([0.0, 1.0, 0.0])
+    right = (frame.left if view == "front" else frame.forward) if frame is not None else \
+        np.array([1.0, 0.0, 0.0])
+    render_contact_sheet(cells, path, right, up, len(pids), titles, cell_size=1.9, cell_height=2.4,
+                         dpi=100)
