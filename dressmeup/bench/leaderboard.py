@@ -605,10 +605,10 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
                         columns=columns, rows=rows, show_std=show_std, primary=primary,
                         show_ci=any(row["schema_version"] >= 2 for row in rows)
                         if show_ci is None else show_ci,
-                        unit=boot.get("unit") or getattr(task, "unit_column", None),
+                        unit=boot.get("unit") or task.unit_column,
                         n_units=boot.get("n_units"))
     board.custom_edition = edition_check.source if edition_check.custom else None
-    _mark_separation(rows, primary, getattr(task, "unit_column", None))
+    _mark_separation(rows, primary, task.unit_column)
     board.pareto = _mark_pareto(ed, rows)
     for row in rows:
         row.pop("_result", None)
