@@ -94,8 +94,11 @@ def check_out_dir(out: str | os.PathLike) -> Path:
     InputError
         When ``out`` exists and is a non-empty folder or a file.
     """
+    from dressmeup.io.atomic import only_temp_files
+
     out = Path(out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+    # a folder holding only hidden temporary files (a run killed by an older toolkit) is empty
+    if out.exists() and (not out.is_dir() or not only_temp_files(out)):
         raise InputError(f"results folder {out} already exists and is not empty: scoring "
                          "never overwrites results; choose a new --out folder")
     return out

@@ -60,6 +60,21 @@ def current_umask() -> int:
     return mask
 
 
+_TEMP_RE = re.compile(r"^\..+\.tmp(\.[^/]*)?$")
+
+
+def is_temp_file(path: str | os.PathLike) -> bool:
+    """True for the hidden temporary file of an atomic write (``.<stem>.<random>.tmp<ext>``),
+    e.g. one left by a killed process."""
+    path = Path(path)
+    return bool(_TEMP_RE.match(path.name)) and path.is_file()
+
+
+def only_temp_files(folder: str | os.PathLike) -> bool:
+    """True when ``folder`` holds nothing but leftover temporary files (or nothing)."""
+    return all(is_temp_file(p) for p in Path(folder).iterdir())
+
+
 _PARTIAL_RE = re.compile(r"^\.(?P<name>.+)\.partial-(?P<pid>\d+)-[A-Za-z0-9_]+$")
 
 
@@ -113,7 +128,7 @@ def atomic_dir(path: str | os.PathLike, merge: bool = False) -> Iterator[Path]:
     os.chmod(tmp, 0o777 & ~current_umask())
     try:
         yield tmp
-        if path.is_dir() and any(path.iterdir()):
+        if path.is_dir() and not only_temp_files(path):
             if not merge:
                 raise FileExistsError(f"{path} is not empty")
             names = sorted(p.name for p in tmp.iterdir())
@@ -125,7 +140,9 @@ def atomic_dir(path: str | os.PathLike, merge: bool = False) -> Iterator[Path]:
                 os.replace(tmp / name, dest)
             tmp.rmdir()
         else:
-            if path.is_dir():
+            if path.is_dir():  # empty, or only temporary files of an interrupted write
+                for p in path.iterdir():
+                    p.unlink()
                 path.rmdir()
             os.replace(tmp, path)
     except BaseException:

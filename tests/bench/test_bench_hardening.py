@@ -133,3 +133,18 @@ def test_score_refuses_a_moved_ground_truth_garment(bench_data, bench_edition, s
                          workers=1, show_progress=False)
     assert not (tmp_path / "res").exists()
     assert scored["gt"]["res"].summary["dataset"]["files_verified"] > 0
+
+
+def test_a_folder_holding_only_a_stale_temp_file_does_not_block_score(bench_data,
+                                                                       bench_edition, scored,
+                                                                       tmp_path):
+    """What an older toolkit's killed score left: a hidden 0-byte temp file, invisible to ls."""
+    from dressmeup.bench import score_submission
+
+    out = tmp_path / "res"
+    out.mkdir()
+    (out / ".summary.k2j3h4.tmp.json").write_bytes(b"")
+    res = score_submission(scored["gt"]["sub"], bench_edition, bench_data, out, workers=1,
+                           show_progress=False)
+    assert sorted(p.name for p in res.path.iterdir()) == ["edition.json", "per_sample.parquet",
+                                                           "summary.json"]
