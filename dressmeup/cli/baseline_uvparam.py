@@ -14,6 +14,7 @@ import re
 import sys
 from pathlib import Path
 
+from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
 
 METHOD_NAMES = ("xatlas", "lscm", "harmonic", "slim", "neural")
@@ -49,6 +50,7 @@ def register(tasks: argparse._SubParsersAction) -> None:
     p.add_argument("--overwrite", action="store_true", help="allow writing into a non-empty folder")
     p.add_argument("--images", type=Path, default=None,
                    help="also write a checkerboard picture per mesh into this folder")
+    add_executor_args(p, default_workers=1, what="mesh of --data (the edition's mesh set)")
     p.set_defaults(func=_run_uvparam)
 
     t = tasks.add_parser(
@@ -117,6 +119,9 @@ def _run_uvparam(args: argparse.Namespace) -> int:
             params["checkpoint"] = args.checkpoint
     if args.data is not None:
         return _run_on_mesh_set(args, params)
+    if args.executor or args.scheduler or (args.workers or 1) > 1:
+        raise InputError("--executor/--workers/--scheduler run an edition's mesh set "
+                         "(--edition with --data); --meshes runs here, one mesh after another")
     method = get_method(args.method, **params)
     if args.meshes:
         specs = args.meshes
@@ -164,7 +169,8 @@ def _run_on_mesh_set(args: argparse.Namespace, params: dict) -> int:
         raise InputError("--data runs the edition's whole mesh set: drop --meshes and --images")
     lines: list[str] = []
     out = run_uvparam_baseline(args.method, args.edition, args.data, args.out,
-                               overwrite=args.overwrite, log=lines.append, **params)
+                               overwrite=args.overwrite, log=lines.append,
+                               executor=executor_from_args(args, default_workers=1), **params)
     sys.stdout.write(f"wrote {out} ({lines[-1].strip() if lines else args.method})\n")
     return 0
 

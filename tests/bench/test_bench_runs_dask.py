@@ -19,3 +19,21 @@ def test_uvparam_baseline_on_dask_matches_in_process(dask_cluster, tmp_path):
         with np.load(serial / name) as a, np.load(dask / name) as b:
             for key in ("uv", "uv_faces", "chart_ids"):
                 assert np.array_equal(a[key], b[key]), (name, key)
+
+
+def test_baseline_uvparam_command_on_an_existing_scheduler(dask_cluster, tmp_path):
+    from dressmeup.bench import runs
+    from dressmeup.cli import main
+
+    data = runs.build_data("synth-uvparam-mini-v1", tmp_path / "meshes")
+    addr = dask_cluster.client.scheduler.address
+    out = tmp_path / "sub"
+    assert main(["baseline", "uvparam", "--method", "lscm", "--edition",
+                 "synth-uvparam-mini-v1", "--data", str(data), "--out", str(out),
+                 "--scheduler", addr]) == 0
+    serial = runs.run_uvparam_baseline("lscm", "synth-uvparam-mini-v1", data, tmp_path / "s")
+    for p in serial.glob("*.npz"):
+        with np.load(p) as a, np.load(out / p.name) as b:
+            assert np.array_equal(a["uv"], b["uv"])
+    assert main(["baseline", "uvparam", "--method", "lscm", "--meshes", "sphere-2k", "--out",
+                 str(tmp_path / "x"), "--executor", "dask"]) == 2
