@@ -32,13 +32,15 @@ JOBS = ("score", "build", "synth1", "synth2")
 
 
 def _cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_SELF)
-    return r.ru_utime + r.ru_stime
+    """CPU seconds of this process and its finished children (generator 2.0.0 computes in
+    spawned workers)."""
+    r = [resource.getrusage(w) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)]
+    return sum(x.ru_utime + x.ru_stime for x in r)
 
 
 def _vm_hwm_mb() -> float:
     """Peak resident memory of this process in MB (VmHWM: ru_maxrss would include the peak
-    of the parent that started it)."""
+    of the parent that started it). Spawned workers (generator 2.0.0) are not counted."""
     for line in open("/proc/self/status"):
         if line.startswith("VmHWM:"):
             return int(line.split()[1]) / 1024
