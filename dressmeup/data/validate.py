@@ -18,6 +18,8 @@ from dressmeup.data.manifest import COLUMNS, HASH_OF, PATH_COLUMNS, read_manifes
 from dressmeup.errors import InputError
 
 KNOWN_SPLITS = ("train", "val", "test")
+#: Largest plausible extent of a garment or scan in metres (a person is under 3 m).
+MAX_EXTENT_M = 5.0
 
 
 @dataclass
@@ -84,6 +86,11 @@ def _check_mesh(path: Path, where: str, what: str, n_v, n_f, problems: list[str]
     except Exception as exc:  # noqa: BLE001
         problems.append(f"{where}: {what} mesh {path.name} is not a valid mesh ({exc})")
         return None
+    extent = float(np.ptp(m.vertices, axis=0).max()) if len(m.vertices) else 0.0
+    if extent > MAX_EXTENT_M:
+        problems.append(f"{where}: {what} mesh {path.name} spans {extent:.4g} units, but dataset "
+                        f"units are metres (at most {MAX_EXTENT_M:g} m): is it in millimetres "
+                        "or centimetres? scale it when building the dataset")
     if n_v is not None and not _isnull(n_v) and int(n_v) != len(m.vertices):
         problems.append(f"{where}: {what} has {len(m.vertices)} vertices, manifest says {int(n_v)}")
     if n_f is not None and not _isnull(n_f) and int(n_f) != len(m.faces):

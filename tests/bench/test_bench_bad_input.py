@@ -197,3 +197,14 @@ def test_session_json_with_garments_not_a_list_is_named(tmp_path):
     with pytest.raises(InputError, match="field garments"):
         SessionInfo.from_dict({"subject_id": "S1", "pose_id": "P1", "garments": 5},
                               "session.json")
+
+
+def test_validate_dataset_flags_a_garment_in_millimetres(data_copy, capsys):
+    from dressmeup.data import Dataset
+    from dressmeup.io.mesh import load_mesh, save_mesh
+
+    path = data_copy / Dataset(data_copy).manifest.iloc[0]["garment_path"]
+    m = load_mesh(path)
+    save_mesh(path, m.vertices * 1000.0, m.faces, uv=m.uv, uv_faces=m.uv_faces)
+    status, text = _run(capsys, "validate-dataset", data_copy, "--no-hashes")
+    assert status != 0 and "millimetres" in text
