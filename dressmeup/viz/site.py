@@ -21,7 +21,8 @@ checkerboard render of the submitted UV map; fusion -- the reconstruction colour
 distance to the scan. They need the submission folder (recorded in the result, or found in
 ``submissions``) and the dataset (``data_roots`` or the recorded root, matched by manifest
 sha256); when either is missing the page shows the numbers and says why there are no
-pictures.
+pictures. Finding them: :mod:`dressmeup.viz.site_inputs`; drawing items:
+:mod:`dressmeup.viz.site_items`.
 """
 
 from __future__ import annotations
@@ -38,6 +39,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from dressmeup.viz.site_inputs import find_data_root, find_submission
+from dressmeup.viz.site_items import draw_items
 
 #: Best and worst items drawn per method (each side).
 IMAGES_PER_SIDE = 5
@@ -119,157 +123,6 @@ def _page(title: str, body: str, nav: str = "") -> str:
 </body>
 </html>
 """
-
-
-# ------------------------------------------------------------------ finding the inputs
-def find_submission(result: Any, search: Sequence[str | os.PathLike]) -> tuple[Path | None, str]:
-    """The submission folder a result was scored from, or None and the reason.
-
-    Looks in ``search`` (submission folders or folders of them) for the recorded folder
-    name or the method name, then at the path recorded in the result; the folder must
-    still hash to the recorded sha256.
-    """
-    from dressmeup.bench.submission import read_info, submission_hash
-
-    rec = result.summary.get("submission", {})
-    recorded = Path(rec.get("path", "")) if rec.get("path") else None
-    cands: list[Path] = []
-    for d in map(Path, search):
-        if (d / "submission.json").is_file():
-            cands.append(d)
-        elif d.is_dir():
-            cands += sorted(p.parent for p in d.glob("*/submission.json"))
-    match = None
-    for c in cands:
-        if recorded is not None and (c.resolve() == recorded.resolve()
-                                     or c.name == recorded.name):
-            match = c
-            break
-    if match is None:
-        for c in cands:
-            info, _ = read_info(c)
-            if info and str(info.get("method")) == result.method:
-                match = c
-                break
-    if match is None and recorded is not None and (recorded / "submission.json").is_file():
-        match = recorded
-    if match is None:
-        where = f"{recorded}" if recorded else "(no path recorded)"
-        given = (" nor in " + ", ".join(str(s) for s in search)) if search else \
-            " (no --submissions folder given)"
-        return None, (f"the submission folder {where} is gone{given}, so there are no "
-                      "pictures of its predictions")
-    if rec.get("sha256") and submission_hash(match) != rec["sha256"]:
-        return None, (f"the submission folder {match} changed since it was scored (its "
-                      "sha256 differs), so its files are not the scored predictions: no "
-                      "pictures")
-    return match, ""
-
-
-def find_data_root(result: Any, roots: Sequence[str | os.PathLike]) -> tuple[Path | None, str]:
-    """The dataset root a result was scored on (matched by manifest sha256), or None and
-    the reason."""
-    from dressmeup.bench.tasks.common import manifest_sha256
-    from dressmeup.errors import InputError
-
-    want = result.manifest_hash
-    recorded = result.summary.get("dataset", {}).get("root")
-    for r in [*map(Path, roots), *([Path(recorded)] if recorded else [])]:
-        try:
-            if manifest_sha256(r) == want:
-                return r, ""
-        except InputError:
-            continue
-    return None, (f"no dataset with manifest {str(want)[:12]} was found (recorded root "
-                  f"{recorded}; give it with --data), so there are no pictures")
-
-
-# ------------------------------------------------------------------------ item pictures
-def _submission_file(sub: Path, item_id: str) -> Path | None:
-    for p in sub.iterdir():
-        if p.stem == item_id and p.name != "submission.json":
-            return p
-    return None
-
-
-def _retarget_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
-    from dressmeup.bench.tasks.retarget.data import open_dataset, read_prediction
-    from dressmeup.bench.tasks.retarget.evaluate import posed_body_file
-    from dressmeup.viz.result_images import face_distances_mm, penetrating_faces
-
-    ds = open_dataset(str(root.resolve()))
-    f = _submission_file(sub, row["sample_id"])
-    if f is None:
-        raise FileNotFoundError(f"{row['sample_id']} not in {sub}")
-    V = np.asarray(read_prediction(f)[0], np.float64)
-    F = np.asarray(ds[row["source_id"]].garment().faces, np.int64)
-    tgt = ds[row["target_id"]]
-    g = tgt.garment()
-    pen = None
-    params = tgt.body()
-    if params is not None:
-        with np.load(posed_body_file(params, models), allow_pickle=False) as z:
-            pen = penetrating_faces(V, F, z["vertices"], z["faces"])
-    return {"V": V, "F": F, "gt_V": g.vertices, "gt_F": g.faces,
-            "err": face_distances_mm(V, F, g.vertices, g.faces), "pen": pen}
-
-
-def _fusion_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
-    from dressmeup.bench.tasks.fusion.data import read_mesh
-    from dressmeup.bench.tasks.retarget.data import open_dataset
-    from dressmeup.viz.result_images import face_distances_mm
-
-    f = _submission_file(sub, row["sample_id"])
-    if f is None:
-        raise FileNotFoundError(f"{row['sample_id']} not in {sub}")
-    V, F = read_mesh(f)
-    scan = open_dataset(str(root.resolve()))[row["sample_id"]].scan()
-    if scan is None:
-        raise FileNotFoundError(f"sample {row['sample_id']} has no scan")
-    return {"V": V, "F": F, "gt_V": scan[0], "gt_F": scan[1],
-            "err": face_distances_mm(V, F, scan[0], scan[1]), "pen": None}
-
-
-def _draw_items(task: str, rows: list[dict], sub: Path, root: Path, img_dir: Path,
-                prefix: str, metric_label: str) -> list[tuple[Path, str]]:
-    """Pictures of ``rows`` (dicts of per-item columns); returns (png, caption) pairs."""
-    from dressmeup.viz.result_images import render_error_pair
-
-    out: list[tuple[Path, str]] = []
-    if task == "uvparam":
-        from dressmeup.bench.tasks.uvparam.data import meshes, read_prediction
-        from dressmeup.io.mesh import load_mesh
-        from dressmeup.viz.uv_checker import render_uv_checker
-
-        paths = {m.mesh_id: m.path for m in meshes(root)}
-        for row in rows:
-            f = _submission_file(sub, row["sample_id"])
-            if f is None or row["sample_id"] not in paths:
-                continue
-            mesh = load_mesh(paths[row["sample_id"]])
-            pred = read_prediction(f)
-            F = np.asarray(mesh.faces, np.int64)
-            png = img_dir / f"{prefix}-{_slug(row['sample_id'], set())}.png"
-            render_uv_checker(mesh.vertices, F, pred["uv"], pred.get("uv_faces", F), png,
-                              title=row["sample_id"], chart_ids=pred.get("chart_ids"),
-                              views=((20, 30),), max_faces=8000, dpi=70)
-            out.append((png, row["_caption"]))
-        return out
-    models: dict = {}
-    load = _retarget_arrays if task == "retarget" else _fusion_arrays
-    arrays = [(row, load(row, sub, root, models)) for row in rows]
-    if not arrays:
-        return out
-    allerr = np.concatenate([a["err"] for _, a in arrays])
-    vmax = float(np.percentile(allerr[np.isfinite(allerr)], 98)) if allerr.size else 1.0
-    label = "P2S" if task == "retarget" else "distance to scan"
-    for row, a in arrays:
-        png = img_dir / f"{prefix}-{_slug(row['sample_id'], set())}.png"
-        render_error_pair(a["V"], a["F"], a["gt_V"], a["gt_F"], png, face_error_mm=a["err"],
-                          vmax_mm=vmax, penetrating=a["pen"], title=row["sample_id"],
-                          error_label=label)
-        out.append((png, row["_caption"]))
-    return out
 
 
 # ---------------------------------------------------------------------------- the pages
@@ -445,7 +298,7 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
                                  f"{_fmt(pspec, r[primary_name])} {pspec.unit}")
                 rows.append(r)
             try:
-                pics = _draw_items(task.name, rows, sub, root, img_dir, f"{slug}-{label}",
+                pics = draw_items(task.name, rows, sub, root, img_dir, f"{slug}-{label}",
                                    pspec.label)
             except (OSError, ValueError, KeyError) as exc:
                 why = f"Pictures could not be drawn: {exc}"
