@@ -18,8 +18,9 @@ from dressmeup.data.manifest import COLUMNS, HASH_OF, PATH_COLUMNS, read_manifes
 from dressmeup.errors import InputError
 
 KNOWN_SPLITS = ("train", "val", "test")
-#: Largest plausible extent of a garment or scan in metres (a person is under 3 m).
-MAX_EXTENT_M = 5.0
+#: Largest plausible extent of a garment or scan in metres (a person is under 3 m; a
+#: garment in centimetres already spans tens of units).
+MAX_EXTENT_M = 10.0
 
 
 @dataclass
