@@ -4,8 +4,12 @@
    ``Dataset(...)[i].garment()`` versus ``trimesh.load`` of the same PLY file.
 2. With ``--generate``: wall time of ``generate_dataset`` for 3 subjects x 4 garments x
    5 poses with the anny body (the target is under 5 minutes on 2 cores).
+3. With ``--edition E [--workers N]``: wall and CPU time (this process and its workers) of
+   generating an edition's data, with the load average at start and end; for
+   ``synth-retarget-v3`` the goal is 45 minutes on 2 idle cores (``--workers 2``).
 
-Run: ``python benchmarks/perf/dataset.py [--generate] [--body-model anny]``
+Run: ``python benchmarks/perf/dataset.py [--generate] [--body-model anny]
+[--edition synth-retarget-v3 --workers 2 --out DIR]``
 """
 
 from __future__ import annotations
@@ -97,12 +101,40 @@ def bench_generate(body_model: str, out: str | None) -> None:
               f"(target < 300 s on 2 cores; 1-min load average at the end {load:.1f})")
 
 
+def bench_edition(edition: str, workers: int, out: str | None) -> None:
+    import resource
+
+    from dressmeup.bench.edition import load_edition
+    from dressmeup.data.synth import generate_dataset
+
+    pin = load_edition(edition).dataset
+    kw = {"workers": workers} if str(pin.params.get("version", "")).startswith("2.") else {}
+    with tempfile.TemporaryDirectory() as d:
+        root = out or os.path.join(d, "synth")
+        load0 = os.getloadavg()
+        t0 = time.perf_counter()
+        generate_dataset(root, seed=pin.seed, **pin.params, **kw)
+        dt = time.perf_counter() - t0
+        me = resource.getrusage(resource.RUSAGE_SELF)
+        kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+        print(f"{edition} with {workers} worker(s): {dt / 60:.1f} min wall, {cpu / 60:.1f} CPU "
+              f"min (this process + workers); load average {load0[0]:.1f} at start, "
+              f"{os.getloadavg()[0]:.1f} at the end (goal for synth-retarget-v3: 45 min "
+              "on 2 idle cores)")
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--generate", action="store_true", help="also time the 3x4x5 generation")
     p.add_argument("--body-model", default="anny")
     p.add_argument("--out", default=None, help="keep the generated dataset here")
+    p.add_argument("--edition", default=None, help="time generating this edition's data")
+    p.add_argument("--workers", type=int, default=2, help="worker processes (generator 2.x)")
     args = p.parse_args()
+    if args.edition:
+        bench_edition(args.edition, args.workers, args.out)
+        return
     bench_load()
     if args.generate:
         bench_generate(args.body_model, args.out)
