@@ -29,6 +29,7 @@ RESULTS = Path(__file__).resolve().parent / "results"
 RUNS = {
     "lscm": ("lscm", {}, "lscm"),
     "lscm-70": ("lscm", {"cone_angle": 70.0}, "lscm (70° cones)"),
+    "lscm-90": ("lscm", {"cone_angle": 90.0}, "lscm (90° cones)"),
     "harmonic": ("harmonic", {}, "harmonic"),
     "slim": ("slim", {}, "slim"),
     "xatlas": ("xatlas", {}, "xatlas"),
@@ -100,11 +101,22 @@ def main(argv=None) -> int:
     ap.add_argument("--runs", nargs="+", default=list(RUNS), choices=list(RUNS))
     ap.add_argument("--work", type=Path, default=None)
     ap.add_argument("--tables-only", action="store_true")
+    ap.add_argument("--rescore", action="store_true",
+                    help="score the existing submissions of --runs again (e.g. after an edition change)")
     args = ap.parse_args(argv)
     from dressmeup.cache import cache_dir
 
     work = args.work or cache_dir("bench") / "uvparam-v2"
-    if not args.tables_only:
+    if args.rescore:
+        from dressmeup.bench.score import score_submission
+
+        for name in args.runs:
+            sub, res = work / "subs" / name, work / "results" / name
+            if sub.is_dir():
+                if res.exists():
+                    shutil.rmtree(res)
+                score_submission(sub, EDITION, args.data, res, workers=1, show_progress=False)
+    elif not args.tables_only:
         for name in args.runs:
             run(name, args.data, work)
     results = sorted(p for p in (work / "results").iterdir() if (p / "summary.json").is_file())
