@@ -25,7 +25,9 @@ logger = logging.getLogger(__name__)
 
 @dataclass
 class RegistrationResult:
-    """What a fit returns besides the parameters: per-stage losses and timing (s)."""
+    """What a fit returns besides the parameters: per-stage losses, timing (s) and
+    ``info`` about the start (``info["init"]``: the chosen start, e.g. ``"hypothesis
+    t-pose (yaw 90 deg)"``; the ranked hypotheses; keypoint views found)."""
 
     params: BodyParams
     seconds: float
