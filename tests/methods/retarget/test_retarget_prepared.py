@@ -112,7 +112,7 @@ def test_training_resumes_to_the_same_weights(tiny, body_model, tmp_path):
     train_network(m, samples, steps=3, checkpoint=ck, checkpoint_every=100)
     resumed, hist = train_network(m, samples, steps=6, checkpoint=ck)
     assert [r[0] for r in hist.train] == list(range(6))
-    for (k, a), b in zip(straight.state_dict().items(), resumed.state_dict().values()):
+    for (k, a), b in zip(straight.state_dict().items(), resumed.state_dict().values(), strict=True):
         assert torch.allclose(a, b, atol=1e-6), k
 
 
