@@ -200,8 +200,8 @@ def load_edition(name_or_path: str | os.PathLike | Edition) -> Edition:
         source = str(path)
         try:
             raw = path.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise InputError(f"edition file {path} cannot be read: {exc}") from exc
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError(f"edition file {path} cannot be read as UTF-8 text: {exc}") from exc
     else:
         res = resources.files("dressmeup.bench") / "editions" / f"{text_path}.json"
         if not res.is_file():

@@ -63,10 +63,20 @@ def _load_scan(path: str):
     if p.suffix.lower() == ".npy":
         return np.load(p, allow_pickle=False)
     if p.suffix.lower() in (".xyz", ".txt"):
-        return np.loadtxt(p, usecols=(0, 1, 2))
+        try:
+            return np.loadtxt(p, usecols=(0, 1, 2))
+        except ValueError as exc:
+            raise InputError(f"{p}: not a point list of x y z rows ({exc})") from exc
+    if p.suffix.lower() == ".ply":  # a mesh or a point cloud: header checked before parsing
+        from dressmeup.io.mesh import check_ply_header
+
+        check_ply_header(p)
     import trimesh
 
-    mesh = trimesh.load(p, process=False, force="mesh")
+    try:
+        mesh = trimesh.load(p, process=False, force="mesh")
+    except Exception as exc:  # noqa: BLE001 - a third-party parser on user files
+        raise InputError(f"{p}: cannot read the scan ({type(exc).__name__}: {exc})") from exc
     if len(mesh.faces) == 0:
         return np.asarray(mesh.vertices)
     return np.asarray(mesh.vertices), np.asarray(mesh.faces)

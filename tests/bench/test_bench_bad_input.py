@@ -208,3 +208,21 @@ def test_validate_dataset_flags_a_garment_in_millimetres(data_copy, capsys):
     save_mesh(path, m.vertices * 1000.0, m.faces, uv=m.uv, uv_faces=m.uv_faces)
     status, text = _run(capsys, "validate-dataset", data_copy, "--no-hashes")
     assert status != 0 and "millimetres" in text
+
+
+def test_non_utf8_edition_and_unreadable_scans_are_one_line(tmp_path, capsys):
+    ed = tmp_path / "bad.json"
+    ed.write_bytes(b"\xff\xfe{")
+    status, text = _run(capsys, "validate-submission", tmp_path, "--edition", ed,
+                        "--data", tmp_path)
+    assert status == 2 and "bad.json" in text and "UTF-8" in text
+    scan = tmp_path / "scan.ply"
+    scan.write_bytes(b"garbage")
+    status, text = _run(capsys, "register", scan, "--model", "procedural",
+                        "--out", tmp_path / "p.npz")
+    assert status == 2 and "scan.ply: not a PLY file" in text
+    scan = tmp_path / "scan.obj"
+    scan.write_text("v 1 2\nf 1 2 3\n")
+    status, text = _run(capsys, "register", scan, "--model", "procedural",
+                        "--out", tmp_path / "p.npz")
+    assert status == 2 and "scan.obj" in text
