@@ -97,8 +97,10 @@ def check_out_dir(out: str | os.PathLike) -> Path:
     from dressmeup.io.atomic import only_temp_files
 
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"results folder {out} is an existing file; choose a new --out folder")
     # a folder holding only hidden temporary files (a run killed by an older toolkit) is empty
-    if out.exists() and (not out.is_dir() or not only_temp_files(out)):
+    if out.exists() and not only_temp_files(out):
         raise InputError(f"results folder {out} already exists and is not empty: scoring "
                          "never overwrites results; choose a new --out folder")
     return out
