@@ -45,7 +45,8 @@ from dressmeup.viz.site_items import draw_items
 
 #: Best and worst items drawn per method (each side).
 IMAGES_PER_SIDE = 5
-#: Upper bound on the pictures of one site (keeps ``dressmeup demo`` in its time budget).
+#: Upper bound on the item pictures of one site (keeps ``dressmeup demo`` in its time
+#: budget); each method gets at most a fair share of what is left.
 MAX_IMAGES = 120
 #: Tasks with item pictures.
 PICTURE_TASKS = ("retarget", "uvparam", "fusion")
@@ -285,7 +286,8 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
         ok = ok[np.isfinite(ok[primary_name].astype(float))]
         lower = pspec.better == "lower"
         ok = ok.sort_values(primary_name, ascending=lower, kind="stable")
-        k = min(per_side, max(budget[0] // 2, 1))
+        # a fair share of what is left, so that later methods get pictures too
+        k = min(per_side, max(budget[0] // (2 * max(budget[1], 1)), 1))
         best = ok.head(k)
         worst = ok.iloc[::-1].head(k)
         worst = worst[~worst["sample_id"].isin(best["sample_id"])]
@@ -406,7 +408,7 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
     for r in loaded:
         groups.setdefault(r.edition_hash, []).append(r)
     report = SiteReport(index=out / "index.html")
-    budget = [max_images]
+    budget = [max_images, len(loaded)]   # item pictures left, method pages left
     taken_ed: set[str] = set()
     sections = []
     for group in groups.values():
@@ -422,6 +424,7 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
             log(f"report: {board.edition.name} / {row['method']}")
             page = _method_page(by_path[row["result"]], row, board, task, ed_dir, slug,
                                 data_roots, submissions, budget, images_per_side, report)
+            budget[1] -= 1
             report.method_pages.append(page)
             links[row["method"]] = f"{slug}.html"
         e = html.escape

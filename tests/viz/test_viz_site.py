@@ -148,3 +148,19 @@ def test_changed_submission_gets_no_pictures(site_inputs, tmp_path):
     site = write_site([res], tmp_path / "site", data_roots=[site_inputs["data"]])
     text = site.method_pages[0].read_text()
     assert "changed since it was scored" in text and "-best-" not in text
+
+
+def test_picture_budget_is_shared_between_methods(site_inputs, tmp_path):
+    """With 8 item pictures for 4 methods (3 of them with submissions), each gets at least
+    its fair share (1 best + 1 worst) instead of the first ones taking everything; what a
+    method without pictures leaves goes to the later ones."""
+    from dressmeup.viz.site import write_site
+
+    site = write_site(site_inputs["results"], tmp_path / "site",
+                      data_roots=[site_inputs["data"]], max_images=8)
+    drawn = {}
+    for page in site.method_pages:
+        drawn[page.stem] = len(list(page.parent.glob(f"img/{page.stem}-best-*.png"))
+                               + list(page.parent.glob(f"img/{page.stem}-worst-*.png")))
+    assert drawn.pop("gone") == 0
+    assert all(n >= 2 for n in drawn.values()) and sum(drawn.values()) == 8, drawn
