@@ -8,7 +8,8 @@
 - :func:`hypothesis_search`: the multi-hypothesis start without keypoints. The best yaws of
   the yaw search x the canonical poses of :mod:`.hypotheses` each get a short rigid stage
   on the whole body; the best few get a short pose stage; the best of those goes on.
-  Cost: ``4 * n_yaw + len(poses) * n_yaws_kept * n_rigid + keep * n_pose`` steps.
+  Cost: ``yaw_candidates * n_yaw + len(poses) * yaws_kept * n_rigid + keep * n_pose``
+  steps.
 """
 
 from __future__ import annotations
@@ -94,7 +95,7 @@ def symmetric_score(problem, cap: float = 0.1) -> float:
 
 def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, keep: int,
                       yaws_kept: int, lr_pose: float, lr_transl: float, size_init: bool,
-                      verbose: bool = False) -> dict:
+                      verbose: bool = False, yaw_candidates: int = 4) -> dict:
     """Multi-hypothesis start (see module docstring); leaves the best in ``problem``.
 
     Parameters
@@ -102,7 +103,8 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
     poses : names of :data:`~dressmeup.body.registration.hypotheses.CANONICAL_POSES`.
     n_yaw, n_rigid, n_pose : steps of the yaw candidates, of the whole-body rigid stage of
         each (pose, yaw) hypothesis, and of the short pose stage of the ``keep`` best.
-    yaws_kept : how many of the 4 yaws go on to the pose hypotheses.
+    yaws_kept : how many of the ``yaw_candidates`` yaws go on to the pose hypotheses.
+    yaw_candidates : yaws tried on the core, evenly spaced over the full turn.
     size_init : match each hypothesis' vertical extent to the scan with a uniform scale.
 
     Returns
@@ -117,8 +119,9 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
     rest = model.posed(model.default_params()).joints
     problem.set_params(pose=canonical_pose("a-pose", model.joint_names, rest))
     place_on_scan(problem, size_init)
-    yaw_candidates = yaw_search(problem, n_yaw, lr_pose, lr_transl, verbose=verbose)
-    roots = [snap["pose"][0].clone() for _, snap in yaw_candidates[:max(yaws_kept, 1)]]
+    yaws = tuple(2 * math.pi * k / max(yaw_candidates, 1) for k in range(max(yaw_candidates, 1)))
+    ranked_yaws = yaw_search(problem, n_yaw, lr_pose, lr_transl, yaws=yaws, verbose=verbose)
+    roots = [snap["pose"][0].clone() for _, snap in ranked_yaws[:max(yaws_kept, 1)]]
     rigid: list[tuple[float, str, float, dict]] = []
     for name in poses:
         hyp = canonical_pose(name, model.joint_names, rest)
@@ -149,7 +152,7 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
     return {"init": f"hypothesis {refined[0][1]} (yaw {refined[0][2]:.0f} deg)",
             "hypotheses_rigid": [(n, round(y), round(c, 4)) for c, n, y, _ in rigid],
             "hypotheses_refined": [(n, round(y), round(c, 4)) for c, n, y, _ in refined],
-            "init_steps": 4 * n_yaw + len(rigid) * n_rigid + len(refined) * n_pose}
+            "init_steps": len(yaws) * n_yaw + len(rigid) * n_rigid + len(refined) * n_pose}
 
 
 def _rigid_similarity(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, float, np.ndarray, float]:

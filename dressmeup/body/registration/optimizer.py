@@ -64,6 +64,7 @@ class OptimizationRegistrar:
         gets the first count on the core joints, each (pose, kept yaw) the second on the
         whole body, the ``hypothesis_keep`` best the third as a short pose stage.
     hypothesis_keep, hypothesis_yaws : hypotheses refined, yaws kept after the yaw search.
+    yaw_candidates : yaws tried by the hypothesis search's yaw stage (evenly spaced).
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
         ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (keypoints when the extra
@@ -104,6 +105,7 @@ class OptimizationRegistrar:
     hypothesis_steps: tuple[int, int, int] = (20, 15, 40)
     hypothesis_keep: int = 3
     hypothesis_yaws: int = 2
+    yaw_candidates: int = 4
     init_route: str = "hypotheses"
     keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
@@ -144,7 +146,8 @@ class OptimizationRegistrar:
             n_yaw, n_rigid, n_pose = self.hypothesis_steps
             return hypothesis_search(problem, self.hypotheses, n_yaw, n_rigid, n_pose,
                                      self.hypothesis_keep, self.hypothesis_yaws, self.lr_pose,
-                                     self.lr_transl, size, verbose=self.verbose)
+                                     self.lr_transl, size, verbose=self.verbose,
+                                     yaw_candidates=self.yaw_candidates)
         place_on_scan(problem, size_init=size and problem.kp is None)
         if self.yaw_search and n_global > 0:
             yaw_search(problem, max(n_global // 2, 5), self.lr_pose, self.lr_transl,
