@@ -171,7 +171,9 @@ def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: s
     from dressmeup.bench.tasks.retarget.data import edition_pairs
 
     if executor is not None:
-        executor.require_shared(data_root)
+        from dressmeup.executors import require_shared
+
+        require_shared(executor, data_root)
     preds, seconds = predict_pairs(method, edition_pairs(ed, ds), limit=limit,
                                    executor=executor)
     runtime = float(np.mean(seconds)) if seconds else 0.0
@@ -216,7 +218,7 @@ def run_uvparam_baseline(method_name: str, edition: str | Edition, data_root: st
     non-empty ``out``."""
     from dressmeup.bench.submission import write_submission
     from dressmeup.bench.tasks.uvparam.data import meshes
-    from dressmeup.executors import LocalExecutor, in_order
+    from dressmeup.executors import LocalExecutor, in_order, require_shared
     from dressmeup.methods.uvparam import get_method
     from dressmeup.progress import progress
 
@@ -224,7 +226,7 @@ def run_uvparam_baseline(method_name: str, edition: str | Edition, data_root: st
     method = get_method(method_name, **hyperparameters)
     records = list(meshes(data_root, ed.split))
     executor = executor or LocalExecutor(1)
-    executor.require_shared(data_root)
+    require_shared(executor, data_root)
     preds, secs, tracks = {}, [], set()
     done = progress(executor.run(UVMeshJob(method), records), desc=f"uvparam {method_name}",
                     total=len(records))

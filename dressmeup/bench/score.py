@@ -28,6 +28,7 @@ from dressmeup.bench.tasks import get_task
 from dressmeup.bench.tasks.base import STATUS_ERROR
 from dressmeup.bench.validate import ValidationReport, validate_submission
 from dressmeup.errors import InputError
+from dressmeup.executors import require_shared
 
 
 class InvalidSubmissionError(InputError):
@@ -114,9 +115,8 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     jobs = task.jobs(ed, Path(data_root), report.files, report.items,
                      show_progress=show_progress)
     executor = executor or LocalExecutor(workers)
-    require_shared = getattr(executor, "require_shared", None)
-    if require_shared is not None:  # a distributed executor checks its workers see them
-        require_shared(data_root, submission, *_job_folders(jobs))
+    # a distributed executor checks that its workers see what the jobs read
+    require_shared(executor, data_root, submission, *_job_folders(jobs))
     rows: list[dict[str, Any]] = []
     bar = progress(executor.run(task.score_job, jobs), desc=f"scoring {ed.name}",
                    total=len(jobs), disable=None if show_progress is None else not show_progress)

@@ -189,7 +189,7 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     from dressmeup.capture.session import open_session
     from dressmeup.data import layout
     from dressmeup.data.writer import DatasetWriter
-    from dressmeup.executors import LocalExecutor, in_order
+    from dressmeup.executors import LocalExecutor, in_order, require_shared
     from dressmeup.extraction.pipeline import ExtractionConfig
     from dressmeup.fusion.pipeline import FusionConfig
     from dressmeup.io.atomic import atomic_write_text
@@ -218,7 +218,7 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
         else:
             todo.append((sdir, ids))
     executor = executor or LocalExecutor(1)
-    executor.require_shared(*(s for s, _ in todo))
+    require_shared(executor, *(s for s, _ in todo))
     def scan_of(sdir: Path) -> str | None:
         cand = Path(scans) / Path(sdir).name if scans else None
         return str(cand) if cand is not None and (cand / "scan.ply").is_file() else None

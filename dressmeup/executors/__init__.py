@@ -44,6 +44,15 @@ class Executor(Protocol):
         distributed executor checks that every worker sees them."""
 
 
+def require_shared(executor: Any, *paths: str | os.PathLike,
+                   writable: Sequence[Any] = ()) -> None:
+    """``executor.require_shared(...)`` when the executor has it (executors written against
+    the older protocol only have ``run``)."""
+    check = getattr(executor, "require_shared", None)
+    if check is not None:
+        check(*paths, writable=writable)
+
+
 def in_order(results: Iterable[tuple[int, T]]) -> Iterator[tuple[int, T]]:
     """Re-order an executor's ``(index, result)`` pairs into index order.
 
@@ -118,4 +127,4 @@ def __getattr__(name: str) -> Any:  # DaskExecutor without importing distributed
 
 
 __all__ = ["EXECUTORS", "DaskExecutor", "Executor", "LocalExecutor", "dashboard_available",
-           "dask_available", "die_with_parent", "in_order", "make_executor"]
+           "dask_available", "die_with_parent", "in_order", "make_executor", "require_shared"]

@@ -101,6 +101,7 @@ def test_interrupted_synth_resumes_on_dask_to_the_pinned_manifest(canon_cluster,
     assert stats == sorted(man["sample_id"])
 
 
+@pytest.mark.slow  # a whole tiny-v3 generation (tests/data/test_data_synth_v3.py has another)
 def test_synth_with_a_one_worker_local_executor_still_uses_a_canonical_worker(tmp_path, capsys):
     """``--executor local -j 1`` must not compute in this process (its numerics libraries
     were not loaded with CANONICAL_ENV): the data are still the pinned ones."""
