@@ -17,7 +17,8 @@ from dressmeup.body.synthetic import named_pose, synthetic_scan, vertex_joint_er
 from dressmeup.errors import InputError
 
 FAST = dict(iterations=(30, 120, 120), n_scan_points=2500, n_body_points=1500, verbose=False,
-            hypothesis_steps=(10, 8, 20), hypothesis_keep=2)
+            hypothesis_steps=(10, 8, 20), hypothesis_keep=2, yaw_candidates=4,
+            hypothesis_yaws=2)
 
 
 @pytest.fixture(scope="module")

@@ -60,8 +60,8 @@ class OptimizationRegistrar:
         ``n_global // 2`` rigid steps fitting the torso, hips and head, the best goes on.
     hypotheses : canonical starting poses (:mod:`.hypotheses`) tried when no ``init`` is
         given; empty: start from the rest pose (yaw search only).
-    hypothesis_steps : steps (yaw, rigid, pose) of the hypothesis search: each of 4 yaws
-        gets the first count on the core joints, each (pose, kept yaw) the second on the
+    hypothesis_steps : steps (yaw, rigid, pose) of the hypothesis search: each of the
+        ``yaw_candidates`` yaws gets the first count on the core joints, each (pose, kept yaw) the second on the
         whole body, the ``hypothesis_keep`` best the third as a short pose stage.
     hypothesis_keep, hypothesis_yaws : hypotheses refined, yaws kept after the yaw search.
     yaw_candidates : yaws tried by the hypothesis search's yaw stage (evenly spaced).
@@ -104,8 +104,8 @@ class OptimizationRegistrar:
     hypotheses: tuple[str, ...] = DEFAULT_HYPOTHESES
     hypothesis_steps: tuple[int, int, int] = (20, 15, 40)
     hypothesis_keep: int = 3
-    hypothesis_yaws: int = 2
-    yaw_candidates: int = 4
+    hypothesis_yaws: int = 3
+    yaw_candidates: int = 8
     init_route: str = "hypotheses"
     keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
