@@ -164,7 +164,8 @@ def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: s
                     "steps" not in hyperparameters:
                 method = get_method(method_name, steps=train_steps, **hyperparameters)
             t0 = time.perf_counter()
-            triplets, model = training_triplets(ds, "train", max_triplets, seed=0)
+            supervised = bool(getattr(getattr(method, "method", method), "supervised", False))
+            triplets, model = training_triplets(ds, "train", max_triplets, seed=0, with_truth=supervised)
             method.fit(triplets, model)
             trained = (f", trained {train_steps} steps ({time.perf_counter() - t0:.0f} s) on "
                        f"{len(triplets)} train-split triplets")
