@@ -210,3 +210,18 @@ def test_pretrained_track_is_checked_not_declared(tmp_path):
     assert method.parameterize(*make_test_mesh("sheet-300")).info["track"] == "pretrained"
     assert method.parameterize(*seen).info["track"] == "per-mesh"     # a training mesh
     assert get_method("lscm").parameterize(*seen).info.get("track", "per-mesh") == "per-mesh"
+
+
+def test_shipped_pretrained_models_load_and_run_without_training():
+    from dressmeup.errors import InputError
+    from dressmeup.methods.uvparam import get_method
+    from dressmeup.methods.uvparam.neural.method import PRETRAINED, pretrained_path
+
+    for name in PRETRAINED:
+        assert pretrained_path(name).stat().st_size < 5_000_000      # float16, ~3.5 MB
+    V, F = make_test_mesh("sheet-300")
+    res = get_method("neural", pretrained="category").parameterize(V, F, category="dress")
+    assert res.info["model"] == "dress" and res.info["track"] == "pretrained"
+    assert "seconds_train" not in res.info and np.all(np.isfinite(res.uv))
+    with pytest.raises(InputError, match="pretrained"):
+        get_method("neural", pretrained="hats")
