@@ -43,5 +43,6 @@ DEFAULT_OPTIONS: dict = {
 
 EXTRA_COLUMNS = ("n_charts",)
 
-#: Result column of the independent unit that bootstrap intervals resample: the mesh (one item per mesh).
+#: Result column of the independent unit that bootstrap intervals resample:
+#: the mesh (one item per mesh).
 UNIT_COLUMN = "sample_id"
