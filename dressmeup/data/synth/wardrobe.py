@@ -78,6 +78,7 @@ DEFAULT_EDGE_LENGTH = {"anny": 0.02, "procedural": 0.025}
 BODY_DECIMALS = 9  # body vertices, metres
 TRANSFORM_DECIMALS = 12  # LBS matrices
 STORE_DECIMALS = 6  # stored vertices, metres (1 micrometre)
+POSE_DECIMALS = 9  # stored pose arrays (body.npz), radians
 
 
 def v3_drape_settings() -> DrapeSettings:
@@ -582,8 +583,10 @@ def _write_garment(writer, out: Path, res: dict[str, Any], bar) -> None:
         writer.add_sample(subject_id=sid, garment_id=gid, pose_id=pid,
                           category=res["category"], garment_type=res["garment_type"],
                           split=g["split"], garment=(smp["V"], F, res["uv"], res["uv_faces"]),
+                          # the pose arrays carry anny's float noise (its per-machine first
+                          # build): stored rounded to 1e-9 rad, like the stored coordinates
                           body=BodyParams(model=smp["model"], shape=smp["shape"],
-                                          pose=smp["pose"]),
+                                          pose=quantize(smp["pose"], POSE_DECIMALS)),
                           scan=smp["scan"], texture=res["tex"])
 
 
