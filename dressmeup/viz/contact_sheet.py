@@ -97,7 +97,7 @@ def render_contact_sheet(cells: Sequence[Sequence[MeshLayer] | None], path: str 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from dressmeup.io.atomic import atomic_path
+    from dressmeup.viz.figure import save_png
 
     nrows = max(1, int(np.ceil(len(cells) / ncols)))
     height = cell_size * 1.25 if cell_height is None else cell_height
@@ -111,9 +111,7 @@ def render_contact_sheet(cells: Sequence[Sequence[MeshLayer] | None], path: str 
     if suptitle:
         fig.suptitle(suptitle, fontsize=9)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png")
-    plt.close(fig)
+    save_png(fig, path, dpi=dpi)
 
 
 def _face_colors_from_texture(g) -> np.ndarray | None:

@@ -86,7 +86,7 @@ def _render_two_views(layers, path: Path, right_front, right_side, up, title: st
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from dressmeup.io.atomic import atomic_path
+    from dressmeup.viz.figure import save_png
 
     fig, axes = plt.subplots(1, 2, figsize=(4.8, 3.2))
     draw_cell(axes[0], layers, right_front, up, "front")
@@ -95,6 +95,4 @@ def _render_two_views(layers, path: Path, right_front, right_side, up, title: st
 
     fig.suptitle("\n".join(textwrap.wrap(title, 60)), fontsize=7)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
+    save_png(fig, path, dpi=110)

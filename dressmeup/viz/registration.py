@@ -48,7 +48,7 @@ def render_registration(body_vertices: np.ndarray, body_faces: np.ndarray,
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from dressmeup.io.atomic import atomic_path
+    from dressmeup.viz.figure import save_png
 
     V = np.asarray(body_vertices, dtype=np.float64)
     F = np.asarray(body_faces, dtype=np.int64)
@@ -78,8 +78,4 @@ def render_registration(body_vertices: np.ndarray, body_faces: np.ndarray,
     fig.suptitle("\n".join(textwrap.wrap(title, 90)) if title else
                  "body (grey; red: > 15 mm outside the scan) over the scan (blue)", fontsize=7)
     fig.tight_layout()
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
-    return path
+    return save_png(fig, path, dpi=110)

@@ -102,7 +102,7 @@ def render_error_pair(pred_V: np.ndarray, pred_F: np.ndarray, gt_V: np.ndarray,
     import matplotlib.pyplot as plt
     from matplotlib import cm, colors
 
-    from dressmeup.io.atomic import atomic_path
+    from dressmeup.viz.figure import save_png
 
     pred_V = np.asarray(pred_V, np.float64)
     gt_V = np.asarray(gt_V, np.float64)
@@ -130,12 +130,7 @@ def render_error_pair(pred_V: np.ndarray, pred_F: np.ndarray, gt_V: np.ndarray,
     sub = f"; {n_pen} penetrating faces in red" if penetrating is not None else ""
     if title or sub:
         fig.suptitle(title + sub, fontsize=7.5)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path, suffix=".png") as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return save_png(fig, path, dpi=dpi, tight=True)
 
 
 def render_category_bars(categories: Sequence[str], means: Sequence[float],
@@ -158,7 +153,7 @@ def render_category_bars(categories: Sequence[str], means: Sequence[float],
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from dressmeup.io.atomic import atomic_path
+    from dressmeup.viz.figure import save_png
 
     m = np.asarray(means, np.float64)
     lo = np.array([m[i] - iv[0] if iv else 0.0 for i, iv in enumerate(intervals)])
@@ -177,12 +172,7 @@ def render_category_bars(categories: Sequence[str], means: Sequence[float],
     if title:
         ax.set_title(title, fontsize=8)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path, suffix=".png") as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png")
-    plt.close(fig)
-    return path
+    return save_png(fig, path, dpi=dpi)
 
 
 def render_grouped_bars(groups: Sequence[str], series: dict[str, Sequence[float]],
@@ -205,7 +195,7 @@ def render_grouped_bars(groups: Sequence[str], series: dict[str, Sequence[float]
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from dressmeup.io.atomic import atomic_path
+    from dressmeup.viz.figure import save_png
 
     names = list(series)
     k, n = len(groups), max(len(names), 1)
@@ -233,9 +223,4 @@ def render_grouped_bars(groups: Sequence[str], series: dict[str, Sequence[float]
     if title:
         ax.set_title(title, fontsize=8)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path, suffix=".png") as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return save_png(fig, path, dpi=dpi, tight=True)

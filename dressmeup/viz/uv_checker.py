@@ -83,7 +83,7 @@ def render_uv_checker(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np
     from matplotlib.collections import PolyCollection
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from dressmeup.io.atomic import atomic_path
+    from dressmeup.viz.figure import save_png
 
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
@@ -135,9 +135,4 @@ def render_uv_checker(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path, suffix=".png") as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png")
-    plt.close(fig)
-    return path
+    return save_png(fig, path, dpi=dpi)
