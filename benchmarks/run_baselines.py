@@ -9,6 +9,8 @@ never overwrites anything; this script owns those four files).
     python benchmarks/run_baselines.py --editions synth-uvparam-v1 --methods xatlas lscm
     python benchmarks/run_baselines.py --work /tmp/bench --workers 2
     python benchmarks/run_baselines.py --work /tmp/bench --executor dask --workers 2
+    python benchmarks/run_baselines.py --work W --editions E --methods isomap-refine \
+        --keep-results W/runs/<earlier UTC time>      # re-run one method, keep the others
 
 Data go to ``<work>/data/<edition>`` (reused across runs), submissions and results to
 ``<work>/runs/<UTC time>/``; ``<work>`` defaults to the toolkit cache
@@ -41,6 +43,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--train-steps", type=int, default=300,
                     help="self-supervised training steps of trainable retargeting baselines")
     ap.add_argument("--results", default=str(RESULTS), help="where the tables are rewritten")
+    ap.add_argument("--keep-results", default=None, metavar="RUN",
+                    help="with --methods: the tables also show the other methods' results from an "
+                         "earlier run folder RUN (RUN/results/<edition>/<method>), unchanged")
     args = ap.parse_args(argv)
 
     executor = executor_from_args(args)
@@ -77,6 +82,7 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
             continue
         results = runs.score_many(subs, ed, data, run / "results" / ed.name,
                                   executor=executor, log=log)
+        results += _kept_results(args.keep_results, ed.name, {r.name for r in results}, log)
         out = Path(args.results)
         out.mkdir(parents=True, exist_ok=True)
         for fmt, ext in (("md", "md"), ("csv", "csv"), ("latex", "tex"), ("html", "html")):
@@ -85,6 +91,18 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
         log(f"{ed.name}: rewrote {out}/{ed.name}.{{md,csv,tex,html}} "
             f"({time.perf_counter() - t0:.0f} s; run folder {run})")
     return 0
+
+
+def _kept_results(keep: str | None, edition: str, fresh: set[str], log) -> list[Path]:
+    """Result folders of methods not re-run, from the earlier run folder ``keep``."""
+    if not keep:
+        return []
+    root = Path(keep) / "results" / edition
+    if not root.is_dir():
+        raise SystemExit(f"--keep-results {keep}: no folder {root}")
+    kept = sorted(p for p in root.iterdir() if (p / "summary.json").is_file() and p.name not in fresh)
+    log(f"kept from {root}: {[p.name for p in kept]}")
+    return kept
 
 
 if __name__ == "__main__":

@@ -26,44 +26,54 @@ PRESETS = {"thesis": dict(width=512, depth=6, code_dim=128, pointnet_hidden=128)
            "fast": dict(width=256, depth=6, code_dim=64, pointnet_hidden=64)}
 
 
-def _garment_key(plan: dict, gid: str) -> str:
-    import json
-
-    g = plan["garments"][gid]
-    return json.dumps([plan["subjects"][g["subject"]]["shape"], g["type"], g["params"]],
-                      sort_keys=True)
-
-
-def _check_no_test_garments(ds, split: str, exclude: list[str]) -> None:
-    """Refuse to train on a garment that is a test garment of a shipped edition."""
-    from dressmeup.bench import load_edition
-    from dressmeup.bench.edition import list_editions
+def _plan(params: dict, seed: int) -> dict:
+    """The generator's plan of a dataset (garment ids -> type, params, split); 1.x and 2.x."""
     from dressmeup.data.splits import split_by_garment
     from dressmeup.data.synth.garments import garment_types
     from dressmeup.data.synth.generate import plan_dataset
+    from dressmeup.data.synth.wardrobe import plan_v3
+
+    q = {"subjects": 3, "garments": 4, "poses": 5, **params}
+    if str(q.get("version", "1")).startswith("2."):
+        plan = plan_v3(q["subjects"], q["poses"], tuple(q["garments_per_split"]), seed, q.get("categories"))
+        return {g: {"key": json.dumps([v["type"], v["params"]], sort_keys=True), "split": v["split"]}
+                for g, v in plan["garments"].items()}
+    types = sorted(q.get("types") or garment_types())
+    plan = plan_dataset(q["subjects"], q["garments"], q["poses"], seed, types, None, None)
+    cats = {g: v["category"] for g, v in plan["garments"].items()}
+    splits = split_by_garment(list(cats), q.get("split_fractions", (0.6, 0.2, 0.2)), seed=seed,
+                              categories=cats, strategy=q.get("split_strategy", "stratified"))
+    return {g: {"key": json.dumps([plan["subjects"][v["subject"]]["shape"], v["type"], v["params"]],
+                                  sort_keys=True), "split": splits[g]}
+            for g, v in plan["garments"].items()}
+
+
+def _check_no_test_garments(ds, split: str, exclude: list[str]) -> None:
+    """Refuse to train on a garment that is a test garment of a shipped edition.
+
+    Garments are recognised by the generator's design (type and parameters; v1 also the
+    subject's shape), not by id, so a garment is found across dataset sizes: in generator 2.x
+    the k-th garment of a category draws its parameters from ``[seed, 3, category, k]`` with the
+    test garments first, so the mini/tiny editions' test garments are the full edition's.
+    """
+    from dressmeup.bench import load_edition
+    from dressmeup.bench.edition import list_editions
 
     gen = ds.info["generator"]
-    p = gen["params"]
-    plan = plan_dataset(p["subjects"], p["garments"], p["poses"], gen["seed"], p["types"], None, None)
+    mine = _plan(gen["params"], gen["seed"])
     used = {g for g, v in ds.info["garments"].items() if v["split"] == split} - set(exclude)
-    used_keys = {_garment_key(plan, g): g for g in used}
+    used_keys = {mine[g]["key"]: g for g in used}
     checked = []
     for name in list_editions():
         ed = load_edition(name)
         pin = ed.dataset
-        if (pin.kind != "generated" or pin.generator != gen["name"]
-                or pin.generator_version != str(gen["version"]) or pin.seed != gen["seed"]):
+        if pin.kind != "generated" or pin.generator != gen["name"] or pin.seed != gen["seed"]:
             continue
-        q = {"subjects": 3, "garments": 4, "poses": 5, **pin.params}
-        types = sorted(q.get("types") or garment_types())
-        eplan = plan_dataset(q["subjects"], q["garments"], q["poses"], pin.seed, types, None, None)
-        cats = {g: v["category"] for g, v in eplan["garments"].items()}
-        splits = split_by_garment(list(cats), q.get("split_fractions", (0.6, 0.2, 0.2)),
-                                  seed=pin.seed, categories=cats,
-                                  strategy=q.get("split_strategy", "stratified"))
-        for g, s in splits.items():
-            if s == ed.split and _garment_key(eplan, g) in used_keys:
-                raise SystemExit(f"training garment {used_keys[_garment_key(eplan, g)]} is test "
+        if str(pin.generator_version).split(".")[0] != str(gen["version"]).split(".")[0]:
+            continue
+        for g, rec in _plan(pin.params, pin.seed).items():
+            if rec["split"] == ed.split and rec["key"] in used_keys:
+                raise SystemExit(f"training garment {used_keys[rec['key']]} is test "
                                  f"garment {g} of edition {name}: exclude it")
         checked.append(name)
     print(f"training garments {sorted(used)}: none is a test garment of {checked}")  # noqa: T201
@@ -84,6 +94,7 @@ def main() -> None:
     ap.add_argument("--exclude-garments", default="", help="comma-separated garment ids")
     ap.add_argument("--steps", type=int, default=5000, help="upper bound; the wall budget usually stops first")
     ap.add_argument("--wall-minutes", type=float, default=38.0)
+    ap.add_argument("--max-triplets", type=int, default=0, help="cap on training pairs (0: all)")
     ap.add_argument("--max-val", type=int, default=12)
     ap.add_argument("--val-every", type=int, default=40)
     ap.add_argument("--threads", type=int, default=1)
@@ -95,7 +106,8 @@ def main() -> None:
     _check_no_test_garments(Dataset(args.data), args.split, exclude)
     t = time.perf_counter()
     info = train_from_dataset(args.data, args.out, method=args.method, params=PRESETS[args.preset],
-                              split=args.split, steps=args.steps, max_val=args.max_val, seed=args.seed,
+                              split=args.split, steps=args.steps, max_triplets=args.max_triplets or None,
+                              max_val=args.max_val, seed=args.seed,
                               wall_minutes=args.wall_minutes, val_every=args.val_every, half=True,
                               curves=args.curves, exclude_garments=exclude,
                               callback=lambda s, total, terms: print(  # noqa: T201

@@ -65,14 +65,23 @@ class PenetrationPost(RetargetMethod):
     inside_weight : float
         Anchor weight of penetrating vertices (demo: 2).
     iterations : int
+        Maximum number of solves.
+    faces : bool
+        Also push out faces whose centroid is inside (what IR counts).
+    project : bool
+        Finally move whatever is still inside straight to its target.
+        ``faces=False, project=False`` is the first release's post-process.
     """
 
     name = "penetration"
 
-    def __init__(self, margin: float = 0.005, inside_weight: float = 2.0, iterations: int = 3) -> None:
+    def __init__(self, margin: float = 0.005, inside_weight: float = 2.0, iterations: int = 3,
+                 faces: bool = True, project: bool = True) -> None:
         self.margin = margin
         self.inside_weight = inside_weight
         self.iterations = iterations
+        self.faces = faces
+        self.project = project
 
     def apply(self, garment_V, garment_F, retargeted_V, source, target, body_model) -> np.ndarray:
         """Return the (n, 3) float64 garment with penetrations resolved."""
@@ -80,7 +89,8 @@ class PenetrationPost(RetargetMethod):
 
         t = body_context(body_model, target)
         return resolve_penetration(retargeted_V, garment_F, t.skin_vertices, t.skin_faces, margin=self.margin,
-                                   inside_weight=self.inside_weight, iterations=self.iterations)
+                                   inside_weight=self.inside_weight, iterations=self.iterations,
+                                   faces=self.faces, project=self.project)
 
 
 class Pipeline(RetargetMethod):
