@@ -55,9 +55,14 @@ def main() -> None:
     ap.add_argument("--pairs-per-garment", type=int, default=0, help="seeded choice per garment (0: all)")
     ap.add_argument("--n-samples", type=int, default=20000)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--versus", nargs="+", default=None,
+                    help="paired differences to each of these methods (default: the first of --methods)")
     ap.add_argument("--title", default="Retargeting variants")
     ap.add_argument("--out", required=True)
     args = ap.parse_args()
+    missing = [m for m in args.versus or [] if m not in args.methods]
+    if missing:
+        raise SystemExit(f"--versus {missing}: not among --methods")
     torch.set_num_threads(1)
 
     ds = Dataset(args.data)
@@ -122,29 +127,29 @@ def main() -> None:
             lines.append(f"| {spec} | {ty} | {1000 * mean['p2s']:.2f} | {1000 * mean['ed']:.2f} | "
                          f"{mean['nc']:.4f} | {100 * mean['ir']:.2f} |")
     n_g = len({r["garment"] for r in rows})
-    lines += ["", f"Means over all pairs with 95 % cluster-bootstrap intervals over the {n_g} source garments "
-              "(`dressmeup.bench.intervals`), and the paired difference to the first method "
-              "(`Sep.`: its interval excludes 0).", "",
-              "| method | P2S ↓ [mm] | NC ↑ | IR ↓ [%] | ΔP2S vs first [mm] | Sep. | ΔNC vs first | Sep. |",
-              "|---|---|---|---|---|:-:|---|:-:|"]
-    first = args.methods[0]
-    ref = {r["pair"]: r for r in rows if r["method"] == first}
 
     def ci(vals, units, scale, fmt):
         iv = bootstrap_mean(vals, units)
         return "-" if iv is None else f"{scale * iv.mean:{fmt}} [{scale * iv.lo:{fmt}}, {scale * iv.hi:{fmt}}]"
 
-    for spec in args.methods:
-        sel = [r for r in rows if r["method"] == spec]
-        units = [r["garment"] for r in sel]
-        cells = [ci([r[m] for r in sel], units, sc, f) for m, sc, f in (("p2s", 1000, ".2f"), ("nc", 1, ".4f"),
-                                                                        ("ir", 100, ".2f"))]
-        diffs = []
-        for m, sc, f in (("p2s", 1000, ".2f"), ("nc", 1, ".4f")):
-            d = paired_difference([r[m] for r in sel], [ref[r["pair"]][m] for r in sel], units)
-            diffs += ["-", ""] if d is None or spec == first else [
-                f"{sc * d.diff:+{f}} [{sc * d.lo:+{f}}, {sc * d.hi:+{f}}]", "yes" if d.separated else "no"]
-        lines.append(f"| {spec} | " + " | ".join(cells + diffs) + " |")
+    for first in args.versus or args.methods[:1]:
+        lines += ["", f"Means over all pairs with 95 % cluster-bootstrap intervals over the {n_g} source garments "
+                  f"(`dressmeup.bench.intervals`), and the paired difference to `{first}` "
+                  "(`Sep.`: its interval excludes 0).", "",
+                  f"| method | P2S ↓ [mm] | NC ↑ | IR ↓ [%] | ΔP2S vs {first} [mm] | Sep. | ΔNC vs {first} | Sep. |",
+                  "|---|---|---|---|---|:-:|---|:-:|"]
+        ref = {r["pair"]: r for r in rows if r["method"] == first}
+        for spec in args.methods:
+            sel = [r for r in rows if r["method"] == spec]
+            units = [r["garment"] for r in sel]
+            cells = [ci([r[m] for r in sel], units, sc, f)
+                     for m, sc, f in (("p2s", 1000, ".2f"), ("nc", 1, ".4f"), ("ir", 100, ".2f"))]
+            diffs = []
+            for m, sc, f in (("p2s", 1000, ".2f"), ("nc", 1, ".4f")):
+                d = paired_difference([r[m] for r in sel], [ref[r["pair"]][m] for r in sel], units)
+                diffs += ["-", ""] if d is None or spec == first else [
+                    f"{sc * d.diff:+{f}} [{sc * d.lo:+{f}}, {sc * d.hi:+{f}}]", "yes" if d.separated else "no"]
+            lines.append(f"| {spec} | " + " | ".join(cells + diffs) + " |")
     text = "\n".join(lines) + "\n"
     print(text)  # noqa: T201
     out = Path(args.out)
