@@ -132,16 +132,22 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                      version: str = GENERATOR_VERSION,
                      garments_per_split: tuple[int, int, int] | list[int] | None = None,
                      categories: list[str] | None = None, pose_steps: int = 3,
-                     workers: int = 1, executor: Any = None) -> Path:
+                     workers: int = 1, executor: Any = None, pose_set: str = "generator",
+                     wear: str = "all", scan_body: str = "whole") -> Path:
     """Generate (or resume) the synthetic dataset in ``out``.
 
     ``version="2.0.0"`` runs generator 2.0.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
     every garment worn by every subject, identical poses; it reads ``subjects``, ``poses``,
     ``seed``, ``body_model``, ``edge_length``, ``write_scan``, ``texture_size``,
-    ``drape_settings``, ``garments_per_split``, ``categories``, ``pose_steps`` and ``workers``
+    ``drape_settings``, ``garments_per_split``, ``categories``, ``pose_steps``, ``pose_set``
+    (library pose set: ``generator``, ``registration`` or ``all``), ``wear`` (``all`` or
+    ``rotate``: one garment per subject and pose), ``scan_body`` (``whole`` or ``uncovered``:
+    the body under the garment left out of the scan) and ``workers``
     (processes; the output does not depend on it) or ``executor`` (one job per garment on a
     :mod:`dressmeup.executors` executor, e.g. Dask; same output)); any other version runs
-    generator 1.1.0 below (the ``*-v2`` editions' data), which ignores the last five.
+    generator 1.1.0 below (the ``*-v2`` editions' data), which ignores ``garments_per_split``,
+    ``categories``, ``pose_steps``, ``workers`` and ``executor`` and refuses a ``pose_set``,
+    ``wear`` or ``scan_body`` other than the default.
 
     Parameters
     ----------
@@ -178,9 +184,14 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                            edge_length=edge_length, write_scan=write_scan,
                            texture_size=texture_size, pose_steps=pose_steps,
                            drape_settings=drape_settings, workers=workers,
+                           pose_set=pose_set, wear=wear, scan_body=scan_body,
                            **({"executor": executor} if executor is not None else {}))
     if version != GENERATOR_VERSION:
         raise InputError(f"version: expected {GENERATOR_VERSION!r} or '2.0.0', got {version!r}")
+    if (pose_set, wear, scan_body) != ("generator", "all", "whole"):
+        raise InputError(f"pose_set={pose_set!r}, wear={wear!r}, scan_body={scan_body!r}: "
+                         f"generator {GENERATOR_VERSION} draws generator poses for every "
+                         f"garment and writes whole-body scans; use version='2.0.0'")
     for v, n in ((subjects, "subjects"), (garments, "garments"), (poses, "poses")):
         if not isinstance(v, (int, np.integer)) or v < 1:
             raise InputError(f"{n}: expected a positive integer, got {v!r}")

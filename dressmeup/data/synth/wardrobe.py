@@ -50,6 +50,7 @@ import numpy as np
 from dressmeup.data.synth.drape import DrapeSettings, drape
 from dressmeup.data.synth.garments import BodyFrame, build_garment, sample_params
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
+from dressmeup.data.synth.scans import SCAN_BODY, clothed_scan
 
 log = logging.getLogger(__name__)
 
@@ -74,6 +75,10 @@ SUBJECTS: tuple[tuple[str, tuple[float, ...]], ...] = (
 #: that even two or three poses load both (sitting is the hardest for skirts and dresses).
 POSE_ORDER = ("sitting", "arms-raised", "walking", "one-arm-up", "bent-knees", "arms-forward",
               "twist-side", "bent-elbows", "a-pose", "arms-down")
+#: pose sets of the library a plan may draw from (:func:`dressmeup.data.synth.poses.pose_names`)
+POSE_SETS = ("generator", "registration", "all")
+#: who wears what (:func:`plan_v3`): every garment on everyone, or one garment per sample
+WEAR_MODES = ("all", "rotate")
 DEFAULT_EDGE_LENGTH = {"anny": 0.02, "procedural": 0.025}
 BODY_DECIMALS = 9  # body vertices, metres
 TRANSFORM_DECIMALS = 12  # LBS matrices
@@ -152,18 +157,32 @@ def quantize(a: np.ndarray, decimals: int) -> np.ndarray:
 
 
 def plan_v3(subjects: int, poses: int, garments_per_split: tuple[int, int, int], seed: int,
-            categories: list[str] | None = None) -> dict[str, Any]:
+            categories: list[str] | None = None, pose_set: str = "generator",
+            wear: str = "all") -> dict[str, Any]:
     """Deterministic plan: subjects, pose names, garments (type, parameters, split, designer).
 
     Parameters
     ----------
     subjects : number of subjects (1 .. len(SUBJECTS)).
-    poses : number of poses (1 .. library size), the same for every subject.
+    poses : number of poses (1 .. size of the pose set), the same for every subject.
     garments_per_split : (train, val, test) garments per category.
     seed : random seed (garment parameters, textures).
     categories : categories to make (default all of :data:`CATEGORY_TYPES`).
+    pose_set : library pose set the poses come from (:data:`POSE_SETS`): ``"generator"``
+        (default), ``"registration"`` (the registration benchmark's hard poses) or ``"all"``;
+        generator poses come in the order :data:`POSE_ORDER`, the others in library order.
+    wear : ``"all"`` (default: every garment on every subject in every pose) or
+        ``"rotate"``: each (subject, pose) wears one garment, subject ``i`` in pose ``k``
+        garment ``(i + k) mod n_garments`` of the categories taken in turns (the first
+        garment of each category, then the second, ...), listed per garment under
+        ``"wearers"``: with as many garments as poses every subject wears each garment
+        once, and any ``n_categories`` consecutive subjects in one pose wear every category.
     """
-    names = pose_names()
+    if pose_set not in POSE_SETS:
+        raise ValueError(f"pose_set: expected one of {POSE_SETS}, got {pose_set!r}")
+    if wear not in WEAR_MODES:
+        raise ValueError(f"wear: expected one of {WEAR_MODES}, got {wear!r}")
+    names = pose_names(pose_set)
     if not 1 <= subjects <= len(SUBJECTS):
         raise ValueError(f"subjects: expected 1..{len(SUBJECTS)}, got {subjects!r}")
     if not 1 <= poses <= len(names):
@@ -176,6 +195,7 @@ def plan_v3(subjects: int, poses: int, garments_per_split: tuple[int, int, int],
     if min(n_train, n_val, n_test) < 0 or n_train + n_val + n_test < 1:
         raise ValueError(f"garments_per_split: expected non-negative counts, got "
                          f"{garments_per_split!r}")
+    # generator poses in POSE_ORDER, then the others (the registration set) in library order
     order = [n for n in POSE_ORDER if n in names] + [n for n in names if n not in POSE_ORDER]
     plan: dict[str, Any] = {
         "subjects": {f"S{i + 1:02d}": {"name": SUBJECTS[i][0], "shape": list(SUBJECTS[i][1])}
@@ -196,7 +216,32 @@ def plan_v3(subjects: int, poses: int, garments_per_split: tuple[int, int, int],
             plan["garments"][f"G{g:02d}"] = {"type": gtype, "category": cat, "split": split,
                                              "design_subject": sids[(g - 1) % len(sids)],
                                              "params": params}
+    if wear == "rotate":
+        pids = list(plan["poses"])
+        nth: dict[str, int] = {}  # rank of a garment within its category
+        seen: dict[str, int] = {}
+        for gid, g in plan["garments"].items():
+            nth[gid] = seen.get(g["category"], 0)
+            seen[g["category"]] = nth[gid] + 1
+        gids = sorted(plan["garments"], key=lambda gid: (nth[gid], gid))
+        for gid in gids:
+            plan["garments"][gid]["wearers"] = []
+        for i, sid in enumerate(sids):
+            for k, pid in enumerate(pids):
+                plan["garments"][gids[(i + k) % len(gids)]]["wearers"].append([sid, pid])
+        idle = [gid for gid in gids if not plan["garments"][gid]["wearers"]]
+        if idle:
+            raise ValueError(f"wear='rotate': garments {idle} are worn by no (subject, pose): "
+                             f"{len(gids)} garments for {len(sids) * len(pids)} samples")
     return plan
+
+
+def wearers(plan: dict[str, Any], gid: str) -> list[tuple[str, str]]:
+    """The (subject id, pose id) samples garment ``gid`` of ``plan`` is draped in."""
+    g = plan["garments"][gid]
+    if "wearers" in g:
+        return [(s, p) for s, p in g["wearers"]]
+    return [(s, p) for s in plan["subjects"] for p in plan["poses"]]
 
 
 def transfer_to_body(points: np.ndarray, from_V: np.ndarray, to_V: np.ndarray,
@@ -308,13 +353,26 @@ class PoseDraper:
         return res, body_V
 
 
+#: generator parameters recorded in ``dataset.json`` only when they differ from these
+#: defaults (added after the first pinned 2.0.0 datasets, whose bytes must not change)
+OPTIONAL_PARAMS = {"pose_set": "generator", "wear": "all", "scan_body": "whole"}
+
+
+def generator_params(**params: Any) -> dict[str, Any]:
+    """``dataset.json``'s generator parameters: ``version`` first, then ``params`` in the
+    given order, leaving out :data:`OPTIONAL_PARAMS` that have their default value."""
+    return {"version": VERSION, **{k: v for k, v in params.items()
+                                   if k not in OPTIONAL_PARAMS or v != OPTIONAL_PARAMS[k]}}
+
+
 def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
                 garments_per_split: tuple[int, int, int] | list[int] = (6, 2, 4), seed: int = 0,
                 body_model: str = "anny", categories: list[str] | None = None,
                 edge_length: float | None = None, write_scan: bool = True,
                 texture_size: int = 256, pose_steps: int = 3,
                 drape_settings: DrapeSettings | None = None, workers: int = 1,
-                executor: Any = None) -> Path:
+                executor: Any = None, pose_set: str = "generator", wear: str = "all",
+                scan_body: str = "whole") -> Path:
     """Generate (or resume) a generator-2.0.0 dataset in ``out`` (see the module docstring).
 
     Parameters
@@ -338,6 +396,15 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     executor : instead, a :mod:`dressmeup.executors` executor running one job per garment
         (:class:`GarmentJob`): a Dask one starts its workers with :data:`CANONICAL_ENV`; a
         ``LocalExecutor`` means the spawned pool above with its number of workers.
+    pose_set : library pose set the poses come from (``"generator"``, ``"registration"``,
+        ``"all"``; see :func:`plan_v3`).
+    wear : ``"all"`` (every garment on every subject in every pose) or ``"rotate"`` (one
+        garment per subject and pose, rotating; see :func:`plan_v3`).
+    scan_body : ``"whole"`` (the entire body mesh in ``scan.ply``, also under the garment) or
+        ``"uncovered"`` (the body faces under the garment left out, as a scanner sees a
+        clothed person; :mod:`dressmeup.data.synth.scans`).
+    These three are recorded in ``dataset.json``'s generator parameters only when not the default,
+    so datasets made before they existed keep their bytes and manifest.
 
     Returns
     -------
@@ -351,14 +418,15 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     gps = tuple(int(x) for x in garments_per_split)
     if len(gps) != 3:
         raise ValueError(f"garments_per_split: expected (train, val, test), got {gps!r}")
-    plan = plan_v3(subjects, poses, gps, seed, categories)
+    plan = plan_v3(subjects, poses, gps, seed, categories, pose_set=pose_set, wear=wear)
     edge = float(edge_length or DEFAULT_EDGE_LENGTH.get(body_model, 0.02))
     settings = drape_settings or v3_drape_settings()
-    params = {"version": VERSION, "subjects": subjects, "poses": poses,
-              "garments_per_split": list(gps), "seed": seed, "body_model": body_model,
-              "categories": list(categories or CATEGORY_TYPES), "edge_length": edge,
-              "write_scan": write_scan, "texture_size": texture_size, "pose_steps": pose_steps,
-              "drape": settings.to_dict()}
+    params = generator_params(subjects=subjects, poses=poses, garments_per_split=list(gps),
+                              seed=seed, body_model=body_model,
+                              categories=list(categories or CATEGORY_TYPES), edge_length=edge,
+                              write_scan=write_scan, texture_size=texture_size,
+                              pose_steps=pose_steps, drape=settings.to_dict(),
+                              pose_set=pose_set, wear=wear, scan_body=scan_body)
     info = {
         "name": "dressmeup-synthetic",
         "version": VERSION,
@@ -380,19 +448,22 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     cpu_start = time.process_time()
     out = Path(out)
     writer = DatasetWriter(out, info)
-    sids, pids = list(plan["subjects"]), list(plan["poses"])
-    total = len(plan["garments"]) * len(sids) * len(pids)
+    total = sum(len(wearers(plan, gid)) for gid in plan["garments"])
     bar = progress(range(total), desc="synth v3", total=total)
     todo = []
     # test garments first (a long run gives the benchmark's data first), then train, then val
     rank = {"test": 0, "train": 1, "val": 2}
     for gid, g in sorted(plan["garments"].items(), key=lambda kv: (rank[kv[1]["split"]], kv[0])):
-        missing = [(s, p) for s in sids for p in pids if not writer.has_sample(f"{s}-{gid}-{p}")]
-        for _ in range(len(sids) * len(pids) - len(missing)):
+        worn = wearers(plan, gid)
+        missing = [(s, p) for s, p in worn if not writer.has_sample(f"{s}-{gid}-{p}")]
+        for _ in range(len(worn) - len(missing)):
             next(bar, None)
         if missing:
             todo.append((gid, g, missing))
-    setup = (body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan)
+    if scan_body not in SCAN_BODY:
+        raise ValueError(f"scan_body: expected one of {SCAN_BODY}, got {scan_body!r}")
+    setup = (body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan,
+             scan_body)
     if isinstance(executor, LocalExecutor):
         # its one-worker mode runs jobs in THIS process, whose libraries did not load with
         # CANONICAL_ENV: the spawned pool below (same size) always starts fresh workers
@@ -423,10 +494,11 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
 _STATE: dict[str, Any] = {}
 
 
-def _setup(body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan):
+def _setup(body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan,
+           scan_body="whole"):
     """Load the body model, the subjects' rest bodies and the pose arrays (once a process)."""
     key = json.dumps([body_model, plan, edge, settings.to_dict(), pose_steps, seed,
-                      texture_size, write_scan], sort_keys=True, default=str)
+                      texture_size, write_scan, scan_body], sort_keys=True, default=str)
     if _STATE.get("key") == key:
         return
     from dressmeup.body import BodyParams, get_body_model
@@ -448,7 +520,7 @@ def _setup(body_model, plan, edge, settings, pose_steps, seed, texture_size, wri
                   poses={pid: pose_axis_angle(name, names, frame0, rng=None)
                          for pid, name in plan["poses"].items()},
                   edge=edge, settings=settings, pose_steps=pose_steps, seed=seed,
-                  texture_size=texture_size, write_scan=write_scan)
+                  texture_size=texture_size, write_scan=write_scan, scan_body=scan_body)
 
 
 class GarmentJob:
@@ -549,8 +621,7 @@ def _garment_job(job) -> dict[str, Any]:
 
                 BV = quantize(model.posed(BodyParams(model=model.name, shape=body.shape,
                                                pose=pose)).vertices, STORE_DECIMALS)
-                scan = (np.vstack([BV, Vd]),
-                        np.vstack([np.asarray(model.faces, np.int64), F + len(BV)]))
+                scan = clothed_scan(BV, model.faces, Vd, F, S["scan_body"])
             drape_cpu = time.process_time() - t0
             st = {**out.stats, **drape_stats(Vd, F, V0, body_V, skin_F), **fit_stats,
                   "pose": pid, "garment_type": g["type"],
