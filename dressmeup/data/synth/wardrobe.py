@@ -176,7 +176,8 @@ def plan_v3(subjects: int, poses: int, garments_per_split: tuple[int, int, int],
         garment ``(i + k) mod n_garments`` of the categories taken in turns (the first
         garment of each category, then the second, ...), listed per garment under
         ``"wearers"``: with as many garments as poses every subject wears each garment
-        once, and any ``n_categories`` consecutive subjects in one pose wear every category.
+        once, and (with as many garments in every category) any ``n_categories``
+        consecutive subjects in one pose wear every category.
     """
     if pose_set not in POSE_SETS:
         raise ValueError(f"pose_set: expected one of {POSE_SETS}, got {pose_set!r}")
