@@ -89,6 +89,39 @@ def test_edition_plan_one_garment_per_sample():
         assert {cat[g] for _, p, g in samples if p == pid} == set(cat.values())
 
 
+def test_registration_poses_keep_the_arms_out_of_the_body():
+    """Anny in the hard poses: (almost) no face of a forearm or hand intersects the body (the
+    first arms-crossed put the forearms through the belly: 400-570 such faces; sitting-box the
+    hands into the thighs: 290-1000). The slim tall woman and the heavy short man."""
+    import pymeshlab
+
+    from dressmeup.body import BodyParams, get_body_model
+    from dressmeup.data.synth.garments import BodyFrame
+    from dressmeup.data.synth.poses import pose_axis_angle
+    from dressmeup.data.synth.wardrobe import SUBJECTS
+
+    model = get_body_model("anny")
+    keep, F = model.skin()
+    names = tuple(model.joint_names)
+    label = np.array(names)[np.asarray(model.skinning_weights)[keep].argmax(1)]
+    arm = np.array([n.startswith(("left_", "right_")) and not any(
+        k in n for k in ("hip", "knee", "ankle", "foot", "toe", "shoulder", "clav", "eye",
+                         "breast")) for n in label])
+    arm_face = arm[F].any(1)
+    frame = BodyFrame.from_joints(model.posed(model.default_params()).rest_joints, names)
+    worst = {}
+    for name in ("sitting-box", "arms-crossed"):
+        pose = pose_axis_angle(name, names, frame, rng=None)
+        for _, shape in SUBJECTS[:2]:
+            V = model.posed(BodyParams(model="anny", shape=np.array(shape), pose=pose)).vertices
+            ms = pymeshlab.MeshSet()
+            ms.add_mesh(pymeshlab.Mesh(np.asarray(V)[keep], F.astype(np.int32)))
+            ms.compute_selection_by_self_intersections_per_face()
+            hit = ms.current_mesh().face_selection_array() & arm_face
+            worst[name] = max(worst.get(name, 0), int(hit.sum()))
+    assert max(worst.values()) <= 50, worst
+
+
 def test_generator_1_refuses_the_new_parameters(tmp_path):
     from dressmeup.data.synth import generate_dataset
 
