@@ -5,8 +5,9 @@
 axis-angle pose, translation and shape (``scale`` stays fixed, 1 by default):
 
 0. **initialisation** (:mod:`.init`): the multi-hypothesis search (canonical poses of
-   :mod:`.hypotheses` x yaw, ranked by a symmetric distance) or, with keypoints (given, or
-   detected on renders of the scan by :mod:`.keypoints`), the canonical pose that fits them;
+   :mod:`.hypotheses` x yaw, ranked by a symmetric distance) followed by a limb-wise
+   search (:mod:`.limbs`) or, with keypoints (given, or detected on renders of the scan by
+   :mod:`.keypoints`), the canonical pose that fits them;
 1. **global**: root orientation and translation, fitting the torso, hips and head;
 2. **pose**: all joint rotations and translation, shape at half rate;
 3. **shape**: shape, pose and translation together.
@@ -20,7 +21,8 @@ joints. Registrars are looked up by name (:func:`get_registrar`): ``optimization
 
 Modules: :mod:`.scan` (inputs), :mod:`.terms` (cost functions and constants),
 :mod:`.problem` (parameters + objective), :mod:`.stages` (optimiser loops), :mod:`.init`
-and :mod:`.hypotheses` (starting poses), :mod:`.keypoints` (3D keypoints from a scan,
+and :mod:`.hypotheses` (starting poses), :mod:`.limbs` (limb-wise search after the start),
+:mod:`.keypoints` (3D keypoints from a scan,
 optional ``[keypoints]`` extra), :mod:`.metrics` (fit quality without ground truth),
 :mod:`.optimizer` (the registrar).
 """

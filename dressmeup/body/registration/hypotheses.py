@@ -30,7 +30,7 @@ CANONICAL_POSES: dict[str, dict] = {
 DEFAULT_HYPOTHESES: tuple[str, ...] = tuple(CANONICAL_POSES)
 
 
-def _align(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def align_directions(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Axis-angle (3,) of the shortest rotation turning direction ``a`` onto ``b``."""
     a = a / np.linalg.norm(a)
     b = b / np.linalg.norm(b)
@@ -76,7 +76,7 @@ def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarra
                 target = np.asarray(spec[key], dtype=np.float64) * (sx, 1.0, 1.0)
                 if key == "arm":  # the target is in the world: undo the trunk's rotation
                     target = trunk.inv().apply(target)
-                pose[r] = _align(J[c] - J[r], target)
+                pose[r] = align_directions(J[c] - J[r], target)
         k = idx(f"{side}_knee")
         if k is not None and spec.get("knee"):
             pose[k] = (np.deg2rad(spec["knee"]), 0.0, 0.0)

@@ -325,7 +325,8 @@ def detect_keypoints(scan, model, n_views: int = 8, model_complexity: int = 1,
     scan : ``(V, F)`` mesh, trimesh, or ``(p, 3)`` points in metres.
     model : the body model whose joint order the result follows.
     n_views : virtual cameras around the scan.
-    model_complexity : mediapipe pose model (0 lite, 1 full; the wheel ships both).
+    model_complexity : mediapipe pose model (1 full: shipped in the 0.10.14 wheel; 0 lite
+        and 2 heavy are downloaded at first use, so they fail offline).
     """
     if hasattr(scan, "vertices") and hasattr(scan, "faces"):
         scan = (np.asarray(scan.vertices), np.asarray(scan.faces))

@@ -14,8 +14,10 @@ from dressmeup.body.registration.init import (
     hypothesis_search,
     keypoint_start,
     place_on_scan,
+    symmetric_score,
     yaw_search,
 )
+from dressmeup.body.registration.limbs import limb_search
 from dressmeup.body.registration.problem import FitProblem
 from dressmeup.body.registration.scan import keypoint_arrays, prepare_scan
 from dressmeup.body.registration.stages import run_adam, run_lbfgs
@@ -53,6 +55,9 @@ class OptimizationRegistrar:
         (None: inside residuals always saturate, as before).
     hand_weight : data weight of hand vertices (skinned to the wrists); < 1 keeps the many
         hand vertices from pulling the arm.
+    skip_unseen : leave out body -> scan pairs whose scan point lies on a surface of the body
+        facing the other way (the scan did not see that part: a missing side, a hole);
+        without it such points are pulled through the body onto the far side's scan.
     pose_prior_weight, limit_weight, shape_weight, keypoint_weight : prior weights.
     n_scan_points, n_body_points : points used by the data term.
     correspondence_every : recompute scan-to-body nearest neighbours every this many steps.
@@ -65,10 +70,14 @@ class OptimizationRegistrar:
         whole body, the ``hypothesis_keep`` best the third as a short pose stage.
     hypothesis_keep, hypothesis_yaws : hypotheses refined, yaws kept after the yaw search.
     yaw_candidates : yaws tried by the hypothesis search's yaw stage (evenly spaced).
+    limb_search : after the hypothesis search, try other directions for each arm and leg
+        (:mod:`.limbs`) and keep them if the settled body fits the scan better (the
+        pose stage of that check has the hypotheses' pose-step count).
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
-        ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (keypoints when the extra
-        is installed, else hypotheses). Keypoints passed to :meth:`fit` always start the fit.
+        ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (with the extra both
+        starts run and the one with the lower symmetric score goes on; without it the
+        hypotheses). Keypoints passed to :meth:`fit` always start the fit.
     keypoint_refine_weight : keypoint weight after the start when the keypoints were
         detected on the scan (detectors place joints a few cm off the skeleton's).
     optimize_scale : also fit the uniform ``scale`` (else the result has ``scale = 1``).
@@ -87,6 +96,7 @@ class OptimizationRegistrar:
     point_weight: float = 0.3
     cloth_max: float | None = 0.06
     hand_weight: float = 1.0
+    skip_unseen: bool = True
     pose_prior_weight: float = 1e-2
     limit_weight: float = 1e-2
     shape_weight: float = 1e-4
@@ -106,6 +116,7 @@ class OptimizationRegistrar:
     hypothesis_keep: int = 3
     hypothesis_yaws: int = 3
     yaw_candidates: int = 8
+    limb_search: bool = True
     init_route: str = "hypotheses"
     keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
@@ -143,16 +154,49 @@ class OptimizationRegistrar:
             return keypoint_start(problem, self.hypotheses or ("a-pose",), self.hypothesis_steps[2],
                                   self.lr_pose, self.lr_transl, size, verbose=self.verbose)
         if self.hypotheses:
-            n_yaw, n_rigid, n_pose = self.hypothesis_steps
-            return hypothesis_search(problem, self.hypotheses, n_yaw, n_rigid, n_pose,
-                                     self.hypothesis_keep, self.hypothesis_yaws, self.lr_pose,
-                                     self.lr_transl, size, verbose=self.verbose,
-                                     yaw_candidates=self.yaw_candidates)
+            return self._hypothesis_start(problem)
         place_on_scan(problem, size_init=size and problem.kp is None)
         if self.yaw_search and n_global > 0:
             yaw_search(problem, max(n_global // 2, 5), self.lr_pose, self.lr_transl,
                        verbose=self.verbose)
         return {"init": "rest pose + yaw search" if self.yaw_search else "rest pose"}
+
+    def _hypothesis_start(self, problem: FitProblem) -> dict:
+        """The multi-hypothesis search, then (``limb_search``) the limb-wise search."""
+        n_yaw, n_rigid, n_pose = self.hypothesis_steps
+        info = hypothesis_search(problem, self.hypotheses, n_yaw, n_rigid, n_pose,
+                                 self.hypothesis_keep, self.hypothesis_yaws, self.lr_pose,
+                                 self.lr_transl, self.size_init, verbose=self.verbose,
+                                 yaw_candidates=self.yaw_candidates)
+        if self.limb_search:
+            info.update(limb_search(problem, n_pose, self.lr_pose, self.lr_transl,
+                                    self.size_init, verbose=self.verbose))
+        return info
+
+    def _competing_starts(self, problem: FitProblem) -> dict:
+        """``init_route="auto"`` with detected keypoints: the hypothesis start and the
+        keypoint start both run; the one with the lower symmetric score goes on (the
+        keypoints are dropped when the hypotheses win: they disagree with the scan)."""
+        kp = problem.kp
+        problem.kp = None
+        problem.set_params(shape=problem.default_shape)
+        info = self._hypothesis_start(problem) if self.hypotheses else {"init": "none"}
+        scores = {"hypotheses": symmetric_score(problem)}
+        best = problem.snapshot()
+        if kp is not None and len(kp[0]) >= 4:
+            problem.kp = kp
+            problem.set_params(shape=problem.default_shape)
+            info_k = keypoint_start(problem, self.hypotheses or ("a-pose",),
+                                    self.hypothesis_steps[2], self.lr_pose, self.lr_transl,
+                                    self.size_init, verbose=self.verbose)
+            scores["keypoints"] = symmetric_score(problem)
+            if scores["keypoints"] < scores["hypotheses"]:
+                info = info_k
+            else:
+                problem.restore(best)
+                problem.kp = None
+        info["start_scores"] = {k: round(v, 5) for k, v in scores.items()}
+        return info
 
     def _use_keypoints(self) -> bool:
         """Whether this fit detects keypoints on the scan (see ``init_route``)."""
@@ -186,7 +230,10 @@ class OptimizationRegistrar:
         if kp is not None and len(kp[0]) == 0:
             kp = None
         problem = FitProblem(self, model, P, kp)
-        info = self._initialise(problem, init)
+        if detected is not None and self.init_route == "auto":
+            info = self._competing_starts(problem)
+        else:
+            info = self._initialise(problem, init)
         if detected is not None:
             info.update(keypoint_views=detected.detections, keypoints_found=int(len(kp[0])) if kp
                         else 0, keypoint_seconds=time.perf_counter() - t_start)

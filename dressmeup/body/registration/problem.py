@@ -34,6 +34,21 @@ def joint_skin_mask(model, joints, threshold: float = 0.5) -> np.ndarray:
     return np.asarray(model.skinning_weights)[:, ids].sum(1) > threshold
 
 
+def unseen_free_weights(normals, nn_b2s, nn_s2b):
+    """(b,) float weights of the body -> scan pairs: 0 where the body point's nearest scan
+    point belongs to a surface of the body facing the other way (its own nearest body
+    point's normal opposes this point's), i.e. where the scan did not see this part of the
+    body (a side the capture missed, a hole), else 1.
+
+    Parameters
+    ----------
+    normals : (b, 3) body normals (torch); nn_b2s : (b,) scan index of each body point;
+    nn_s2b : (p,) body index of each scan point.
+    """
+    facing = (normals * normals[nn_s2b[nn_b2s]]).sum(-1)
+    return (facing > 0).to(normals.dtype)
+
+
 class FitProblem:
     """Parameters and objective of one registration (see module docstring).
 
@@ -216,10 +231,14 @@ class FitProblem:
         e = Vb[self.nn_s2b] - self.P_t
         r2 = (e * Nb[self.nn_s2b]).sum(-1)
         w = self.point_weight
+        wb = w
+        if o.skip_unseen:  # body points the scan did not see carry no body -> scan cost
+            seen = unseen_free_weights(Nb.detach(), self.nn_b2s, self.nn_s2b)
+            wb = seen if w is None else w * seen
         if self.core_only:  # rigid stage: torso, hips and head against the scan only
-            pairs = ((r[self.core_t], d[self.core_t], None),)
+            pairs = ((r[self.core_t], d[self.core_t], None if wb is None else wb[self.core_t]),)
         else:
-            pairs = ((r, d, w), (r2, e, None if w is None else w[self.nn_s2b]))
+            pairs = ((r, d, wb), (r2, e, None if w is None else w[self.nn_s2b]))
         data = 0.0
         for res, diff, wt in pairs:
             data = data + one_sided_cost(res, diff, wt, o.sigma_out, o.sigma_in, o.inside_weight,

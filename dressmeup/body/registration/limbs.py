@@ -1,0 +1,267 @@
+"""Limb-wise search: a way out of local minima for arms and legs the starting poses miss.
+
+The canonical hypotheses (:mod:`.hypotheses`) cover a few whole-body poses; an arm crossed
+over the chest or one knee pulled up lies far from all of them, and the local optimiser
+keeps the limb where the start left it. After the start, :func:`limb_search` tries, for
+each arm and leg in turn, a grid of upper-limb directions (the 26 directions of a cube's
+faces, edges and corners) x twists about it x hinge bends of the lower limb (elbow,
+knee), and keeps a configuration when it lowers the same symmetric capped distance that
+ranks the hypotheses (:func:`~dressmeup.body.registration.init.symmetric_score`). The
+candidates are scored without the body model: the limb's points move rigidly with their
+dominant bone (upper limb; lower limb with the hand or foot), which is exact away from the
+blended joints, so a candidate costs two small k-d tree queries. The best candidates are
+polished by a small pattern search; a short pose stage then settles the body, and the
+whole change is kept only if the symmetric score of the settled body beats the start's.
+
+Hinge conventions are those of :mod:`.hypotheses` (SMPL frame: y up, facing +z, left on
++x): elbows bend about -y (left) / +y (right), knees about +x.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+
+logger = logging.getLogger(__name__)
+
+#: (upper joint, lower joint, hinge axis of the lower joint in its local frame).
+LIMBS: tuple[tuple[str, str, tuple[float, float, float]], ...] = (
+    ("left_shoulder", "left_elbow", (0.0, -1.0, 0.0)),
+    ("right_shoulder", "right_elbow", (0.0, 1.0, 0.0)),
+    ("left_hip", "left_knee", (1.0, 0.0, 0.0)),
+    ("right_hip", "right_knee", (1.0, 0.0, 0.0)),
+)
+
+
+def cube_directions() -> np.ndarray:
+    """(26, 3) unit vectors: the directions of a cube's 6 faces, 12 edges and 8 corners."""
+    g = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)
+                  if (x, y, z) != (0, 0, 0)], dtype=np.float64)
+    return g / np.linalg.norm(g, axis=1, keepdims=True)
+
+
+def _descendants(parents: np.ndarray, root: int) -> list[int]:
+    """``root`` and every joint below it in the kinematic tree."""
+    out = [root]
+    for j in range(len(parents)):
+        k = j
+        while k >= 0 and k != root:
+            k = int(parents[k])
+        if k == root and j != root:
+            out.append(j)
+    return out
+
+
+class LimbScorer:
+    """The symmetric score of the body with one limb moved rigidly (see module docstring).
+
+    Parameters
+    ----------
+    P : (p, 3) scan points; tree : their k-d tree.
+    Vb : (b, 3) the body points scored (the problem's ``body_ids`` subset), current pose.
+    limb_up, limb_lo : (b,) bool, points moving with the upper / lower limb bone.
+    J_up, J_lo : (3,) current positions of the upper and lower joint.
+    cap : distance cap (m) of the score.
+    """
+
+    def __init__(self, P, tree, Vb, limb_up, limb_lo, J_up, J_lo, cap: float = 0.1):
+        from scipy.spatial import cKDTree
+
+        self.tree, self.cap = tree, cap
+        rest = ~(limb_up | limb_lo)
+        self.n_b, self.n_p = len(Vb), len(P)
+        self.const_body = float(np.minimum(tree.query(Vb[rest], k=1, workers=1)[0], cap).sum())
+        d_rest = np.minimum(cKDTree(Vb[rest]).query(P, k=1, workers=1)[0], cap)
+        self.J_up, self.J_lo = np.asarray(J_up, np.float64), np.asarray(J_lo, np.float64)
+        self.X_up = Vb[limb_up] - self.J_up
+        self.X_lo = Vb[limb_lo] - self.J_lo
+        reach = float(np.linalg.norm(np.r_[self.X_up, self.X_lo + self.J_lo - self.J_up],
+                                     axis=1).max()) + cap
+        near = np.linalg.norm(P - self.J_up, axis=1) < reach  # others cannot change
+        self.P_near, self.d_near = P[near], d_rest[near]
+        self.const_scan = float(d_rest[~near].sum())
+
+    def points(self, M_up: np.ndarray, M_lo: np.ndarray) -> np.ndarray:
+        """(k, 3) limb points after rotating the upper bone by ``M_up`` about the upper joint
+        and the lower bone by ``M_lo`` about the (moved) lower joint (world rotations)."""
+        j_lo = self.J_up + M_up @ (self.J_lo - self.J_up)
+        return np.r_[self.J_up + self.X_up @ M_up.T, j_lo + self.X_lo @ M_lo.T]
+
+    def score(self, M_up: np.ndarray, M_lo: np.ndarray) -> float:
+        """Symmetric capped distance (m) with the limb moved (same value as
+        ``symmetric_score`` for the identity, up to the skinning blend near the joints)."""
+        from scipy.spatial import cKDTree
+
+        X = self.points(M_up, M_lo)
+        b = float(np.minimum(self.tree.query(X, k=1, workers=1)[0], self.cap).sum())
+        d, _ = cKDTree(X).query(self.P_near, k=1, distance_upper_bound=self.cap, workers=1)
+        s = float(np.minimum(self.d_near, d).sum())
+        return (self.const_body + b) / self.n_b + (self.const_scan + s) / self.n_p
+
+
+def _limb_candidates(c_up: np.ndarray, twists: int, bends_deg) -> list[tuple]:
+    """(direction, twist rad, bend rad) triples of the grid for a limb now pointing ``c_up``."""
+    out = [(d, 0.0, 0.0) for d in cube_directions()]
+    for d in cube_directions():
+        for k in range(twists):
+            for b in bends_deg:
+                if b > 0:
+                    out.append((d, 2 * math.pi * k / twists, math.radians(b)))
+    return out
+
+
+def _world(c_up, W_up, d, twist, bend, hinge):
+    """World rotations (upper, lower) of a candidate: the upper bone turned from ``c_up``
+    onto ``d`` then twisted about it, the lower bone bent about its hinge."""
+    from scipy.spatial.transform import Rotation
+
+    from dressmeup.body.registration.hypotheses import align_directions
+
+    R_up = (Rotation.from_rotvec(d * twist) * Rotation.from_rotvec(align_directions(c_up, d))
+            * Rotation.from_matrix(W_up))
+    R_lo = R_up * Rotation.from_rotvec(np.asarray(hinge) * bend)
+    return R_up, R_lo
+
+
+def _tilt(d: np.ndarray, a: float, b: float) -> np.ndarray:
+    """``d`` tilted by angles ``a`` and ``b`` (rad) about two axes perpendicular to it."""
+    from scipy.spatial.transform import Rotation
+
+    e1 = np.cross(d, (0.0, 1.0, 0.0) if abs(d[1]) < 0.9 else (1.0, 0.0, 0.0))
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    return (Rotation.from_rotvec(e2 * b) * Rotation.from_rotvec(e1 * a)).apply(d)
+
+
+def _within_limits(name: str, rotvec: np.ndarray, margin: float = 0.3) -> bool:
+    from dressmeup.body.registration.terms import JOINT_LIMITS
+
+    if name not in JOINT_LIMITS:
+        return True
+    lo, hi = np.array(JOINT_LIMITS[name]).T
+    return bool(np.all(rotvec >= lo - margin) and np.all(rotvec <= hi + margin))
+
+
+def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, twists: int,
+                bends_deg, top: int = 3, rounds: int = 2) -> tuple[float, float, np.ndarray,
+                                                                   np.ndarray]:
+    """Best configuration of one limb by the grid then a pattern search around the
+    ``top`` best. Returns (start score, best score, local rotvec upper, local rotvec lower);
+    ``W`` (j, 3, 3) are the current world rotations of the joints."""
+    from scipy.spatial.transform import Rotation
+
+    names = list(problem.model.joint_names)
+    parent = int(problem.model.joint_parents[upper])
+    W_par = Rotation.from_matrix(W[parent]) if parent >= 0 else Rotation.identity()
+    c_up = scorer.J_lo - scorer.J_up
+    c_up = c_up / max(np.linalg.norm(c_up), 1e-12)
+    base = scorer.score(np.eye(3), np.eye(3))
+    W_up_inv, W_lo_inv = W[upper].T, W[lower].T
+    up_name, lo_name = names[upper], names[lower]
+
+    def evaluate(d, twist, bend):
+        R_up, R_lo = _world(c_up, W[upper], d, twist, bend, hinge)
+        local = (W_par.inv() * R_up).as_rotvec()
+        if not (_within_limits(up_name, local) and _within_limits(lo_name, np.asarray(hinge)
+                                                                  * bend)):
+            return math.inf
+        return scorer.score(R_up.as_matrix() @ W_up_inv, R_lo.as_matrix() @ W_lo_inv)
+
+    scored = [(evaluate(*c), c) for c in _limb_candidates(c_up, twists, bends_deg)]
+    scored.sort(key=lambda t: t[0])
+    best = scored[0]
+    step = math.radians(15.0)
+    for s0, (d0, t0, b0) in scored[:top]:
+        cur = (s0, (d0, t0, b0))
+        for r in range(rounds):
+            h = step / (2 ** r)
+            d, t, b = cur[1]
+            moves = [(_tilt(d, h, 0), t, b), (_tilt(d, -h, 0), t, b), (_tilt(d, 0, h), t, b),
+                     (_tilt(d, 0, -h), t, b), (d, t + 2 * h, b), (d, t - 2 * h, b)]
+            if b > 0:
+                moves += [(d, t, b + 2 * h), (d, t, max(b - 2 * h, 0.0))]
+            for m in moves:
+                s = evaluate(*m)
+                if s < cur[0]:
+                    cur = (s, m)
+        if cur[0] < best[0]:
+            best = cur
+    d, t, b = best[1]
+    R_up, _ = _world(c_up, W[upper], d, t, b, hinge)
+    return base, best[0], (W_par.inv() * R_up).as_rotvec(), np.asarray(hinge) * b
+
+
+def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_init: bool,
+                twists: int = 6, bends_deg=(0, 50, 100, 140), min_gain: float = 2e-4,
+                verbose: bool = False) -> dict:
+    """Try other directions for each arm and leg of the current fit (see module docstring);
+    leaves the better of (start, start with moved limbs + ``n_pose`` pose steps) in
+    ``problem``.
+
+    Parameters
+    ----------
+    n_pose : pose steps after a limb moved (0: keep the moved limbs unsettled).
+    twists, bends_deg : twists about each upper-limb direction (evenly spaced) and bends of
+        the lower limb (degrees) of the grid; 26 x (1 + twists x bends > 0) candidates a limb.
+    min_gain : a limb moves only if the symmetric score drops by more than this (m).
+
+    Returns
+    -------
+    info : ``{"limbs_moved": [joint names], "limb_score": (before, after) m, "limb_kept":
+    bool}``.
+    """
+    import torch
+
+    from dressmeup.body.registration.init import symmetric_score
+    from dressmeup.body.registration.stages import run_adam
+
+    model = problem.model
+    names = list(model.joint_names)
+    parents = np.asarray(model.joint_parents)
+    dom = problem.W_sub.cpu().numpy().argmax(1)
+    start_score, start = symmetric_score(problem), problem.snapshot()
+    moved: list[str] = []
+    for up_name, lo_name, hinge in LIMBS:
+        if up_name not in names or lo_name not in names:
+            continue
+        upper, lower = names.index(up_name), names.index(lo_name)
+        with torch.no_grad():
+            out = model.forward(problem.shape_value()[None], problem.pose[None],
+                                problem.transl[None], torch.exp(problem.log_scale)[None])
+        V = out.vertices[0].cpu().numpy().astype(np.float64)[problem.body_ids]
+        J = out.joints[0].cpu().numpy().astype(np.float64)
+        W = out.transforms[0, :, :3, :3].cpu().numpy().astype(np.float64)
+        up_mask = dom == upper
+        lo_mask = np.isin(dom, _descendants(parents, lower))
+        if up_mask.sum() + lo_mask.sum() < 10:
+            continue
+        scorer = LimbScorer(problem.P, problem.tree, V, up_mask, lo_mask, J[upper], J[lower])
+        base, best, rv_up, rv_lo = search_limb(problem, scorer, upper, lower, hinge, W, twists,
+                                               bends_deg)
+        logger.info("limb %s: %.4f -> %.4f", up_name, base, best)
+        if best < base - min_gain:
+            with torch.no_grad():
+                problem.pose[upper] = torch.as_tensor(rv_up, dtype=problem.dt)
+                problem.pose[lower] = torch.as_tensor(rv_lo, dtype=problem.dt)
+            moved.append(up_name)
+    info = {"limbs_moved": moved, "limb_score": (round(start_score, 5), round(start_score, 5)),
+            "limb_kept": False}
+    if not moved:
+        return info
+    if n_pose > 0:
+        params, lrs = [problem.pose, problem.transl], [lr_pose, lr_transl]
+        if size_init:
+            params.append(problem.log_scale)
+            lrs.append(0.003)
+        run_adam(problem, "pose", n_pose, params, lrs, label="limb search pose", verbose=verbose)
+    after = symmetric_score(problem)
+    info["limb_score"] = (round(start_score, 5), round(after, 5))
+    if after < start_score:
+        info["limb_kept"] = True
+    else:
+        problem.restore(start)
+    logger.info("limb search: moved %s, score %.4f -> %.4f (%s)", moved, start_score, after,
+                "kept" if info["limb_kept"] else "dropped")
+    return info

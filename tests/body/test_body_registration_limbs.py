@@ -1,0 +1,126 @@
+"""Limb-wise search and unseen body points (registration out of local minima)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dressmeup.body import BodyParams, get_body_model
+from dressmeup.body.synthetic import synthetic_scan
+
+
+@pytest.fixture(scope="module")
+def model():
+    return get_body_model("procedural")
+
+
+def _problem(model, scan, **options):
+    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    from dressmeup.body.registration.problem import FitProblem
+    from dressmeup.body.registration.scan import prepare_scan
+
+    opts = OptimizationRegistrar(n_scan_points=3000, n_body_points=2000, verbose=False,
+                                 **options)
+    return FitProblem(opts, model, prepare_scan(scan, opts.n_scan_points, 0), None)
+
+
+def _arm_across_chest(model):
+    """A-pose with the right arm folded across the chest (no canonical pose is near it)."""
+    from dressmeup.body.registration.hypotheses import align_directions, canonical_pose
+
+    names = list(model.joint_names)
+    rest = model.posed(model.default_params()).joints
+    pose = canonical_pose("a-pose", names, rest)
+    s, e = names.index("right_shoulder"), names.index("right_elbow")
+    pose[s] = align_directions(rest[e] - rest[s], np.array([-0.3, -1.0, 0.7]))
+    pose[e] = (0.0, np.deg2rad(120), 0.0)
+    pose[0] = (0.0, 0.6, 0.0)
+    return pose
+
+
+def test_limb_search_folds_an_arm_the_start_left_hanging(model):
+    from dressmeup.body.registration.hypotheses import canonical_pose
+    from dressmeup.body.registration.limbs import limb_search
+
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=_arm_across_chest(model),
+                       transl=[0.1, 0.0, 0.2])
+    scan = synthetic_scan(model, truth, n_points=8000, noise=0.002, seed=0)
+    problem = _problem(model, scan)
+    # the start the hypotheses leave: right pose everywhere but the folded arm, which hangs
+    start = truth.pose.copy()
+    a_pose = canonical_pose("a-pose", model.joint_names, model.posed(model.default_params()).joints)
+    names = list(model.joint_names)
+    for j in ("right_shoulder", "right_elbow"):
+        start[names.index(j)] = a_pose[names.index(j)]
+    problem.set_params(shape=truth.shape, pose=start, transl=truth.transl)
+    wrist = names.index("right_wrist")
+    true_wrist = model.posed(truth).joints[wrist]
+
+    def wrist_error():
+        return float(np.linalg.norm(model.posed(problem.body_params(False)).joints[wrist]
+                                    - true_wrist))
+
+    before = wrist_error()
+    info = limb_search(problem, n_pose=40, lr_pose=0.015, lr_transl=0.01, size_init=False)
+    after = wrist_error()
+    assert before > 0.2  # metres: the hanging hand is far from the folded one
+    assert "right_shoulder" in info["limbs_moved"] and info["limb_kept"]
+    assert after < 0.04, (before, after)
+    assert info["limb_score"][1] < info["limb_score"][0]
+
+
+def test_limb_scorer_matches_the_symmetric_score(model):
+    from dressmeup.body.registration.init import symmetric_score
+    from dressmeup.body.registration.limbs import LimbScorer
+
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=_arm_across_chest(model))
+    problem = _problem(model, synthetic_scan(model, truth, n_points=6000, seed=1))
+    problem.set_params(shape=truth.shape, pose=truth.pose)
+    out = model.posed(problem.body_params(False))
+    names = list(model.joint_names)
+    dom = problem.W_sub.numpy().argmax(1)
+    up, lo = names.index("left_shoulder"), names.index("left_elbow")
+    scorer = LimbScorer(problem.P, problem.tree, out.vertices[problem.body_ids], dom == up,
+                        np.isin(dom, [lo, names.index("left_wrist")]), out.joints[up],
+                        out.joints[lo])
+    assert scorer.score(np.eye(3), np.eye(3)) == pytest.approx(symmetric_score(problem), rel=1e-4)
+    turn = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])  # the arm swung away: worse
+    assert scorer.score(turn, turn) > scorer.score(np.eye(3), np.eye(3)) + 0.002
+
+
+def test_unseen_body_points_carry_no_body_to_scan_cost():
+    import torch
+
+    from dressmeup.body.registration.problem import unseen_free_weights
+
+    # a flat body: 2 front points (normal +z) and 2 back points (normal -z); the scan only
+    # saw the front, so both back points' nearest scan point belongs to the front surface
+    normals = torch.tensor([[0, 0, 1.0], [0, 0, 1.0], [0, 0, -1.0], [0, 0, -1.0]])
+    nn_b2s = torch.tensor([0, 1, 0, 1])
+    nn_s2b = torch.tensor([0, 1])
+    assert unseen_free_weights(normals, nn_b2s, nn_s2b).tolist() == [1.0, 1.0, 0.0, 0.0]
+
+
+def test_auto_route_lets_the_better_start_win(model, monkeypatch):
+    # detected keypoints compete with the hypothesis search: right ones may win, keypoints
+    # a metre off must lose (detection is replaced so the test needs no mediapipe)
+    from dressmeup.body.registration import keypoints as kp
+    from dressmeup.body.registration import register
+
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=_arm_across_chest(model))
+    scan = synthetic_scan(model, truth, n_points=4000, noise=0.002, seed=2)
+    tiny = dict(iterations=(5, 5, 5), hypothesis_steps=(5, 5, 10), hypotheses=("a-pose",),
+                yaw_candidates=4, hypothesis_yaws=1, hypothesis_keep=1, n_scan_points=1500,
+                n_body_points=1000, verbose=False, init_route="auto", limb_search=False)
+    monkeypatch.setattr(kp, "keypoints_available", lambda: True)
+    for offset, winner in ((0.0, None), (1.0, "hypothesis")):
+        joints = model.posed(truth).joints + offset
+        monkeypatch.setattr(kp, "detect_keypoints", lambda scan, model, j=joints: kp.ScanKeypoints(
+            joints=j, views=8, detections=8))
+        res = register(scan, model, return_result=True, **tiny)
+        scores = res.info["start_scores"]
+        assert set(scores) == {"hypotheses", "keypoints"}
+        best = min(scores, key=scores.get)
+        assert res.info["init"].startswith("keypoints" if best == "keypoints" else "hypothesis")
+        if winner:
+            assert res.info["init"].startswith(winner)
