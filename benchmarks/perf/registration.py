@@ -172,6 +172,7 @@ def main() -> None:
                        max_part_outside_mm=fm["max_part_outside_mm"],
                        body_to_scan_mm=fm["body_to_scan_mm"], scan_to_body_mm=fm["scan_to_body_mm"],
                        part_vertex_mm=part_err, wall_s=wall, cpu_s=cpu, load=load,
+                       start_scores=res.info.get("start_scores"),
                        init=res.info.get("init", "") + (
                            " + limbs " + ",".join(res.info["limbs_moved"])
                            if res.info.get("limb_kept") else ""))

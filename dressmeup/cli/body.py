@@ -45,7 +45,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    default="hypotheses",
                    help="how the fit starts without --init/--keypoints: hypotheses (several "
                    "canonical poses x yaw, default), keypoints (detected on renders of the scan; "
-                   "needs the [keypoints] extra), auto (keypoints if installed)")
+                   "needs the [keypoints] extra), auto (if installed, both starts run and the better "
+                   "fitting one goes on)")
     p.add_argument("--no-picture", action="store_true",
                    help="do not write the picture of the fit (<out>.fit.png)")
     p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
