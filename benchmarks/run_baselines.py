@@ -10,7 +10,7 @@ never overwrites anything; this script owns those four files).
     python benchmarks/run_baselines.py --work /tmp/bench --workers 2
     python benchmarks/run_baselines.py --work /tmp/bench --executor dask --workers 2
     python benchmarks/run_baselines.py --work W --editions E --methods isomap-refine \
-        --keep-results W/runs/<earlier UTC time>      # re-run one method, keep the others
+        --keep-results W/runs/<earlier UTC time> ...  # re-run one method, keep the others
 
 Data go to ``<work>/data/<edition>`` (reused across runs), submissions and results to
 ``<work>/runs/<UTC time>/``; ``<work>`` defaults to the toolkit cache
@@ -43,9 +43,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--train-steps", type=int, default=300,
                     help="self-supervised training steps of trainable retargeting baselines")
     ap.add_argument("--results", default=str(RESULTS), help="where the tables are rewritten")
-    ap.add_argument("--keep-results", default=None, metavar="RUN",
-                    help="with --methods: the tables also show the other methods' results from an "
-                         "earlier run folder RUN (RUN/results/<edition>/<method>), unchanged")
+    ap.add_argument("--keep-results", nargs="+", default=None, metavar="RUN",
+                    help="with --methods: the tables also show the other methods' results from "
+                         "earlier run folders (RUN/results/<edition>/<method>; a later RUN wins), "
+                         "unchanged")
     args = ap.parse_args(argv)
 
     executor = executor_from_args(args)
@@ -93,16 +94,18 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
     return 0
 
 
-def _kept_results(keep: str | None, edition: str, fresh: set[str], log) -> list[Path]:
-    """Result folders of methods not re-run, from the earlier run folder ``keep``."""
-    if not keep:
-        return []
-    root = Path(keep) / "results" / edition
-    if not root.is_dir():
-        raise SystemExit(f"--keep-results {keep}: no folder {root}")
-    kept = sorted(p for p in root.iterdir() if (p / "summary.json").is_file() and p.name not in fresh)
-    log(f"kept from {root}: {[p.name for p in kept]}")
-    return kept
+def _kept_results(keep: list[str] | None, edition: str, fresh: set[str], log) -> list[Path]:
+    """Result folders of methods not re-run, from earlier run folders (a later one wins)."""
+    kept: dict[str, Path] = {}
+    for run in keep or []:
+        root = Path(run) / "results" / edition
+        if not root.is_dir():
+            raise SystemExit(f"--keep-results {run}: no folder {root}")
+        kept.update({p.name: p for p in root.iterdir()
+                     if (p / "summary.json").is_file() and p.name not in fresh})
+    if kept:
+        log(f"kept: {', '.join(f'{k} ({v.parents[2].name})' for k, v in sorted(kept.items()))}")
+    return [kept[k] for k in sorted(kept)]
 
 
 if __name__ == "__main__":

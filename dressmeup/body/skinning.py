@@ -117,7 +117,7 @@ def transfer_weights(
     W = np.einsum("pk,pkj->pj", bary, body_W[body_F[fid]])
     if point_normals is not None:
         N = _check(point_normals, "point_normals", (points.shape[0], 3))
-        W = _reject_facing_away(body_V, body_F, body_W, points, N, fid, W, n_candidates)
+        W = _reject_facing_away(body_V, body_F, body_W, points, N, fid, bary, W, n_candidates)
     if smooth_iterations:
         if faces is None:
             raise ValueError("faces: needed to smooth the transferred weights")
@@ -141,16 +141,23 @@ def transfer_weights(
 
 
 def _reject_facing_away(body_V: np.ndarray, body_F: np.ndarray, body_W: np.ndarray,
-                        points: np.ndarray, normals: np.ndarray, fid: np.ndarray, W: np.ndarray,
-                        n_candidates: int) -> np.ndarray:
-    """Re-assign the points whose closest body face points against their own normal."""
+                        points: np.ndarray, normals: np.ndarray, fid: np.ndarray, bary: np.ndarray,
+                        W: np.ndarray, n_candidates: int) -> np.ndarray:
+    """Re-assign the points whose closest body point faces against their own normal.
+
+    The body normal at the closest point is the barycentric blend of its face's vertex
+    normals, which is the same whichever face a closest point on a shared edge or vertex is
+    reported in (a face normal is not: which face wins such a tie depends on the last bits of
+    the body vertices, and flipped the test for garment points near armpits and crotches
+    between two builds of the same body).
+    """
     from scipy.spatial import cKDTree
 
-    from dressmeup.geometry.mesh import face_normals, vertex_normals
+    from dressmeup.geometry.mesh import vertex_normals
 
-    face_n = face_normals(body_V, body_F)
     vert_n = vertex_normals(body_V, body_F)
-    dots = np.einsum("pc,pc->p", normals, face_n[fid])
+    at = np.einsum("pk,pkc->pc", bary, vert_n[body_F[fid]])
+    dots = np.einsum("pc,pc->p", normals, at)
     if np.count_nonzero(dots < 0) > np.count_nonzero(dots > 0):
         normals, dots = -normals, -dots
     bad = np.flatnonzero(dots < 0)

@@ -110,3 +110,22 @@ def test_transfer_rejects_a_closest_surface_facing_away():
     np.testing.assert_allclose(checked, [[1, 0]] * 5)
     # inward-oriented garment normals are flipped by the majority rule: same answer
     np.testing.assert_allclose(transfer_weights(V, F, W, pts, point_normals=-nrm), checked)
+
+
+def test_facing_away_test_does_not_depend_on_which_face_wins_a_tie():
+    """A garment point over a ridge is (almost) equally close to both roof faces; which face
+    the closest-point query reports flips with the last bits of the body or the point. The
+    facing test must not flip with it: with face normals, the point 1 nm on the -y side was
+    judged 'facing away' from the -y face and its weights re-assigned (0.5/0.5 -> one
+    vertex's), 1 nm on the +y side it was not."""
+    V = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1.0, -1.0], [0.5, -1.0, -1.0]])
+    F = np.array([[0, 1, 2], [1, 0, 3]])  # a roof, ridge along x at z = 0, normals up
+    W = np.array([[1.0, 0.0], [0.0, 1.0], [0.5, 0.5], [0.5, 0.5]])
+    normals = np.array([[0.0, 1.0, 0.2], [0.0, 1.0, 1.0], [0.0, 1.0, 1.0]])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    out = []
+    for side in (-1e-9, 1e-9):  # the point over the ridge leans towards the +y slope
+        points = np.array([[0.5, side, 0.1], [0.5, 0.5, -0.3], [0.3, 0.4, -0.2]])
+        out.append(transfer_weights(V, F, W, points, point_normals=normals)[0])
+    np.testing.assert_allclose(out[0], out[1], atol=1e-6)
+    np.testing.assert_allclose(out[0], [0.5, 0.5], atol=1e-6)
