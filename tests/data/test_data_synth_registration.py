@@ -130,6 +130,15 @@ def test_generator_1_refuses_the_new_parameters(tmp_path):
             generate_dataset(tmp_path / "d", **kw)
 
 
+def test_unknown_scan_body_is_refused_before_anything_is_written(tmp_path):
+    from dressmeup.data.synth.wardrobe import generate_v3
+
+    with pytest.raises(ValueError, match="scan_body"):
+        generate_v3(tmp_path / "d", subjects=1, poses=1, garments_per_split=(0, 0, 1),
+                    body_model="procedural", scan_body="naked")
+    assert not (tmp_path / "d").exists()
+
+
 def _grid(n: int, z: float, x0: float = 0.0, x1: float = 1.0, y0: float = 0.0, y1: float = 1.0):
     """A sheet at height z over [x0, x1] x [y0, y1], facing +z: ((n*n, 3) vertices, faces)."""
     xs, ys = np.meshgrid(np.linspace(x0, x1, n), np.linspace(y0, y1, n), indexing="ij")

@@ -419,6 +419,8 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     gps = tuple(int(x) for x in garments_per_split)
     if len(gps) != 3:
         raise ValueError(f"garments_per_split: expected (train, val, test), got {gps!r}")
+    if scan_body not in SCAN_BODY:  # before anything is written
+        raise ValueError(f"scan_body: expected one of {SCAN_BODY}, got {scan_body!r}")
     plan = plan_v3(subjects, poses, gps, seed, categories, pose_set=pose_set, wear=wear)
     edge = float(edge_length or DEFAULT_EDGE_LENGTH.get(body_model, 0.02))
     settings = drape_settings or v3_drape_settings()
@@ -461,8 +463,6 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
             next(bar, None)
         if missing:
             todo.append((gid, g, missing))
-    if scan_body not in SCAN_BODY:
-        raise ValueError(f"scan_body: expected one of {SCAN_BODY}, got {scan_body!r}")
     setup = (body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan,
              scan_body)
     if isinstance(executor, LocalExecutor):
