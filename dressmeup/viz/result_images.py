@@ -133,6 +133,14 @@ def render_error_pair(pred_V: np.ndarray, pred_F: np.ndarray, gt_V: np.ndarray,
     return save_png(fig, path, dpi=dpi, tight=True)
 
 
+def _style_bar_axes(ax, x: np.ndarray, labels: Sequence[str], ylabel: str) -> None:
+    """The bar charts' common look: labels under the bars, small type, no top/right frame."""
+    ax.set_xticks(x, [str(c) for c in labels], fontsize=8)
+    ax.set_ylabel(ylabel, fontsize=8)
+    ax.tick_params(axis="y", labelsize=7)
+    ax.spines[["top", "right"]].set_visible(False)
+
+
 def render_category_bars(categories: Sequence[str], means: Sequence[float],
                          intervals: Sequence[tuple[float, float] | None],
                          path: str | os.PathLike, *, ylabel: str, title: str = "",
@@ -165,10 +173,7 @@ def render_category_bars(categories: Sequence[str], means: Sequence[float],
     if has.any():
         ax.errorbar(x[has], m[has], yerr=[np.maximum(lo[has], 0), np.maximum(hi[has], 0)],
                     fmt="none", ecolor="#1d2330", capsize=4, linewidth=1)
-    ax.set_xticks(x, [str(c) for c in categories], fontsize=8)
-    ax.set_ylabel(ylabel, fontsize=8)
-    ax.tick_params(axis="y", labelsize=7)
-    ax.spines[["top", "right"]].set_visible(False)
+    _style_bar_axes(ax, x, categories, ylabel)
     if title:
         ax.set_title(title, fontsize=8)
     fig.tight_layout()
@@ -214,10 +219,7 @@ def render_grouped_bars(groups: Sequence[str], series: dict[str, Sequence[float]
             hi = np.array([ivs[i][1] - m[i] if has[i] else 0.0 for i in range(k)])
             ax.errorbar(xs[has], m[has], yerr=[np.maximum(lo[has], 0), np.maximum(hi[has], 0)],
                         fmt="none", ecolor="#1d2330", capsize=2, linewidth=0.8)
-    ax.set_xticks(x, [str(g) for g in groups], fontsize=8)
-    ax.set_ylabel(ylabel, fontsize=8)
-    ax.tick_params(axis="y", labelsize=7)
-    ax.spines[["top", "right"]].set_visible(False)
+    _style_bar_axes(ax, x, groups, ylabel)
     ax.legend(fontsize=6.5, frameon=False, ncol=min(n, 4), loc="upper left",
               bbox_to_anchor=(0, -0.12))
     if title:
