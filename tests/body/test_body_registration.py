@@ -188,3 +188,30 @@ def test_registration_poses_and_scan_variants(model):
     boxed = synthetic_scan(model, truth, n_points=6000, noise=0.0, seed=6, seat_box=True)
     extra = boxed[len(full):]
     assert len(extra) > 100 and extra[:, 1].min() >= model.posed(truth).vertices[:, 1].min() - 1e-9
+
+
+def test_scale_into_shape_keeps_the_body_and_drops_the_scale(model):
+    """The temporary size scale becomes shape: the unscaled rest body of the new shape is
+    the scaled rest body of the old one (height within 2 %), the posed body stays where it
+    was, and with scale 1 nothing happens."""
+    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    from dressmeup.body.registration.problem import FitProblem
+
+    truth = _truth(model, "standing", 7)
+    P = synthetic_scan(model, truth, n_points=2000, seed=7)
+    prob = FitProblem(OptimizationRegistrar(n_body_points=1500), model, P, None)
+    prob.set_params(shape=np.full(6, 0.5), pose=truth.pose, transl=[0.1, 0.2, 0.3])
+    assert prob.scale_into_shape() == 0.0
+    assert float(prob.log_scale) == 0.0 and np.allclose(prob.shape_value().detach(), 0.5)
+
+    prob.set_params(scale=1.08)
+    centroid = prob.posed_numpy()[prob.body_ids].mean(0)
+    rms = prob.scale_into_shape()
+    assert float(prob.log_scale) == 0.0
+    assert np.allclose(prob.posed_numpy()[prob.body_ids].mean(0), centroid, atol=1e-5)
+    new = model.posed(BodyParams("procedural", shape=prob.shape_value().detach().numpy(),
+                                 pose=np.zeros((22, 3)))).vertices
+    old = model.posed(BodyParams("procedural", shape=np.full(6, 0.5),
+                                 pose=np.zeros((22, 3)))).vertices
+    assert np.ptp(new[:, 1]) == pytest.approx(1.08 * np.ptp(old[:, 1]), rel=0.02)
+    assert rms < 0.01  # metres: the phenotype can make this size

@@ -53,6 +53,10 @@ class OptimizationRegistrar:
     point_weight : weight of the point-to-point term.
     cloth_max : inside gaps (m) beyond which a residual is not clothing and costs again
         (None: inside residuals always saturate, as before).
+    loose_cloth : scan points farther than ``cloth_max`` outside the body, with the body
+        along their normal line (cosine >= this), are loose cloth over it (skirts, dresses)
+        and do not pull the body (:func:`~dressmeup.body.registration.problem.loose_cloth_weights`);
+        None: every far scan point pulls.
     hand_weight : data weight of hand vertices (skinned to the wrists); < 1 keeps the many
         hand vertices from pulling the arm.
     skip_unseen : leave out body -> scan pairs whose scan point lies on a surface of the body
@@ -84,6 +88,9 @@ class OptimizationRegistrar:
     size_init : without ``init``/keypoints, start from a uniform scale matching the scan's
         vertical extent, refined in the pose stage and handed over to the shape in the
         shape stage (a penalty pulls it back to 1).
+    size_handover : before the shape stage, fit the shape to the scaled rest body and set
+        the scale to 1 (:meth:`~dressmeup.body.registration.problem.FitProblem.scale_into_shape`),
+        so the shape stage does not have to grow or shrink the body against the data term.
     seed : sampling seed; device : torch device; verbose : progress bar.
     num_threads : torch threads during the fit (restored afterwards; None leaves torch's
         setting). One thread is fastest for these small problems on a shared CPU.
@@ -95,6 +102,7 @@ class OptimizationRegistrar:
     sigma_in: float = 0.01
     point_weight: float = 0.3
     cloth_max: float | None = 0.06
+    loose_cloth: float | None = 0.7
     hand_weight: float = 1.0
     skip_unseen: bool = True
     pose_prior_weight: float = 1e-2
@@ -121,6 +129,7 @@ class OptimizationRegistrar:
     keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
     size_init: bool = True
+    size_handover: bool = True
     seed: int = 0
     device: str = "cpu"
     num_threads: int | None = 1
@@ -263,6 +272,8 @@ class OptimizationRegistrar:
             pose_lrs.append(0.003)
         losses.update({f"pose_{k}": x for k, x in run_adam(
             p, "pose", n_pose, pose_params, pose_lrs, verbose=v).items()})
+        if fit_size and self.size_handover and not self.optimize_scale:
+            losses["size_handover_rms_mm"] = 1000 * p.scale_into_shape()
         shape_params = [p.pose, p.transl, p.shape_z]
         shape_lrs = [self.lr_pose * 0.5, self.lr_transl * 0.5, self.lr_shape]
         if self.optimize_scale or abs(float(p.log_scale.detach())) > 0:

@@ -49,6 +49,29 @@ def unseen_free_weights(normals, nn_b2s, nn_s2b):
     return (facing > 0).to(normals.dtype)
 
 
+def loose_cloth_weights(e, r2, scan_normals, cloth_max: float, cos_min: float):
+    """(p,) float weights of the scan -> body pairs: 0 for *loose cloth over the body*,
+    else 1. A scan point outside the body (``r2 < 0``) farther than ``cloth_max`` from its
+    nearest body point is loose cloth (a skirt, a dress, a wide sleeve) when the body lies
+    along the scan's normal line from it (``|cos| >= cos_min`` between the offset and the
+    normal line): the body is under it, however far. Such a point says little about where
+    the body is and pulled it into the cloth (a dress's hem bent the knees outwards). A
+    scan point farther than ``cloth_max`` whose body lies *sideways* along the surface
+    (an arm of a T-pose scan seen from a body with its arms down) keeps its cost.
+
+    Parameters
+    ----------
+    e : (p, 3) body-minus-scan offsets (torch, m); r2 : (p,) their signed normal residuals
+        (< 0: scan point outside the body); scan_normals : (p, 3) unit normal lines of the
+        scan (any sign); cloth_max : gap (m) up to which cloth costs as usual;
+        cos_min : cosine of the widest angle between offset and normal line.
+    """
+    g = e.norm(dim=-1)
+    cos = (e * scan_normals).sum(-1).abs() / g.clamp_min(1e-9)
+    loose = (r2 < 0) & (g > cloth_max) & (cos >= cos_min)
+    return (~loose).to(e.dtype)
+
+
 class FitProblem:
     """Parameters and objective of one registration (see module docstring).
 
@@ -71,6 +94,11 @@ class FitProblem:
         dev, dt = self.dev, self.dt
         self.tree = cKDTree(P)
         self.P_t = torch.as_tensor(P, dtype=dt, device=dev)
+        self.scan_normals = None
+        if opts.loose_cloth is not None and opts.cloth_max is not None:
+            from dressmeup.body.registration.scan import normal_lines
+
+            self.scan_normals = torch.as_tensor(normal_lines(P), dtype=dt, device=dev)
         rng = np.random.default_rng(opts.seed)
         self.body_ids = np.sort(rng.choice(model.n_vertices, min(opts.n_body_points, model.n_vertices),
                                            replace=False))
@@ -174,6 +202,50 @@ class FitProblem:
                           transl=self.transl.detach().cpu().numpy().astype(np.float64),
                           scale=scale)
 
+    def scale_into_shape(self, steps: int = 60, lr: float = 0.1) -> float:
+        """Hand the temporary uniform scale over to the shape, in the rest pose.
+
+        The start matches the scan's size with a uniform scale; the shape stage pulls that
+        scale back to 1 while the data term has to grow the shape, and a body far from the
+        average size (a 2 m person: scale ~1.3) can get there only partly and compensate by
+        pose (tip-toes, bent knees). Here the shape is fitted first so that the unscaled
+        rest body matches the scaled one: ``min_s |V(s) - c(s) - scale (V(s0) - c(s0))|^2``
+        over the sampled body points (``c``: their centroid), ``steps`` Adam steps; then the
+        scale is set to 1 and the translation moved so the posed body's centroid stays.
+
+        Returns
+        -------
+        rms : float, remaining rest-shape mismatch (m) after the handover.
+        """
+        import torch
+
+        with torch.no_grad():
+            scale = torch.exp(self.log_scale)
+            if abs(float(self.log_scale)) < 1e-6:
+                return 0.0
+            rest0, _ = self.model.rest(self.shape_value()[None].detach())
+            target = rest0[0, self.body_ids_t]
+            target = scale * (target - target.mean(0))
+            before = self.posed_numpy()[self.body_ids].mean(0)
+        z = self.shape_z.detach().clone().requires_grad_(True)
+        opt = torch.optim.Adam([z], lr=lr)
+        rms = torch.zeros(())
+        for _ in range(max(int(steps), 1)):
+            opt.zero_grad()
+            shape = torch.sigmoid(z) if self.phenotype else z
+            rest, _ = self.model.rest(shape[None])
+            V = rest[0, self.body_ids_t]
+            err = ((V - V.mean(0) - target) ** 2).sum(-1).mean()
+            err.backward()
+            opt.step()
+            rms = err.detach().sqrt()
+        with torch.no_grad():
+            self.shape_z.copy_(z.detach())
+            self.log_scale.zero_()
+            after = self.posed_numpy()[self.body_ids].mean(0)
+            self.transl.add_(torch.as_tensor(before - after, dtype=self.dt, device=self.dev))
+        return float(rms)
+
     def posed_numpy(self) -> np.ndarray:
         """(n, 3) float64 vertices of the whole body at the current parameters."""
         import torch
@@ -238,7 +310,12 @@ class FitProblem:
         if self.core_only:  # rigid stage: torso, hips and head against the scan only
             pairs = ((r[self.core_t], d[self.core_t], None if wb is None else wb[self.core_t]),)
         else:
-            pairs = ((r, d, wb), (r2, e, None if w is None else w[self.nn_s2b]))
+            ws = None if w is None else w[self.nn_s2b]
+            if self.scan_normals is not None:  # loose cloth over the body does not pull it
+                loose = loose_cloth_weights(e.detach(), r2.detach(), self.scan_normals,
+                                            o.cloth_max, o.loose_cloth)
+                ws = loose if ws is None else ws * loose
+            pairs = ((r, d, wb), (r2, e, ws))
         data = 0.0
         for res, diff, wt in pairs:
             data = data + one_sided_cost(res, diff, wt, o.sigma_out, o.sigma_in, o.inside_weight,
