@@ -53,10 +53,10 @@ class OptimizationRegistrar:
     point_weight : weight of the point-to-point term.
     cloth_max : inside gaps (m) beyond which a residual is not clothing and costs again
         (None: inside residuals always saturate, as before).
-    loose_cloth : scan points farther than ``cloth_max`` outside the body, with the body
-        along their normal line (cosine >= this), are loose cloth over it (skirts, dresses)
-        and do not pull the body (:func:`~dressmeup.body.registration.problem.loose_cloth_weights`);
-        None: every far scan point pulls.
+    loose_cloth : scan points farther than ``cloth_max`` outside the body with no other scan
+        surface between them and the body are loose cloth over it (skirts, dresses) and do
+        not pull the body (:func:`~dressmeup.body.registration.problem.loose_cloth_mask`);
+        False: every far scan point pulls.
     hand_weight : data weight of hand vertices (skinned to the wrists); < 1 keeps the many
         hand vertices from pulling the arm.
     skip_unseen : leave out body -> scan pairs whose scan point lies on a surface of the body
@@ -102,7 +102,7 @@ class OptimizationRegistrar:
     sigma_in: float = 0.01
     point_weight: float = 0.3
     cloth_max: float | None = 0.06
-    loose_cloth: float | None = 0.7
+    loose_cloth: bool = False
     hand_weight: float = 1.0
     skip_unseen: bool = True
     pose_prior_weight: float = 1e-2

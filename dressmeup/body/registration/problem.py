@@ -49,27 +49,49 @@ def unseen_free_weights(normals, nn_b2s, nn_s2b):
     return (facing > 0).to(normals.dtype)
 
 
-def loose_cloth_weights(e, r2, scan_normals, cloth_max: float, cos_min: float):
-    """(p,) float weights of the scan -> body pairs: 0 for *loose cloth over the body*,
-    else 1. A scan point outside the body (``r2 < 0``) farther than ``cloth_max`` from its
-    nearest body point is loose cloth (a skirt, a dress, a wide sleeve) when the body lies
-    along the scan's normal line from it (``|cos| >= cos_min`` between the offset and the
-    normal line): the body is under it, however far. Such a point says little about where
-    the body is and pulled it into the cloth (a dress's hem bent the knees outwards). A
-    scan point farther than ``cloth_max`` whose body lies *sideways* along the surface
-    (an arm of a T-pose scan seen from a body with its arms down) keeps its cost.
+#: Loose-cloth test (:func:`loose_cloth_mask`): samples every ``step`` m along the segment
+#: from a scan point to its body point, skipping ``margin_scan`` m at the scan end and
+#: ``margin_body`` m at the body end; a sample within ``eps`` m of a scan point is a crossing.
+LOOSE_CLOTH_TEST = {"step": 0.01, "eps": 0.015, "margin_scan": 0.025, "margin_body": 0.03}
+
+
+def loose_cloth_mask(P: np.ndarray, B: np.ndarray, outside: np.ndarray, cloth_max: float,
+                     tree) -> np.ndarray:
+    """(p,) bool: scan points that are *loose cloth over the body*.
+
+    A scan point outside the body farther than ``cloth_max`` from its nearest body point
+    is loose cloth (a skirt, a dress, a wide sleeve) when the straight segment to that body
+    point crosses no other scan surface: the body lies right under it, however far. Such a
+    point says little about where the body is, and its pull bent the legs under a dress
+    into the cloth. A scan part that does not contain the body (the scan's leg 10 cm in
+    front of the body's, a T-pose arm beside a body with its arms down) has its own far
+    side, or its surface, between the two: it keeps pulling the body towards it.
 
     Parameters
     ----------
-    e : (p, 3) body-minus-scan offsets (torch, m); r2 : (p,) their signed normal residuals
-        (< 0: scan point outside the body); scan_normals : (p, 3) unit normal lines of the
-        scan (any sign); cloth_max : gap (m) up to which cloth costs as usual;
-        cos_min : cosine of the widest angle between offset and normal line.
+    P : (p, 3) scan points (m); B : (p, 3) the nearest body point of each.
+    outside : (p,) bool, the scan point lies outside the body (signed residual < 0).
+    cloth_max : gap (m) up to which every scan point pulls.
+    tree : k-d tree of ``P`` (``scipy.spatial.cKDTree``).
     """
-    g = e.norm(dim=-1)
-    cos = (e * scan_normals).sum(-1).abs() / g.clamp_min(1e-9)
-    loose = (r2 < 0) & (g > cloth_max) & (cos >= cos_min)
-    return (~loose).to(e.dtype)
+    t = LOOSE_CLOTH_TEST
+    D = B - P
+    g = np.linalg.norm(D, axis=1)
+    idx = np.flatnonzero(outside & (g > cloth_max))
+    loose = np.zeros(len(P), dtype=bool)
+    if idx.size == 0:
+        return loose
+    L = g[idx]
+    s = t["margin_scan"] + t["step"] * np.arange(int(np.ceil(L.max() / t["step"])) + 1)
+    valid = s[None, :] < (L - t["margin_body"])[:, None]
+    frac = s[None, :] / L[:, None]
+    X = P[idx, None, :] + frac[..., None] * D[idx, None, :]
+    rows = np.nonzero(valid)[0]
+    d, _ = tree.query(X[valid], k=1, distance_upper_bound=t["eps"], workers=1)
+    hit = np.zeros(idx.size, dtype=bool)
+    hit[rows[d < t["eps"]]] = True
+    loose[idx] = ~hit
+    return loose
 
 
 class FitProblem:
@@ -94,11 +116,8 @@ class FitProblem:
         dev, dt = self.dev, self.dt
         self.tree = cKDTree(P)
         self.P_t = torch.as_tensor(P, dtype=dt, device=dev)
-        self.scan_normals = None
-        if opts.loose_cloth is not None and opts.cloth_max is not None:
-            from dressmeup.body.registration.scan import normal_lines
-
-            self.scan_normals = torch.as_tensor(normal_lines(P), dtype=dt, device=dev)
+        self.loose = None  # (p,) weights of the scan points, 0 for loose cloth
+        self.loose_every = 10  # steps between two loose-cloth tests
         rng = np.random.default_rng(opts.seed)
         self.body_ids = np.sort(rng.choice(model.n_vertices, min(opts.n_body_points, model.n_vertices),
                                            replace=False))
@@ -259,6 +278,7 @@ class FitProblem:
     def reset_correspondences(self) -> None:
         """Forget cached correspondences and normals (a new stage starts)."""
         self.rest_normals, self.nn_s2b, self.nn_b2s, self.step = None, None, None, 0
+        self.loose = None
 
     def _update_rest_normals(self, rest_vertices) -> None:
         import torch
@@ -311,10 +331,12 @@ class FitProblem:
             pairs = ((r[self.core_t], d[self.core_t], None if wb is None else wb[self.core_t]),)
         else:
             ws = None if w is None else w[self.nn_s2b]
-            if self.scan_normals is not None:  # loose cloth over the body does not pull it
-                loose = loose_cloth_weights(e.detach(), r2.detach(), self.scan_normals,
-                                            o.cloth_max, o.loose_cloth)
-                ws = loose if ws is None else ws * loose
+            if o.loose_cloth and o.cloth_max is not None:  # loose cloth does not pull
+                if self.loose is None or self.step % self.loose_every == 1:
+                    mask = loose_cloth_mask(self.P, Vb_np[self.nn_s2b.cpu().numpy()],
+                                            (r2 < 0).cpu().numpy(), o.cloth_max, self.tree)
+                    self.loose = torch.as_tensor(~mask, dtype=self.dt, device=self.dev)
+                ws = self.loose if ws is None else ws * self.loose
             pairs = ((r, d, wb), (r2, e, ws))
         data = 0.0
         for res, diff, wt in pairs:

@@ -1,0 +1,113 @@
+"""A private tuning set for clothed registration, made like synth-registration-v3.
+
+synth-registration-v3 is test data: no registrar default may be chosen on it. This script
+makes a dataset with the same generator and options (generator 2.0.0, ``wear="rotate"``,
+``scan_body="uncovered"``: one garment per scan, the skin under the garment not in the scan)
+but in tuning poses of the generator set (``pose_set="generator"``: its first three poses
+are sitting, arms-raised and walking, all in ``benchmarks/perf/registration.py``'s
+``TUNING_POSES``), on other garments (seed 1: the edition uses seed 0) and, by default, all
+six subject shapes. Not published; fit it with ``benchmarks/run_baselines.py``-like code
+or ``--fit`` here.
+
+    python benchmarks/registration_tuning_data.py /tmp/regtune            # 18 scans, ~2 CPU-min
+    python benchmarks/registration_tuning_data.py /tmp/regtune --fit OUT.json \
+        --options '{"cloth_max": 0.06}'
+
+``--fit`` registers every scan (one process, one thread) and writes per-scan rows (V2V and
+MPJPE in mm, CPU s, garment category) to OUT.json, printing per-category means.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+
+def make(out: str, subjects: int = 6, poses: int = 3, seed: int = 1, workers: int = 1) -> str:
+    """Generate (or resume) the tuning dataset in ``out``; returns its path."""
+    from dressmeup.data.synth.generate import generate_dataset
+    from dressmeup.data.synth.wardrobe import plan_v3, pose_names
+
+    tuning = {"a-pose", "walking", "arms-raised", "sitting"}
+    plan = plan_v3(subjects, poses, (0, 0, 2), seed, pose_set="generator", wear="rotate")
+    bad = [p for p in plan["poses"].values() if p not in tuning or p not in pose_names()]
+    if bad:
+        raise SystemExit(f"poses {bad} are not tuning poses: use --poses <= 3")
+    return str(generate_dataset(out, subjects=subjects, poses=poses, seed=seed,
+                                version="2.0.0", garments_per_split=(0, 0, 2), pose_steps=3,
+                                pose_set="generator", wear="rotate", scan_body="uncovered",
+                                workers=workers))
+
+
+def fit(root: str, options: dict, only: str = "") -> list[dict]:
+    """Register every scan of ``root`` (sample ids containing ``only``); rows per scan."""
+    import numpy as np
+
+    from dressmeup.body import get_body_model
+    from dressmeup.body.registration import register
+    from dressmeup.data import Dataset
+
+    ds = Dataset(root)
+    m = ds.manifest.set_index("sample_id")
+    rows = []
+    for sid in m.index:
+        if only and not any(o in sid for o in only.split(",")):
+            continue
+        sample = ds[sid]
+        truth = sample.body()
+        model = get_body_model(truth.model)
+        cpu = time.process_time()
+        res = register(sample.scan(), model, return_result=True,
+                       **{"verbose": False, **options})
+        cpu = time.process_time() - cpu
+        a, b = model.posed(res.params), model.posed(truth)
+        row = {"sample": sid, "pose": ds.info["poses"][m.loc[sid, "pose_id"]],
+               "category": str(m.loc[sid, "category"]),
+               "garment": str(m.loc[sid, "garment_type"]),
+               "v2v_mm": float(np.linalg.norm(a.vertices - b.vertices, axis=1).mean() * 1000),
+               "mpjpe_mm": float(np.linalg.norm(a.joints - b.joints, axis=1).mean() * 1000),
+               "cpu_s": cpu, "load": os.getloadavg()[0], "init": res.info.get("init", ""),
+               "params": {"shape": res.params.shape.tolist(), "pose": res.params.pose.tolist(),
+                          "transl": res.params.transl.tolist()}}
+        rows.append(row)
+        print(f"{sid:<14}{row['pose']:<13}{row['category']:<12}{row['v2v_mm']:7.1f}"
+              f"{row['mpjpe_mm']:7.1f}{cpu:7.1f}{row['load']:5.1f}  {row['init']}", flush=True)
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("out", help="dataset folder (made if missing)")
+    ap.add_argument("--subjects", type=int, default=6)
+    ap.add_argument("--poses", type=int, default=3)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--fit", help="register every scan and write rows to this JSON file")
+    ap.add_argument("--options", default="", help="registrar options as JSON")
+    ap.add_argument("--only", default="", help="comma list of sample-id parts to fit")
+    args = ap.parse_args(argv)
+    os.environ.setdefault("DRESSMEUP_NO_PROGRESS", "1")
+    root = make(args.out, args.subjects, args.poses, args.seed)
+    if not args.fit:
+        return 0
+    import numpy as np
+    import torch
+
+    torch.set_num_threads(1)
+    rows = fit(root, json.loads(args.options or "{}"), args.only)
+    for key in ("category", "pose"):
+        for val in sorted({r[key] for r in rows}):
+            sel = [r["v2v_mm"] for r in rows if r[key] == val]
+            print(f"{key} {val:<12} v2v {np.mean(sel):6.1f} mm ({len(sel)} scans)")
+    print(f"all v2v {np.mean([r['v2v_mm'] for r in rows]):.1f} mm, CPU "
+          f"{np.mean([r['cpu_s'] for r in rows]):.1f} s/scan")
+    from dressmeup.io.atomic import atomic_write_text
+
+    atomic_write_text(args.fit, json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
