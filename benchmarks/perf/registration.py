@@ -97,6 +97,9 @@ def main() -> None:
     parser.add_argument("--suite", default="tuning,hard,partial",
                         help="comma list of tuning, hard, partial, legacy")
     parser.add_argument("--subjects", type=int, default=2, help="random bodies per scenario")
+    parser.add_argument("--first-subject", type=int, default=0,
+                        help="index of the first body (subjects first..first+subjects-1), e.g. "
+                        "1 to add a second body to rows published with --subjects 1")
     parser.add_argument("--scenarios", default="",
                         help="comma list of kind-pose[-variant], e.g. naked-t-pose")
     parser.add_argument("--keypoints", choices=("none", "truth", "scan"), default="none",
@@ -134,7 +137,7 @@ def main() -> None:
         name = f"{kind}-{pose_name}" + (f"-{variant}" if variant else "")
         if wanted and name not in wanted:
             continue
-        for subject in range(args.subjects):
+        for subject in range(args.first_subject, args.first_subject + args.subjects):
             seed = scenario_seed(kind, pose_name, variant, subject)
             rng = np.random.default_rng(seed)
             truth = make_truth(model, pose_name, variant, rng)

@@ -124,3 +124,21 @@ def test_auto_route_lets_the_better_start_win(model, monkeypatch):
         assert res.info["init"].startswith("keypoints" if best == "keypoints" else "hypothesis")
         if winner:
             assert res.info["init"].startswith(winner)
+
+
+def test_kept_yaws_always_keep_the_opposite_of_the_best():
+    """A torso alone hardly tells front from back: the candidate that started facing away
+    from the best also goes on, whatever its core cost, without duplicates."""
+    import math
+
+    from dressmeup.body.registration.init import kept_yaws
+
+    yaws = [2 * math.pi * k / 8 for k in range(8)]
+    costs = [5.0, 1.0, 2.0, 3.0, 9.0, 8.0, 7.0, 6.0]  # best: yaw index 1, opposite: 5
+    ranked = sorted(((c, {"k": k}, yaws[k]) for k, c in enumerate(costs)), key=lambda t: t[0])
+    assert [s["k"] for _, s, _ in kept_yaws(ranked, 3, keep_opposite=True)] == [1, 2, 3, 5]
+    assert [s["k"] for _, s, _ in kept_yaws(ranked, 3, keep_opposite=False)] == [1, 2, 3]
+    assert [s["k"] for _, s, _ in kept_yaws(ranked, 1, keep_opposite=True)] == [1, 5]
+    costs[5] = 1.5  # the opposite is already kept: no duplicate
+    ranked = sorted(((c, {"k": k}, yaws[k]) for k, c in enumerate(costs)), key=lambda t: t[0])
+    assert [s["k"] for _, s, _ in kept_yaws(ranked, 3, keep_opposite=True)] == [1, 5, 2]

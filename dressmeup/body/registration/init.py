@@ -48,10 +48,10 @@ def surface_centroid(V: np.ndarray, F: np.ndarray) -> np.ndarray:
 
 def yaw_search(problem, n_steps: int, lr_pose: float, lr_transl: float,
                yaws=(0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi),
-               verbose: bool = False) -> list[tuple[float, dict]]:
+               verbose: bool = False) -> list[tuple[float, dict, float]]:
     """Try each root yaw (radians about +y) from the current pose with ``n_steps`` rigid
     steps on the core joints' skin; keep the best and return every candidate as
-    ``(core data cost, snapshot)``, best first.
+    ``(core data cost, snapshot, start yaw)``, best first.
 
     Candidates are compared on the torso, hips and head only: with the limbs, a wrong yaw
     can win (A-pose arms sideways match a walking scan's legs seen from the side).
@@ -70,12 +70,34 @@ def yaw_search(problem, n_steps: int, lr_pose: float, lr_transl: float,
             terms = run_adam(problem, "global", n_steps, [problem.pose, problem.transl],
                              [lr_pose, lr_transl], label=label, verbose=verbose)
             logger.info("%s: core data %.4f", label, terms["data"])
-            scored.append((terms["data"], problem.snapshot()))
+            scored.append((terms["data"], problem.snapshot(), yaw))
     finally:
         problem.core_only = False
     scored.sort(key=lambda t: t[0])
     problem.restore(scored[0][1])
     return scored
+
+
+def kept_yaws(ranked: list[tuple[float, dict, float]], n_kept: int,
+              keep_opposite: bool) -> list[tuple[float, dict, float]]:
+    """The yaw candidates that go on to the pose hypotheses: the ``n_kept`` best and
+    (``keep_opposite``) also the candidate that started facing the opposite way of the
+    best, if it is not among them. A torso alone is nearly symmetric front to back: a body
+    bent forward and one leaning back facing the other way fit its core alike, and only the
+    whole body (legs, arms, feet) tells them apart in the hypothesis stage.
+
+    Parameters
+    ----------
+    ranked : ``(core cost, snapshot, start yaw rad)`` best first (:func:`yaw_search`).
+    n_kept : how many of the best go on (at least 1).
+    """
+    out = list(ranked[:max(int(n_kept), 1)])
+    if keep_opposite:
+        target = ranked[0][2] + math.pi
+        for cand in ranked[len(out):]:
+            if abs(math.remainder(cand[2] - target, 2 * math.pi)) < 1e-6:
+                out.append(cand)
+    return out
 
 
 def symmetric_score(problem, cap: float = 0.1) -> float:
@@ -95,7 +117,8 @@ def symmetric_score(problem, cap: float = 0.1) -> float:
 
 def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, keep: int,
                       yaws_kept: int, lr_pose: float, lr_transl: float, size_init: bool,
-                      verbose: bool = False, yaw_candidates: int = 4) -> dict:
+                      verbose: bool = False, yaw_candidates: int = 4,
+                      keep_opposite: bool = True) -> dict:
     """Multi-hypothesis start (see module docstring); leaves the best in ``problem``.
 
     Parameters
@@ -106,6 +129,8 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
     yaws_kept : how many of the ``yaw_candidates`` yaws go on to the pose hypotheses.
     yaw_candidates : yaws tried on the core, evenly spaced over the full turn.
     size_init : match each hypothesis' vertical extent to the scan with a uniform scale.
+    keep_opposite : the yaw facing opposite the best is always among the kept yaws
+        (:func:`kept_yaws`).
 
     Returns
     -------
@@ -121,7 +146,8 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
     place_on_scan(problem, size_init)
     yaws = tuple(2 * math.pi * k / max(yaw_candidates, 1) for k in range(max(yaw_candidates, 1)))
     ranked_yaws = yaw_search(problem, n_yaw, lr_pose, lr_transl, yaws=yaws, verbose=verbose)
-    roots = [snap["pose"][0].clone() for _, snap in ranked_yaws[:max(yaws_kept, 1)]]
+    roots = [snap["pose"][0].clone()
+             for _, snap, _ in kept_yaws(ranked_yaws, yaws_kept, keep_opposite)]
     rigid: list[tuple[float, str, float, dict]] = []
     for name in poses:
         hyp = canonical_pose(name, model.joint_names, rest)

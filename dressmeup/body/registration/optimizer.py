@@ -74,6 +74,9 @@ class OptimizationRegistrar:
         whole body, the ``hypothesis_keep`` best the third as a short pose stage.
     hypothesis_keep, hypothesis_yaws : hypotheses refined, yaws kept after the yaw search.
     yaw_candidates : yaws tried by the hypothesis search's yaw stage (evenly spaced).
+    keep_opposite_yaw : besides the ``hypothesis_yaws`` best, the yaw facing opposite the
+        best always goes on (a torso alone hardly tells front from back; see
+        :func:`~dressmeup.body.registration.init.kept_yaws`).
     limb_search : after the hypothesis search, try other directions for each arm and leg
         (:mod:`.limbs`) and keep them if the settled body fits the scan better (the
         pose stage of that check has the hypotheses' pose-step count).
@@ -124,6 +127,7 @@ class OptimizationRegistrar:
     hypothesis_keep: int = 3
     hypothesis_yaws: int = 3
     yaw_candidates: int = 8
+    keep_opposite_yaw: bool = True
     limb_search: bool = True
     init_route: str = "hypotheses"
     keypoint_refine_weight: float = 0.1
@@ -176,7 +180,8 @@ class OptimizationRegistrar:
         info = hypothesis_search(problem, self.hypotheses, n_yaw, n_rigid, n_pose,
                                  self.hypothesis_keep, self.hypothesis_yaws, self.lr_pose,
                                  self.lr_transl, self.size_init, verbose=self.verbose,
-                                 yaw_candidates=self.yaw_candidates)
+                                 yaw_candidates=self.yaw_candidates,
+                                 keep_opposite=self.keep_opposite_yaw)
         if self.limb_search:
             info.update(limb_search(problem, n_pose, self.lr_pose, self.lr_transl,
                                     self.size_init, verbose=self.verbose))
