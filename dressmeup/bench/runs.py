@@ -280,7 +280,9 @@ class RegisterJob:
         if scan is None:
             raise InputError(f"sample {sample_id} of {self.data_root} has no scan.ply to register")
         t0 = time.process_time()
-        p = register(scan, get_body_model(sample.body().model), **self.options)
+        # quiet by default: one progress bar per scan inside a job would flood the run's log
+        options = {"verbose": False, **self.options}
+        p = register(scan, get_body_model(sample.body().model), **options)
         arrays = {"model": np.array(p.model), "gender": np.array(p.gender), "shape": p.shape,
                   "pose": p.pose, "transl": p.transl, "scale": np.array(p.scale, np.float64)}
         return arrays, time.process_time() - t0
