@@ -5,7 +5,8 @@ pose library (``dressmeup/data/synth/poses.json``), sampled (30k points), 2 mm G
 noise, 4 missing round patches (6 cm). Variants: ``clothed`` adds a smooth garment shell
 1-3 cm off the torso (``body.synthetic.synthetic_scan(shell=...)``; the v3 cloth generator
 was not used), ``partial`` drops the surface facing one side (a capture that missed it),
-``box`` adds the seat the body sits on to the scan. No keypoints: the fit starts from the
+``box`` adds the seat the body sits on to the scan, ``floor`` a floor patch under the body
+(30 cm beyond its footprint), ``box-floor`` both. No keypoints: the fit starts from the
 multi-hypothesis search (``--keypoints truth`` gives it the true 3D joints instead).
 
 Suites: ``tuning`` (generator poses a-pose, walking, arms-raised, sitting: the registrar's
@@ -44,6 +45,8 @@ def scenarios(suite: str) -> list[tuple[str, str, str]]:
         elif s == "hard":
             out += [(k, p, "") for p in HARD_POSES for k in ("naked", "clothed")]
             out += [("naked", "sitting-box", "box"), ("clothed", "sitting-box", "box")]
+            out += [(k, p, v) for p, v in (("wide-stance", "floor"), ("sitting-box", "box-floor"))
+                    for k in ("naked", "clothed")]
         elif s == "partial":
             out += [("naked", p, "partial") for p in ("a-pose", "t-pose", "walking")]
             out += [("clothed", "wide-stance", "partial")]
@@ -147,7 +150,8 @@ def main() -> None:
                 side = (np.cos(a), 0.0, np.sin(a))
             scan = synthetic_scan(model, truth, n_points=30000, noise=0.002, n_holes=4,
                                   hole_radius=0.06, seed=seed, missing_side=side,
-                                  seat_box=variant == "box",
+                                  seat_box=variant in ("box", "box-floor"),
+                                  floor=0.3 if variant in ("floor", "box-floor") else None,
                                   shell=(0.01, 0.03) if kind == "clothed" else None)
             kp = None
             wall, cpu = time.perf_counter(), time.process_time()
@@ -179,6 +183,15 @@ def main() -> None:
                        init=res.info.get("init", "") + (
                            " + limbs " + ",".join(res.info["limbs_moved"])
                            if res.info.get("limb_kept") else ""))
+            support = res.info.get("support") or {}
+            row.update(support_removed=support.get("points_removed"),
+                       support_checked=support.get("points_checked"),
+                       support_planes=[p["kind"] for p in support.get("planes", [])],
+                       support_cpu_s=support.get("cpu_s"))
+            if row["support_removed"]:
+                row["init"] += (f"; support: {row['support_removed']} of "
+                                f"{row['support_checked']} points on "
+                                f"{len(row['support_planes'])} planes left out")
             rows.append(row)
             if args.pictures:
                 from pathlib import Path

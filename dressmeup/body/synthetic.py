@@ -63,7 +63,8 @@ def named_pose(name: str, yaw: float = 0.0) -> np.ndarray:
 
 def synthetic_scan(model, params: BodyParams, n_points: int = 30000, noise: float = 0.002,
                    n_holes: int = 0, hole_radius: float = 0.06, shell: tuple | None = None,
-                   seed: int = 0, missing_side=None, seat_box: bool = False):
+                   seed: int = 0, missing_side=None, seat_box: bool = False,
+                   floor: float | None = None):
     """Make a scan (points) of a posed body with noise, holes and an optional shell.
 
     Parameters
@@ -80,6 +81,8 @@ def synthetic_scan(model, params: BodyParams, n_points: int = 30000, noise: floa
         > 0.2) is missing, as when a capture rig misses one side.
     seat_box : add a box under the hips (a seat that is part of the scan), from the floor
         (the body's lowest point) to the underside of the thighs.
+    floor : add a floor patch at the body's lowest point (horizontal, y up) covering the
+        body's horizontal extent grown by this margin (m) on every side; None: no floor.
 
     Returns
     -------
@@ -112,6 +115,8 @@ def synthetic_scan(model, params: BodyParams, n_points: int = 30000, noise: floa
         pts = pts[mesh.face_normals[fid] @ side <= 0.2]
     if seat_box:
         pts = np.vstack([pts, _seat_box_points(model, out, n_points / mesh.area, rng)])
+    if floor is not None:
+        pts = np.vstack([pts, _floor_points(out.vertices, floor, n_points / mesh.area, rng)])
     if n_holes:
         centres = pts[rng.choice(len(pts), n_holes, replace=False)]
         keep = np.ones(len(pts), dtype=bool)
@@ -146,6 +151,17 @@ def _seat_box_points(model, out, density: float, rng) -> np.ndarray:
         p[:, b] = lo[b] + rng.uniform(size=k) * size[b]
         pts.append(p)
     return np.vstack(pts)
+
+
+def _floor_points(V: np.ndarray, margin: float, density: float, rng) -> np.ndarray:
+    """Points (k, 3) on a floor patch at the lowest vertex (see ``floor``)."""
+    lo = V[:, [0, 2]].min(0) - margin
+    size = np.ptp(V[:, [0, 2]], axis=0) + 2 * margin
+    k = int(density * size[0] * size[1])
+    p = np.empty((k, 3))
+    p[:, [0, 2]] = lo + rng.uniform(size=(k, 2)) * size
+    p[:, 1] = V[:, 1].min()
+    return p
 
 
 def vertex_joint_errors(model, fit: BodyParams, truth: BodyParams) -> tuple[float, float]:

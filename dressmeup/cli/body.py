@@ -47,6 +47,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "canonical poses x yaw, default), keypoints (detected on renders of the scan; "
                    "needs the [keypoints] extra), auto (if installed, both starts run and the better "
                    "fitting one goes on)")
+    p.add_argument("--keep-support", action="store_true",
+                   help="fit to the whole scan: by default large flat surfaces (the floor, a "
+                   "seat's top and sides, a wall; at least 30 x 30 cm flat within 8 mm) are left "
+                   "out before the fit and from the fit's distances")
     p.add_argument("--no-picture", action="store_true",
                    help="do not write the picture of the fit (<out>.fit.png)")
     p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
@@ -124,6 +128,7 @@ def _run_register(args: argparse.Namespace) -> int:
         scan = _load_scan(args.scan)
         options["seed"] = args.seed
         options["init_route"] = args.init_route
+        options["remove_support"] = not args.keep_support
         if args.iterations:
             try:
                 its = tuple(int(x) for x in args.iterations.split(","))
@@ -146,25 +151,36 @@ def _run_register(args: argparse.Namespace) -> int:
     start = result.info.get("init")
     sys.stdout.write(f"wrote {path} (model {model.name}, {result.seconds:.1f} s"
                      + (f"; start: {start}" if start else "") + ")\n")
+    support = result.info.get("support") or {}
+    if support.get("points_removed"):
+        kinds = ", ".join(p["kind"] for p in support["planes"])
+        sys.stdout.write(f"left out {support['points_removed']} of {support['points_checked']} "
+                         f"scan points on {len(support['planes'])} flat support surfaces "
+                         f"({kinds}; --keep-support keeps them)\n")
     if scan is not None:
         _report_fit(model, result.params, scan, Path(path), picture=not args.no_picture,
-                    seed=args.seed)
+                    seed=args.seed, supports=getattr(result, "supports", ()))
     return 0
 
 
-def _report_fit(model, params, scan, out: Path, picture: bool, seed: int) -> None:
+def _report_fit(model, params, scan, out: Path, picture: bool, seed: int,
+                supports=()) -> None:
     """Print the fit's distances to the scan (mm), write them next to the result as
-    ``<stem>.metrics.json`` and the picture as ``<stem>.fit.png``."""
+    ``<stem>.metrics.json`` and the picture as ``<stem>.fit.png``; the scan's points on
+    ``supports`` (floor, seat: see ``registration.support``) are left out."""
     import json
 
     import numpy as np
 
     from dressmeup.body.registration.metrics import fit_metrics, format_metrics, vertex_parts
     from dressmeup.body.registration.scan import prepare_scan
+    from dressmeup.body.registration.support import support_mask
     from dressmeup.io.atomic import atomic_write_text
 
     posed = model.posed(params)
     pts = prepare_scan(scan, n_points=60000, seed=seed)
+    if len(supports):
+        pts = pts[~support_mask(pts, list(supports))]
     parts = vertex_parts(model)
     m = fit_metrics(posed.vertices, model.faces, pts, parts)
     sys.stdout.write(format_metrics(m) + "\n")

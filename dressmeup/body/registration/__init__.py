@@ -19,7 +19,8 @@ joints. Registrars are looked up by name (:func:`get_registrar`): ``optimization
 ``from-file`` (imports precomputed parameters); external tools add theirs with
 :func:`add_registrar`.
 
-Modules: :mod:`.scan` (inputs), :mod:`.terms` (cost functions and constants),
+Modules: :mod:`.scan` (inputs), :mod:`.support` (floor and seat surfaces left out of the
+scan), :mod:`.terms` (cost functions and constants),
 :mod:`.problem` (parameters + objective), :mod:`.stages` (optimiser loops), :mod:`.init`
 and :mod:`.hypotheses` (starting poses), :mod:`.limbs` (limb-wise search after the start),
 :mod:`.keypoints` (3D keypoints from a scan,

@@ -29,12 +29,16 @@ logger = logging.getLogger(__name__)
 class RegistrationResult:
     """What a fit returns besides the parameters: per-stage losses, timing (s) and
     ``info`` about the start (``info["init"]``: the chosen start, e.g. ``"hypothesis
-    t-pose (yaw 90 deg)"``; the ranked hypotheses; keypoint views found)."""
+    t-pose (yaw 90 deg)"``; the ranked hypotheses; keypoint views found; ``info["support"]``:
+    the support surfaces left out of the scan). ``supports``: those surfaces
+    (:class:`~dressmeup.body.registration.support.SupportPlane`; empty when none), so
+    the scan can be measured without them (``support_mask``)."""
 
     params: BodyParams
     seconds: float
     losses: dict[str, float] = field(default_factory=dict)
     info: dict = field(default_factory=dict)
+    supports: list = field(default_factory=list)
 
 
 @dataclass
@@ -97,6 +101,10 @@ class OptimizationRegistrar:
     seed : sampling seed; device : torch device; verbose : progress bar.
     num_threads : torch threads during the fit (restored afterwards; None leaves torch's
         setting). One thread is fastest for these small problems on a shared CPU.
+    remove_support : leave out of the scan the large flat surfaces a capture contains (the
+        floor, a seat's top and sides, a wall; :mod:`.support`), found on
+        ``support_sample`` times ``n_scan_points`` samples; the fit then uses
+        ``n_scan_points`` of the points left. A scan without such surfaces is unchanged.
     """
 
     iterations: tuple[int, int, int] = (60, 160, 160)
@@ -137,6 +145,8 @@ class OptimizationRegistrar:
     seed: int = 0
     device: str = "cpu"
     num_threads: int | None = 1
+    remove_support: bool = True
+    support_sample: int = 4
     verbose: bool = True
 
     def fit(self, scan, model, init: BodyParams | None = None, keypoints=None) -> RegistrationResult:
@@ -234,6 +244,9 @@ class OptimizationRegistrar:
     def _fit(self, scan, model, init, keypoints) -> RegistrationResult:
         t_start = time.perf_counter()
         P = prepare_scan(scan, self.n_scan_points, self.seed)
+        supports, support_info = [], None
+        if self.remove_support:
+            P, supports, support_info = self._without_support(scan, P)
         detected = None
         if keypoints is None and init is None and self._use_keypoints():
             from dressmeup.body.registration.keypoints import detect_keypoints
@@ -252,10 +265,30 @@ class OptimizationRegistrar:
             info.update(keypoint_views=detected.detections, keypoints_found=int(len(kp[0])) if kp
                         else 0, keypoint_seconds=time.perf_counter() - t_start)
             problem.kp_weight = self.keypoint_refine_weight
+        if support_info is not None:
+            info["support"] = support_info
         fit_size = self.size_init and init is None
         losses = self._refine(problem, fit_size=fit_size)
         return RegistrationResult(params=problem.body_params(self.optimize_scale),
-                                  seconds=time.perf_counter() - t_start, losses=losses, info=info)
+                                  seconds=time.perf_counter() - t_start, losses=losses, info=info,
+                                  supports=supports)
+
+    def _without_support(self, scan, P: np.ndarray) -> tuple[np.ndarray, list, dict]:
+        """Find the supports on a denser sample of the scan; return the fit's points without
+        them (``P`` itself when there are none), the planes and info (points removed of those
+        checked, the planes, CPU seconds of the search)."""
+        from dressmeup.body.registration.support import remove_support
+
+        cpu = time.process_time()
+        dense = prepare_scan(scan, max(self.support_sample, 1) * self.n_scan_points, self.seed)
+        kept, planes = remove_support(dense, seed=self.seed)
+        if planes:
+            P = prepare_scan(kept, self.n_scan_points, self.seed)
+            logger.info("left out %d of %d scan points on %d support surfaces",
+                        len(dense) - len(kept), len(dense), len(planes))
+        info = {"points_removed": len(dense) - len(kept), "points_checked": len(dense),
+                "planes": [p.summary() for p in planes], "cpu_s": time.process_time() - cpu}
+        return P, planes, info
 
     def _refine(self, problem: FitProblem, fit_size: bool) -> dict[str, float]:
         """Global (rigid, core joints), pose, shape and optional L-BFGS stages."""

@@ -48,6 +48,21 @@ def prepare_scan(scan, n_points: int = 8000, seed: int = 0) -> np.ndarray:
     return _check_metres(P)
 
 
+def normal_lines(P: np.ndarray, k: int = 16) -> np.ndarray:
+    """(p, 3) float64 unit normal *lines* of a point set (sign arbitrary): per point, the
+    direction of least variance of its ``k`` nearest neighbours (local plane fit). Works
+    for meshes sampled by :func:`prepare_scan` and raw point clouds alike, whatever the
+    winding or orientation of the source."""
+    from scipy.spatial import cKDTree
+
+    P = np.asarray(P, dtype=np.float64)
+    k = int(min(max(k, 3), len(P)))
+    _, nn = cKDTree(P).query(P, k=k, workers=1)
+    X = P[nn] - P[nn].mean(1, keepdims=True)
+    _, vecs = np.linalg.eigh(np.einsum("pki,pkj->pij", X, X))
+    return vecs[:, :, 0]
+
+
 #: Plausible extent of a scanned person in metres (the largest side of the bounding box).
 SCAN_EXTENT_M = (0.3, 3.0)
 
