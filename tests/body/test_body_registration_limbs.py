@@ -142,3 +142,35 @@ def test_kept_yaws_always_keep_the_opposite_of_the_best():
     costs[5] = 1.5  # the opposite is already kept: no duplicate
     ranked = sorted(((c, {"k": k}, yaws[k]) for k, c in enumerate(costs)), key=lambda t: t[0])
     assert [s["k"] for _, s, _ in kept_yaws(ranked, 3, keep_opposite=True)] == [1, 5, 2]
+
+
+def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, monkeypatch):
+    """``limb_search_after_pose``: the limb search runs again after the pose stage (its
+    start is the settled body, not the hypothesis'), reported in ``info``; never with a
+    given ``init`` or when switched off."""
+    import dressmeup.body.registration.optimizer as optimizer
+    from dressmeup.body.registration import register
+
+    starts = []
+    real = optimizer.limb_search
+
+    def spy(problem, *args, **kwargs):
+        starts.append(problem.posed_numpy().copy())
+        return real(problem, *args, **kwargs)
+
+    monkeypatch.setattr(optimizer, "limb_search", spy)
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=_arm_across_chest(model),
+                       transl=[0.1, 0.0, 0.2])
+    scan = synthetic_scan(model, truth, n_points=4000, noise=0.002, seed=1)
+    fast = dict(iterations=(10, 30, 10), n_scan_points=1500, n_body_points=1000, verbose=False,
+                hypotheses=("a-pose",), hypothesis_steps=(5, 5, 10), yaw_candidates=2,
+                hypothesis_yaws=1)
+    res = register(scan, model, return_result=True, **fast)
+    assert len(starts) == 2 and not np.allclose(starts[0], starts[1])
+    assert set(res.info["limbs_after_pose"]) >= {"limbs_moved", "limb_score", "limb_kept"}
+    starts.clear()
+    res = register(scan, model, return_result=True, limb_search_after_pose=False, **fast)
+    assert len(starts) == 1 and "limbs_after_pose" not in res.info
+    starts.clear()
+    res = register(scan, model, init=truth, return_result=True, **fast)
+    assert not starts and "limbs_after_pose" not in res.info

@@ -84,6 +84,9 @@ class OptimizationRegistrar:
     limb_search : after the hypothesis search, try other directions for each arm and leg
         (:mod:`.limbs`) and keep them if the settled body fits the scan better (the
         pose stage of that check has the hypotheses' pose-step count).
+    limb_search_after_pose : with ``limb_search``, search the limbs once more after the
+        pose stage (fits without ``init``): from the settled body a limb the first search
+        placed roughly (a thigh raised, its shin folded the wrong way) is found again.
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
         ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (with the extra both
@@ -137,6 +140,7 @@ class OptimizationRegistrar:
     yaw_candidates: int = 8
     keep_opposite_yaw: bool = True
     limb_search: bool = True
+    limb_search_after_pose: bool = True
     init_route: str = "hypotheses"
     keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
@@ -268,7 +272,8 @@ class OptimizationRegistrar:
         if support_info is not None:
             info["support"] = support_info
         fit_size = self.size_init and init is None
-        losses = self._refine(problem, fit_size=fit_size)
+        losses = self._refine(problem, fit_size=fit_size, info=info,
+                              limbs_again=init is None and self.limb_search_after_pose)
         return RegistrationResult(params=problem.body_params(self.optimize_scale),
                                   seconds=time.perf_counter() - t_start, losses=losses, info=info,
                                   supports=supports)
@@ -290,8 +295,10 @@ class OptimizationRegistrar:
                 "planes": [p.summary() for p in planes], "cpu_s": time.process_time() - cpu}
         return P, planes, info
 
-    def _refine(self, problem: FitProblem, fit_size: bool) -> dict[str, float]:
-        """Global (rigid, core joints), pose, shape and optional L-BFGS stages."""
+    def _refine(self, problem: FitProblem, fit_size: bool, info: dict | None = None,
+                limbs_again: bool = False) -> dict[str, float]:
+        """Global (rigid, core joints), pose, (``limbs_again``: a second limb search, its
+        info into ``info["limbs_after_pose"]``), shape and optional L-BFGS stages."""
         n_global, n_pose, n_shape = self.iterations
         p = problem
         v = self.verbose
@@ -310,6 +317,11 @@ class OptimizationRegistrar:
             pose_lrs.append(0.003)
         losses.update({f"pose_{k}": x for k, x in run_adam(
             p, "pose", n_pose, pose_params, pose_lrs, verbose=v).items()})
+        if limbs_again and self.limb_search:
+            again = limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl,
+                                fit_size, verbose=v)
+            if info is not None:
+                info["limbs_after_pose"] = again
         if fit_size and self.size_handover and not self.optimize_scale:
             losses["size_handover_rms_mm"] = 1000 * p.scale_into_shape()
         shape_params = [p.pose, p.transl, p.shape_z]
