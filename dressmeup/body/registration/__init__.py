@@ -9,8 +9,13 @@ axis-angle pose, translation and shape (``scale`` stays fixed, 1 by default):
    search (:mod:`.limbs`) or, with keypoints (given, or detected on renders of the scan by
    :mod:`.keypoints`), the canonical pose that fits them;
 1. **global**: root orientation and translation, fitting the torso, hips and head;
-2. **pose**: all joint rotations and translation, shape at half rate;
-3. **shape**: shape, pose and translation together.
+2. **pose**: all joint rotations and translation, shape at half rate; then (fits without
+   ``init``) the limb-wise search once more from the settled body;
+3. **shape**: the temporary size scale handed over to the shape, then shape, pose and
+   translation together.
+
+Before all this, flat support surfaces (floor, seat) are left out of the scan
+(:mod:`.support`).
 
 The objective (:mod:`.terms`, :mod:`.problem`): a one-sided robust data term in both
 directions (clothes may sit outside the body, the body should not poke out of the scan),

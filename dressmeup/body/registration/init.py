@@ -8,8 +8,8 @@
 - :func:`hypothesis_search`: the multi-hypothesis start without keypoints. The best yaws of
   the yaw search x the canonical poses of :mod:`.hypotheses` each get a short rigid stage
   on the whole body; the best few get a short pose stage; the best of those goes on.
-  Cost: ``yaw_candidates * n_yaw + len(poses) * yaws_kept * n_rigid + keep * n_pose``
-  steps.
+  Cost: ``yaw_candidates * n_yaw + len(poses) * (yaws_kept + 1) * n_rigid + keep * n_pose``
+  steps at most (the + 1: the yaw opposite the best, :func:`kept_yaws`).
 """
 
 from __future__ import annotations
