@@ -28,6 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dressmeup.body.registration.scan import normal_lines
+
 logger = logging.getLogger(__name__)
 
 #: mediapipe pose landmark index -> SMPL-like joint (the person's own left/right).
@@ -128,7 +130,7 @@ def render_views(scan, cameras: list[Camera]) -> list[np.ndarray]:
         return [_raycast(np.asarray(scan[0], float), np.asarray(scan[1], np.int64), c)
                 for c in cameras]
     P = np.asarray(scan, dtype=np.float64)
-    N = _point_normals(P)
+    N = normal_lines(P, k=20)  # shading uses |n . d|: the sign does not matter
     return [_splat(P, N, c) for c in cameras]
 
 
@@ -147,15 +149,6 @@ def _raycast(V: np.ndarray, F: np.ndarray, cam: Camera) -> np.ndarray:
     d /= np.linalg.norm(d, axis=-1, keepdims=True)
     n = ans["primitive_normals"].numpy()
     return _shade((n * d).sum(-1), hit)
-
-
-def _point_normals(P: np.ndarray) -> np.ndarray:
-    """(p, 3) unit normals of a point set from local PCA (unoriented)."""
-    import open3d as o3d
-
-    pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(P))
-    pc.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=0.04, max_nn=20))
-    return np.asarray(pc.normals)
 
 
 def _splat(P: np.ndarray, N: np.ndarray, cam: Camera, radius: int = 2) -> np.ndarray:
