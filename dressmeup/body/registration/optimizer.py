@@ -272,8 +272,7 @@ class OptimizationRegistrar:
         if support_info is not None:
             info["support"] = support_info
         fit_size = self.size_init and init is None
-        losses = self._refine(problem, fit_size=fit_size, info=info,
-                              limbs_again=init is None and self.limb_search_after_pose)
+        losses = self._refine(problem, fit_size=fit_size, info=info, limbs_again=init is None)
         return RegistrationResult(params=problem.body_params(self.optimize_scale),
                                   seconds=time.perf_counter() - t_start, losses=losses, info=info,
                                   supports=supports)
@@ -297,8 +296,9 @@ class OptimizationRegistrar:
 
     def _refine(self, problem: FitProblem, fit_size: bool, info: dict | None = None,
                 limbs_again: bool = False) -> dict[str, float]:
-        """Global (rigid, core joints), pose, (``limbs_again``: a second limb search, its
-        info into ``info["limbs_after_pose"]``), shape and optional L-BFGS stages."""
+        """Global (rigid, core joints), pose, (``limbs_again`` and the options
+        ``limb_search``, ``limb_search_after_pose``: a second limb search, its info into
+        ``info["limbs_after_pose"]``), shape and optional L-BFGS stages."""
         n_global, n_pose, n_shape = self.iterations
         p = problem
         v = self.verbose
@@ -317,7 +317,7 @@ class OptimizationRegistrar:
             pose_lrs.append(0.003)
         losses.update({f"pose_{k}": x for k, x in run_adam(
             p, "pose", n_pose, pose_params, pose_lrs, verbose=v).items()})
-        if limbs_again and self.limb_search:
+        if limbs_again and self.limb_search and self.limb_search_after_pose:
             again = limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl,
                                 fit_size, verbose=v)
             if info is not None:
