@@ -72,6 +72,16 @@ def scenario_seed(kind: str, pose: str, variant: str, subject: int) -> int:
     raise ValueError(f"unknown scenario {(kind, pose, variant)}")
 
 
+def _limbs_label(info: dict) -> str:
+    """What the limb searches moved (after the start; ``again``: after the pose stage)."""
+    out = ""
+    for key, label in ((None, " + limbs "), ("limbs_after_pose", " + limbs again ")):
+        search = info if key is None else info.get(key) or {}
+        if search.get("limb_kept"):
+            out += label + ",".join(search["limbs_moved"])
+    return out
+
+
 def make_truth(model, pose_name: str, variant: str, rng):
     """True parameters of one synthetic subject."""
     from dressmeup.body import BodyParams
@@ -180,9 +190,7 @@ def main() -> None:
                        body_to_scan_mm=fm["body_to_scan_mm"], scan_to_body_mm=fm["scan_to_body_mm"],
                        part_vertex_mm=part_err, wall_s=wall, cpu_s=cpu, load=load,
                        start_scores=res.info.get("start_scores"),
-                       init=res.info.get("init", "") + (
-                           " + limbs " + ",".join(res.info["limbs_moved"])
-                           if res.info.get("limb_kept") else ""))
+                       init=res.info.get("init", "") + _limbs_label(res.info))
             support = res.info.get("support") or {}
             row.update(support_removed=support.get("points_removed"),
                        support_checked=support.get("points_checked"),
