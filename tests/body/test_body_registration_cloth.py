@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from dressmeup.body import BodyParams, get_body_model
+from dressmeup.body.registration.optimizer import OptimizationRegistrar
+from dressmeup.errors import InputError
 
 
 def test_loose_cloth_mask_needs_a_clear_way_to_the_body():
@@ -67,7 +69,6 @@ def _leg_poses(model):
 def _data_terms(model, truth, scan, **options):
     import torch
 
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
     from dressmeup.body.registration.problem import FitProblem
     from dressmeup.body.registration.scan import prepare_scan
 
@@ -83,11 +84,57 @@ def _data_terms(model, truth, scan, **options):
     return out
 
 
-def test_legs_under_a_skirt_are_not_pulled_into_it(skirt_scan):
+@pytest.mark.parametrize("rule", ["loose", "free"])
+def test_legs_under_a_skirt_are_not_pulled_into_it(skirt_scan, rule):
     model, truth, scan = skirt_scan
-    cost = _data_terms(model, truth, scan, loose_cloth=True)
+    cost = _data_terms(model, truth, scan, far_cloth=rule, far_cloth_from="start")
     assert min(cost, key=cost.get) == "truth", cost
     # without the mechanism, knees bent forward into the skirt's far cloth beat the truth
     # (the dress failures of synth-registration-v3)
-    old = _data_terms(model, truth, scan, loose_cloth=False)
+    old = _data_terms(model, truth, scan, far_cloth="pull", far_cloth_from="start")
     assert old["knees forward"] < old["truth"], old
+
+
+def test_far_cloth_rule_applies_from_its_stage(skirt_scan):
+    """``far_cloth_from="shape"``: the searches and the pose stage see the pulling rule."""
+    model, truth, scan = skirt_scan
+    pull = _data_terms(model, truth, scan, far_cloth="pull", far_cloth_from="start")
+    later = _data_terms(model, truth, scan, far_cloth="free", far_cloth_from="shape")
+    assert later == pull
+    with pytest.raises(InputError, match="far_cloth"):
+        OptimizationRegistrar(far_cloth="loosen").fit(scan, model)
+
+
+@pytest.mark.parametrize("start, expected", [("start", {"hypotheses": True, "pose": True,
+                                                        "shape": True}),
+                                             ("pose", {"hypotheses": False, "pose": True,
+                                                       "shape": True}),
+                                             ("shape", {"hypotheses": False, "pose": False,
+                                                        "shape": True})])
+def test_far_cloth_from_switches_the_rule_on_at_its_stage(skirt_scan, monkeypatch, start,
+                                                          expected):
+    """The optimizer turns ``far_cloth`` on for the stage ``far_cloth_from`` names and keeps
+    it on for every later stage (the searches count as before the pose stage)."""
+    import dressmeup.body.registration.optimizer as optimizer
+    from dressmeup.body.registration import register
+
+    model, _, scan = skirt_scan
+    seen = {}
+    real_adam, real_search = optimizer.run_adam, optimizer.hypothesis_search
+
+    def adam(problem, stage, *args, **kwargs):
+        if stage != "global":
+            seen.setdefault(stage, problem.far_cloth_on)
+        return real_adam(problem, stage, *args, **kwargs)
+
+    def search(problem, *args, **kwargs):
+        seen["hypotheses"] = problem.far_cloth_on
+        return real_search(problem, *args, **kwargs)
+
+    monkeypatch.setattr(optimizer, "run_adam", adam)
+    monkeypatch.setattr(optimizer, "hypothesis_search", search)
+    register(scan, model, far_cloth="free", far_cloth_from=start, iterations=(5, 5, 5),
+             n_scan_points=1000, n_body_points=500, verbose=False, hypotheses=("a-pose",),
+             hypothesis_steps=(3, 3, 3), yaw_candidates=2, hypothesis_yaws=1,
+             limb_search=False)
+    assert seen == expected

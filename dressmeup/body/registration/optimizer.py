@@ -57,10 +57,16 @@ class OptimizationRegistrar:
     point_weight : weight of the point-to-point term.
     cloth_max : inside gaps (m) beyond which a residual is not clothing and costs again
         (None: inside residuals always saturate, as before).
-    loose_cloth : scan points farther than ``cloth_max`` outside the body with no other scan
+    far_cloth : how scan points farther than ``cloth_max`` outside the body pull it:
+        ``"pull"`` (the excess over ``cloth_max`` costs like an outside residual, so a scan
+        limb far from the body's brings it over); ``"loose"``: those with no other scan
         surface between them and the body are loose cloth over it (skirts, dresses) and do
-        not pull the body (:func:`~dressmeup.body.registration.problem.loose_cloth_mask`);
-        False: every far scan point pulls.
+        not pull (:func:`~dressmeup.body.registration.problem.loose_cloth_mask`);
+        ``"free"``: none pulls more than one ``cloth_max`` away does (no excess, the
+        point-to-point term capped).
+    far_cloth_from : the stage from which ``far_cloth`` applies (before it, ``"pull"``):
+        ``"start"`` (the whole fit, searches included), ``"pose"`` (after the start),
+        ``"shape"`` (the shape stage only, once the pose has settled).
     hand_weight : data weight of hand vertices (skinned to the wrists); < 1 keeps the many
         hand vertices from pulling the arm.
     skip_unseen : leave out body -> scan pairs whose scan point lies on a surface of the body
@@ -116,7 +122,8 @@ class OptimizationRegistrar:
     sigma_in: float = 0.01
     point_weight: float = 0.3
     cloth_max: float | None = 0.06
-    loose_cloth: bool = False
+    far_cloth: str = "free"
+    far_cloth_from: str = "shape"
     hand_weight: float = 1.0
     skip_unseen: bool = True
     pose_prior_weight: float = 1e-2
@@ -226,6 +233,16 @@ class OptimizationRegistrar:
         info["start_scores"] = {k: round(v, 5) for k, v in scores.items()}
         return info
 
+    def _check_options(self) -> None:
+        """Raise :class:`~dressmeup.errors.InputError` for an unknown choice."""
+        from dressmeup.errors import InputError
+
+        for name, allowed in (("far_cloth", ("pull", "loose", "free")),
+                              ("far_cloth_from", ("start", "pose", "shape"))):
+            if getattr(self, name) not in allowed:
+                raise InputError(f"{name}: expected one of {', '.join(allowed)}, got "
+                                 f"{getattr(self, name)!r}")
+
     def _use_keypoints(self) -> bool:
         """Whether this fit detects keypoints on the scan (see ``init_route``)."""
         from dressmeup.errors import InputError
@@ -247,6 +264,7 @@ class OptimizationRegistrar:
 
     def _fit(self, scan, model, init, keypoints) -> RegistrationResult:
         t_start = time.perf_counter()
+        self._check_options()
         P = prepare_scan(scan, self.n_scan_points, self.seed)
         supports, support_info = [], None
         if self.remove_support:
@@ -308,6 +326,7 @@ class OptimizationRegistrar:
             p, "global", n_global, [p.pose, p.transl], [self.lr_pose, self.lr_transl],
             verbose=v).items()})
         p.core_only = False
+        p.far_cloth_on = self.far_cloth_from in ("start", "pose")
         pose_params, pose_lrs = [p.pose, p.transl], [self.lr_pose, self.lr_transl]
         if self.shape_in_pose_stage:
             pose_params.append(p.shape_z)
@@ -324,6 +343,7 @@ class OptimizationRegistrar:
                 info["limbs_after_pose"] = again
         if fit_size and self.size_handover and not self.optimize_scale:
             losses["size_handover_rms_mm"] = 1000 * p.scale_into_shape()
+        p.far_cloth_on = True
         shape_params = [p.pose, p.transl, p.shape_z]
         shape_lrs = [self.lr_pose * 0.5, self.lr_transl * 0.5, self.lr_shape]
         if self.optimize_scale or abs(float(p.log_scale.detach())) > 0:

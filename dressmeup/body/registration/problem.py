@@ -119,6 +119,7 @@ class FitProblem:
         self.tree = cKDTree(P)
         self.P_t = torch.as_tensor(P, dtype=dt, device=dev)
         self.loose = None  # (p,) weights of the scan points, 0 for loose cloth
+        self.far_cloth_on = opts.far_cloth_from == "start"  # the optimizer switches it on
         self.loose_every = 10  # steps between two loose-cloth tests
         rng = np.random.default_rng(opts.seed)
         self.body_ids = np.sort(rng.choice(model.n_vertices, min(opts.n_body_points, model.n_vertices),
@@ -330,20 +331,22 @@ class FitProblem:
             seen = unseen_free_weights(Nb.detach(), self.nn_b2s, self.nn_s2b)
             wb = seen if w is None else w * seen
         if self.core_only:  # rigid stage: torso, hips and head against the scan only
-            pairs = ((r[self.core_t], d[self.core_t], None if wb is None else wb[self.core_t]),)
+            pairs = ((r[self.core_t], d[self.core_t], None if wb is None else wb[self.core_t],
+                      False),)
         else:
             ws = None if w is None else w[self.nn_s2b]
-            if o.loose_cloth and o.cloth_max is not None:  # loose cloth does not pull
+            far = o.far_cloth if self.far_cloth_on and o.cloth_max is not None else "pull"
+            if far == "loose":  # loose cloth does not pull
                 if self.loose is None or self.step % self.loose_every == 1:
                     mask = loose_cloth_mask(self.P, Vb_np[self.nn_s2b.cpu().numpy()],
                                             (r2 < 0).cpu().numpy(), o.cloth_max, self.tree)
                     self.loose = torch.as_tensor(~mask, dtype=self.dt, device=self.dev)
                 ws = self.loose if ws is None else ws * self.loose
-            pairs = ((r, d, wb), (r2, e, ws))
+            pairs = ((r, d, wb, False), (r2, e, ws, far == "free"))
         data = 0.0
-        for res, diff, wt in pairs:
+        for res, diff, wt, free in pairs:
             data = data + one_sided_cost(res, diff, wt, o.sigma_out, o.sigma_in, o.inside_weight,
-                                         o.point_weight, o.cloth_max)
+                                         o.point_weight, o.cloth_max, far_free=free)
         loss = data * 1e4  # residuals in metres: scale to ~cm^2
         terms = {"data": float(data.detach()) * 1e4}
         if stage != "global":

@@ -65,7 +65,7 @@ def geman_mcclure(r2, sigma: float):
 
 
 def one_sided_cost(res, diff, weight, sigma_out: float, sigma_in: float, inside_weight: float,
-                   point_weight: float, cloth_max: float | None = None):
+                   point_weight: float, cloth_max: float | None = None, far_free: bool = False):
     """Weighted mean robust cost of signed residuals.
 
     Parameters
@@ -76,15 +76,21 @@ def one_sided_cost(res, diff, weight, sigma_out: float, sigma_in: float, inside_
     cloth_max : inside gaps beyond this (m) are not clothing: the excess costs like an
         outside residual (a T-pose scan's arms far from a body fitted with its arms down
         would otherwise cost almost nothing). None: no limit.
+    far_free : with ``cloth_max``, inside gaps beyond it pull no more than a gap of
+        ``cloth_max`` does: no excess cost, and the point-to-point term is capped at
+        ``cloth_max`` (loose cloth a dress's width off the legs stops bending them into it).
     """
     import torch
 
     inside = inside_weight * geman_mcclure(res * res, sigma_in)
-    if cloth_max is not None:
+    dist2 = (diff * diff).sum(-1)
+    if cloth_max is not None and far_free:
+        dist2 = torch.where(res > 0, dist2, dist2.clamp(max=cloth_max * cloth_max))
+    elif cloth_max is not None:
         excess = torch.relu(-res - cloth_max)
         inside = inside + geman_mcclure(excess * excess, sigma_out)
     cost = torch.where(res > 0, geman_mcclure(res * res, sigma_out), inside)
-    cost = cost + point_weight * geman_mcclure((diff * diff).sum(-1), sigma_out)
+    cost = cost + point_weight * geman_mcclure(dist2, sigma_out)
     if weight is None:
         return cost.mean()
     return (weight * cost).sum() / weight.sum().clamp_min(1e-9)
