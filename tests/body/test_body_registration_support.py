@@ -77,6 +77,37 @@ def test_a_ball_on_the_seat_loses_only_its_contact_cap():
     assert 0 < lost <= 0.008 / (2 * 0.15) + 0.005
 
 
+def test_scan_without_support_keeps_the_person_of_a_mesh_and_of_points():
+    """A mesh of a seat box (top and sides, subdivided, all 5 found as supports) with a ball
+    on it: the box's faces and vertices go (but for a few at its corners, outside the
+    regions), the ball stays whole; points lose exactly the masked ones; no planes: the scan
+    itself comes back."""
+    import trimesh
+
+    from dressmeup.body.registration.support import scan_without_support
+
+    box = trimesh.creation.box(extents=(0.5, 0.45, 0.5)).subdivide_to_size(0.02)
+    box.apply_translation((0.0, 0.225, 0.0))
+    box.update_faces(~(box.vertices[box.faces][:, :, 1] < 1e-6).all(1))  # no bottom
+    box.remove_unreferenced_vertices()
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=0.15)
+    ball.apply_translation((0.0, 0.45 + 0.16, 0.0))
+    mesh = trimesh.util.concatenate([box, ball])
+    rng = np.random.default_rng(2)
+    planes = find_supports(np.vstack([_box(rng), _sphere(rng, (0, 0.61, 0), 0.15)]), seed=2)
+    assert len(planes) == 5
+    V, F = scan_without_support(mesh, planes)
+    on_ball = np.abs(np.linalg.norm(V - (0, 0.61, 0), axis=1) - 0.15) < 1e-6
+    assert on_ball.sum() == len(ball.vertices)  # the ball whole
+    ball_faces = on_ball[F].all(1)
+    assert ball_faces.sum() == len(ball.faces)
+    assert (~ball_faces).sum() < 0.01 * len(box.faces)  # the box's corners at most
+    assert F.min() == 0 and F.max() == len(V) - 1 and len(np.unique(F)) == len(V)
+    P = np.asarray(mesh.vertices)
+    assert len(scan_without_support(P, planes)) == len(P) - support_mask(P, planes).sum()
+    assert scan_without_support(mesh, []) is mesh
+
+
 def test_flat_square_threshold_and_torso_curvature():
     """Geometry of the acceptance test (defaults: a 30 cm square flat within +-8 mm).
 
@@ -148,6 +179,33 @@ def test_registrar_leaves_the_seat_out_and_reports_it():
     floor_only = _face(np.random.default_rng(4), (-0.5, 0, -0.5), (1, 0, 0), (0, 0, 1))
     with pytest.raises(InputError, match="flat surfaces.*keep-support"):
         register(floor_only, model, **fast)
+
+
+def test_keypoints_are_detected_on_the_scan_without_the_seat(monkeypatch):
+    """The keypoint route renders the scan the fit sees: the seat's points are not drawn."""
+    import dressmeup.body.registration.keypoints as kp
+    from dressmeup.body import BodyParams, get_body_model
+    from dressmeup.body.registration import register
+    from dressmeup.body.synthetic import named_pose, synthetic_scan
+
+    model = get_body_model("procedural")
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=named_pose("sitting"))
+    scan = synthetic_scan(model, truth, n_points=6000, noise=0.002, seed=3, seat_box=True)
+    seen = []
+
+    def detect(points, model):
+        seen.append(np.asarray(points))
+        return kp.ScanKeypoints(joints=np.full((model.n_joints, 3), np.nan), views=8,
+                                detections=0, inliers={})
+
+    monkeypatch.setattr(kp, "keypoints_available", lambda: True)
+    monkeypatch.setattr(kp, "detect_keypoints", detect)
+    res = register(scan, model, return_result=True, init_route="keypoints", iterations=(1, 1, 1),
+                   n_scan_points=2000, verbose=False, hypotheses=(), yaw_search=False)
+    assert len(seen) == 1 and res.supports
+    from dressmeup.body.registration.support import support_mask
+
+    assert len(seen[0]) < len(scan) and not support_mask(seen[0], res.supports).any()
 
 
 def test_register_command_measures_the_fit_without_the_support(tmp_path, capsys, monkeypatch):

@@ -272,8 +272,9 @@ class OptimizationRegistrar:
         detected = None
         if keypoints is None and init is None and self._use_keypoints():
             from dressmeup.body.registration.keypoints import detect_keypoints
+            from dressmeup.body.registration.support import scan_without_support
 
-            detected = detect_keypoints(scan, model)
+            detected = detect_keypoints(scan_without_support(scan, supports), model)
             keypoints = detected.joints
         kp = keypoint_arrays(keypoints, model)
         if kp is not None and len(kp[0]) == 0:

@@ -198,6 +198,26 @@ def support_mask(points: np.ndarray, planes: list[SupportPlane]) -> np.ndarray:
     return out
 
 
+def scan_without_support(scan, planes: list[SupportPlane]):
+    """``scan`` (a ``(V, F)`` mesh, a trimesh, or ``(p, 3)`` points) without what lies on
+    ``planes``, of the same kind: points on a support dropped; for a mesh the faces whose
+    three vertices lie on supports dropped and the vertices no face uses left out (so a
+    render or a bounding box sees only the person). ``planes`` empty: ``scan`` itself."""
+    if not planes:
+        return scan
+    if hasattr(scan, "vertices") and hasattr(scan, "faces"):
+        scan = (np.asarray(scan.vertices), np.asarray(scan.faces))
+    if isinstance(scan, (tuple, list)):
+        V, F = np.asarray(scan[0], dtype=np.float64), np.asarray(scan[1], dtype=np.int64)
+        F = F[~support_mask(V, planes)[F].all(1)]
+        used = np.unique(F)
+        remap = np.full(len(V), -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        return V[used], remap[F]
+    P = np.asarray(scan, dtype=np.float64)
+    return P[~support_mask(P, planes)]
+
+
 def remove_support(points: np.ndarray, **options) -> tuple[np.ndarray, list[SupportPlane]]:
     """Drop the points on supports; return ``(kept points (q, 3), planes)``.
 
