@@ -73,12 +73,16 @@ def scenario_seed(kind: str, pose: str, variant: str, subject: int) -> int:
 
 
 def _limbs_label(info: dict) -> str:
-    """What the limb searches moved (after the start; ``again``: after the pose stage)."""
+    """What the limb searches moved (after the start; ``again``: after the pose stage), and
+    which pose-stage branch went on when it was not the pulling one."""
     out = ""
     for key, label in ((None, " + limbs "), ("limbs_after_pose", " + limbs again ")):
         search = info if key is None else info.get(key) or {}
         if search.get("limb_kept"):
             out += label + ",".join(search["limbs_moved"])
+    kept = (info.get("pose_branches") or {}).get("kept", "pull")
+    if kept != "pull":
+        out += f" + pose stage far cloth {kept}"
     return out
 
 

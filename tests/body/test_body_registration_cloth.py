@@ -138,3 +138,41 @@ def test_far_cloth_from_switches_the_rule_on_at_its_stage(skirt_scan, monkeypatc
              hypothesis_steps=(3, 3, 3), yaw_candidates=2, hypothesis_yaws=1,
              limb_search=False)
     assert seen == expected
+
+
+def test_pose_stage_branches_keep_the_lower_symmetric_score(skirt_scan, monkeypatch):
+    """``far_cloth_branch``: the pose stage runs with far cloth pulling and then with the
+    rule, from the same start; the body with the lower symmetric score goes on, and the
+    shape stage runs with the rule. Off, or with ``far_cloth="pull"``: one pose stage."""
+    import dressmeup.body.registration.optimizer as optimizer
+    from dressmeup.body.registration import register
+
+    model, _, scan = skirt_scan
+    calls, starts, scores = [], [], []
+    real_adam, real_score = optimizer.run_adam, optimizer.symmetric_score
+
+    def adam(problem, stage, *args, **kwargs):
+        if stage == "pose":
+            starts.append(problem.posed_numpy())
+        calls.append((stage, problem.far_cloth_on))
+        return real_adam(problem, stage, *args, **kwargs)
+
+    def score(problem):
+        scores.append(real_score(problem))
+        return scores[-1]
+
+    monkeypatch.setattr(optimizer, "run_adam", adam)
+    monkeypatch.setattr(optimizer, "symmetric_score", score)
+    fast = dict(iterations=(3, 8, 3), n_scan_points=1000, n_body_points=500, verbose=False,
+                hypotheses=("a-pose",), hypothesis_steps=(3, 3, 3), yaw_candidates=2,
+                hypothesis_yaws=1, limb_search=False, return_result=True)
+    res = register(scan, model, **fast)
+    assert calls[1:] == [("pose", False), ("pose", True), ("shape", True)]
+    assert np.allclose(starts[0], starts[1])  # both branches start from the same body
+    b = res.info["pose_branches"]
+    assert b["kept"] == ("free" if b["free"] < b["pull"] else "pull")
+    assert [round(x, 5) for x in scores[-2:]] == [b["pull"], b["free"]]
+    for off in ({"far_cloth_branch": False}, {"far_cloth": "pull"}):
+        calls.clear()
+        res = register(scan, model, **fast, **off)
+        assert [c[0] for c in calls[1:]] == ["pose", "shape"] and "pose_branches" not in res.info

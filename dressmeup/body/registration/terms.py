@@ -8,8 +8,10 @@ Geman-McClure of the smaller scale ``sigma_in``, which saturates for cloth a few
 centimetres off the skin, so loose clothing does not inflate the body. A point-to-point
 term with a small weight keeps correspondences from sliding. Inside gaps larger than
 ``cloth_max`` (6 cm) are not clothing: their excess costs like an outside residual, so
-limbs of the scan far from the body still pull it. Each body point carries a
-weight (hands count less: their many vertices would otherwise pull the arm).
+limbs of the scan far from the body still pull it; with ``far_free`` (the registrar's
+``far_cloth="free"`` rule, from the shape stage on) they stop pulling beyond ``cloth_max``
+(a skirt's far cloth bent the legs into it). Each body point carries a weight (hands count
+less: their many vertices would otherwise pull the arm).
 """
 
 from __future__ import annotations
