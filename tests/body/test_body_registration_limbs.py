@@ -165,9 +165,14 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     fast = dict(iterations=(10, 30, 10), n_scan_points=1500, n_body_points=1000, verbose=False,
                 hypotheses=("a-pose",), hypothesis_steps=(5, 5, 10), yaw_candidates=2,
                 hypothesis_yaws=1)
-    res = register(scan, model, return_result=True, **fast)
+    res = register(scan, model, return_result=True, far_cloth_branch=False, **fast)
     assert len(starts) == 2 and not np.allclose(starts[0], starts[1])
     assert set(res.info["limbs_after_pose"]) >= {"limbs_moved", "limb_score", "limb_kept"}
+    starts.clear()
+    # with the pose-stage branches (the default), each branch has its own second search
+    res = register(scan, model, return_result=True, **fast)
+    assert len(starts) == 3 and not np.allclose(starts[1], starts[2])
+    assert res.info["pose_branches"]["kept"] in ("pull", "free")
     starts.clear()
     res = register(scan, model, return_result=True, limb_search_after_pose=False, **fast)
     assert len(starts) == 1 and "limbs_after_pose" not in res.info

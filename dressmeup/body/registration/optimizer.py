@@ -68,11 +68,12 @@ class OptimizationRegistrar:
         ``"start"`` (the whole fit, searches included), ``"pose"`` (after the start),
         ``"shape"`` (the shape stage only, once the pose has settled).
     far_cloth_branch : with ``far_cloth_from="shape"`` and a ``far_cloth`` other than
-        ``"pull"``, the pose stage runs twice from the same start, once with far cloth
-        pulling and once with ``far_cloth``, and the body with the lower symmetric score
+        ``"pull"``, the pose stage (and the second limb search after it) runs twice from the
+        same start, once with far cloth pulling and once with ``far_cloth``, and the body
+        with the lower symmetric score
         (:func:`~dressmeup.body.registration.init.symmetric_score`) goes on: the pull brings
         misplaced limbs back, the free rule keeps legs out of a skirt; the score tells which
-        mattered on this scan (about one pose stage more CPU, ~8 s).
+        mattered on this scan (one pose stage and one limb search more CPU).
     hand_weight : data weight of hand vertices (skinned to the wrists); < 1 keeps the many
         hand vertices from pulling the arm.
     skip_unseen : leave out body -> scan pairs whose scan point lies on a surface of the body
@@ -320,32 +321,44 @@ class OptimizationRegistrar:
                 "planes": [p.summary() for p in planes], "cpu_s": time.process_time() - cpu}
         return P, planes, info
 
-    def _pose_stage_branches(self, p: FitProblem, n_pose: int, params: list, lrs: list,
-                             info: dict | None) -> dict[str, float]:
-        """``far_cloth_branch``: the pose stage with far cloth pulling, then from the same
-        start with ``far_cloth``; the body with the lower symmetric score stays in ``p``
-        (ties: the pulling one). Returns the kept branch's losses; the scores go to
-        ``info["pose_branches"]``."""
+    def _pose_and_limbs(self, p: FitProblem, n_pose: int, params: list, lrs: list,
+                        fit_size: bool, limbs_again: bool) -> tuple[dict, dict | None]:
+        """The pose stage, then (``limbs_again`` and the options ``limb_search``,
+        ``limb_search_after_pose``) the second limb search; returns the stage's last loss
+        terms and the search's info (None when it did not run)."""
+        terms = run_adam(p, "pose", n_pose, params, lrs, verbose=self.verbose)
+        again = None
+        if limbs_again and self.limb_search and self.limb_search_after_pose:
+            again = limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl,
+                                fit_size, verbose=self.verbose)
+        return terms, again
+
+    def _pose_stage_branches(self, p: FitProblem, *args) -> tuple[dict, dict | None, dict]:
+        """``far_cloth_branch``: :meth:`_pose_and_limbs` with far cloth pulling, then from
+        the same start with ``far_cloth``; the body with the lower symmetric score stays in
+        ``p`` (ties: the pulling one). Each branch is scored after its own limb search: the
+        pulling branch may need that search to turn a limb the rule would not have
+        misplaced. Returns the kept branch's terms and limb-search info, and the scores."""
         start = p.snapshot()
         out = []
         for rule_on in (False, True):
             p.restore(start)
             p.far_cloth_on = rule_on
-            terms = run_adam(p, "pose", n_pose, params, lrs, verbose=self.verbose)
-            out.append((symmetric_score(p), rule_on, p.snapshot(), terms))
-        score, rule_on, snap, terms = min(out, key=lambda t: (t[0], t[1]))
+            terms, again = self._pose_and_limbs(p, *args)
+            out.append((symmetric_score(p), rule_on, p.snapshot(), terms, again))
+        score, rule_on, snap, terms, again = min(out, key=lambda t: (t[0], t[1]))
         p.restore(snap)
         p.far_cloth_on = False
-        if info is not None:
-            info["pose_branches"] = {"pull": round(out[0][0], 5), self.far_cloth: round(out[1][0], 5),
-                                     "kept": self.far_cloth if rule_on else "pull"}
-        return {f"pose_{k}": x for k, x in terms.items()}
+        scores = {"pull": round(out[0][0], 5), self.far_cloth: round(out[1][0], 5),
+                  "kept": self.far_cloth if rule_on else "pull"}
+        return terms, again, scores
 
     def _refine(self, problem: FitProblem, fit_size: bool, info: dict | None = None,
                 limbs_again: bool = False) -> dict[str, float]:
         """Global (rigid, core joints), pose, (``limbs_again`` and the options
         ``limb_search``, ``limb_search_after_pose``: a second limb search, its info into
-        ``info["limbs_after_pose"]``), shape and optional L-BFGS stages."""
+        ``info["limbs_after_pose"]``; with ``far_cloth_branch`` both twice, see
+        :meth:`_pose_stage_branches`), shape and optional L-BFGS stages."""
         n_global, n_pose, n_shape = self.iterations
         p = problem
         v = self.verbose
@@ -363,16 +376,16 @@ class OptimizationRegistrar:
         if fit_size:
             pose_params.append(p.log_scale)
             pose_lrs.append(0.003)
+        stage = (p, n_pose, pose_params, pose_lrs, fit_size, limbs_again)
         if self.far_cloth_branch and self.far_cloth_from == "shape" and self.far_cloth != "pull":
-            losses.update(self._pose_stage_branches(p, n_pose, pose_params, pose_lrs, info))
-        else:
-            losses.update({f"pose_{k}": x for k, x in run_adam(
-                p, "pose", n_pose, pose_params, pose_lrs, verbose=v).items()})
-        if limbs_again and self.limb_search and self.limb_search_after_pose:
-            again = limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl,
-                                fit_size, verbose=v)
+            terms, again, scores = self._pose_stage_branches(*stage)
             if info is not None:
-                info["limbs_after_pose"] = again
+                info["pose_branches"] = scores
+        else:
+            terms, again = self._pose_and_limbs(*stage)
+        losses.update({f"pose_{k}": x for k, x in terms.items()})
+        if again is not None and info is not None:
+            info["limbs_after_pose"] = again
         if fit_size and self.size_handover and not self.optimize_scale:
             losses["size_handover_rms_mm"] = 1000 * p.scale_into_shape()
         p.far_cloth_on = True
