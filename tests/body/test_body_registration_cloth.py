@@ -103,6 +103,10 @@ def test_far_cloth_rule_applies_from_its_stage(skirt_scan):
     assert later == pull
     with pytest.raises(InputError, match="far_cloth"):
         OptimizationRegistrar(far_cloth="loosen").fit(scan, model)
+    from dressmeup.body.registration import register
+
+    with pytest.raises(InputError, match="unknown option.*loose_cloth.*far_cloth='loose'"):
+        register(scan, model, loose_cloth=True)  # the session-4 name says what replaced it
 
 
 @pytest.mark.parametrize("start, expected", [("start", {"hypotheses": True, "pose": True,

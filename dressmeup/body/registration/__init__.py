@@ -35,6 +35,7 @@ optional ``[keypoints]`` extra), :mod:`.metrics` (fit quality without ground tru
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from collections.abc import Callable
@@ -96,7 +97,16 @@ def get_registrar(name: str = "optimization", **options):
     """Return the registrar ``name`` built with ``options``."""
     if name not in _REGISTRARS:
         raise ValueError(f"registrar: unknown {name!r}; known: {available_registrars()}")
-    return _REGISTRARS[name](**options)
+    factory = _REGISTRARS[name]
+    if dataclasses.is_dataclass(factory):
+        known = {f.name for f in dataclasses.fields(factory)}
+        unknown = sorted(set(options) - known)
+        if unknown:
+            hint = (" (loose_cloth=True is now far_cloth='loose', far_cloth_from='start')"
+                    if "loose_cloth" in unknown else "")
+            raise InputError(f"registrar {name!r}: unknown option(s) {unknown}{hint}; "
+                             f"known: {sorted(known)}")
+    return factory(**options)
 
 
 def register(scan, model, init: BodyParams | None = None, keypoints=None,
