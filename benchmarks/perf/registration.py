@@ -72,7 +72,7 @@ def scenario_seed(kind: str, pose: str, variant: str, subject: int) -> int:
     raise ValueError(f"unknown scenario {(kind, pose, variant)}")
 
 
-def _limbs_label(info: dict) -> str:
+def _search_label(info: dict) -> str:
     """What the limb searches moved (after the start; ``again``: after the pose stage), and
     which pose-stage branch went on when it was not the pulling one."""
     out = ""
@@ -194,7 +194,7 @@ def main() -> None:
                        body_to_scan_mm=fm["body_to_scan_mm"], scan_to_body_mm=fm["scan_to_body_mm"],
                        part_vertex_mm=part_err, wall_s=wall, cpu_s=cpu, load=load,
                        start_scores=res.info.get("start_scores"),
-                       init=res.info.get("init", "") + _limbs_label(res.info))
+                       init=res.info.get("init", "") + _search_label(res.info))
             support = res.info.get("support") or {}
             row.update(support_removed=support.get("points_removed"),
                        support_checked=support.get("points_checked"),

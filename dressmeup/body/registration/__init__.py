@@ -102,8 +102,8 @@ def get_registrar(name: str = "optimization", **options):
         known = {f.name for f in dataclasses.fields(factory)}
         unknown = sorted(set(options) - known)
         if unknown:
-            hint = (" (loose_cloth=True is now far_cloth='loose', far_cloth_from='start')"
-                    if "loose_cloth" in unknown else "")
+            renamed = getattr(factory, "RENAMED_OPTIONS", {})
+            hint = "".join(f" ({o} is now {renamed[o]})" for o in unknown if o in renamed)
             raise InputError(f"registrar {name!r}: unknown option(s) {unknown}{hint}; "
                              f"known: {sorted(known)}")
     return factory(**options)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -122,6 +123,11 @@ class OptimizationRegistrar:
         ``support_sample`` times ``n_scan_points`` samples; the fit then uses
         ``n_scan_points`` of the points left. A scan without such surfaces is unchanged.
     """
+
+    #: Options of earlier releases and what replaced them (named in the error for an
+    #: unknown option, see :func:`~dressmeup.body.registration.get_registrar`).
+    RENAMED_OPTIONS: ClassVar[dict[str, str]] = {
+        "loose_cloth": "far_cloth='loose', far_cloth_from='start' (loose_cloth=True)"}
 
     iterations: tuple[int, int, int] = (60, 160, 160)
     inside_weight: float = 0.5
@@ -246,18 +252,17 @@ class OptimizationRegistrar:
         from dressmeup.errors import InputError
 
         for name, allowed in (("far_cloth", ("pull", "loose", "free")),
-                              ("far_cloth_from", ("start", "pose", "shape"))):
+                              ("far_cloth_from", ("start", "pose", "shape")),
+                              ("init_route", ("hypotheses", "keypoints", "auto"))):
             if getattr(self, name) not in allowed:
                 raise InputError(f"{name}: expected one of {', '.join(allowed)}, got "
                                  f"{getattr(self, name)!r}")
 
     def _use_keypoints(self) -> bool:
-        """Whether this fit detects keypoints on the scan (see ``init_route``)."""
+        """Whether this fit detects keypoints on the scan (see ``init_route``, checked by
+        :meth:`_check_options`)."""
         from dressmeup.errors import InputError
 
-        if self.init_route not in ("hypotheses", "keypoints", "auto"):
-            raise InputError(f"init_route: expected hypotheses, keypoints or auto, got "
-                             f"{self.init_route!r}")
         if self.init_route == "hypotheses":
             return False
         from dressmeup.body.registration.keypoints import keypoints_available
@@ -346,9 +351,8 @@ class OptimizationRegistrar:
             p.far_cloth_on = rule_on
             terms, again = self._pose_and_limbs(p, *args)
             out.append((symmetric_score(p), rule_on, p.snapshot(), terms, again))
-        score, rule_on, snap, terms, again = min(out, key=lambda t: (t[0], t[1]))
+        _, rule_on, snap, terms, again = min(out, key=lambda t: (t[0], t[1]))
         p.restore(snap)
-        p.far_cloth_on = False
         scores = {"pull": round(out[0][0], 5), self.far_cloth: round(out[1][0], 5),
                   "kept": self.far_cloth if rule_on else "pull"}
         return terms, again, scores
