@@ -70,13 +70,14 @@ def fit(root: str, options: dict, only: str = "") -> list[dict]:
                "v2v_mm": float(np.linalg.norm(a.vertices - b.vertices, axis=1).mean() * 1000),
                "mpjpe_mm": float(np.linalg.norm(a.joints - b.joints, axis=1).mean() * 1000),
                "cpu_s": cpu, "load": os.getloadavg()[0], "init": res.info.get("init", ""),
-               "pose_branch": (res.info.get("pose_branches") or {}).get("kept", ""),
+               "far_cloth_branch": (res.info.get("far_cloth_branches") or {}).get("kept", ""),
                "params": {"shape": res.params.shape.tolist(), "pose": res.params.pose.tolist(),
                           "transl": res.params.transl.tolist()}}
         rows.append(row)
         print(f"{sid:<14}{row['pose']:<13}{row['category']:<12}{row['v2v_mm']:7.1f}"
               f"{row['mpjpe_mm']:7.1f}{cpu:7.1f}{row['load']:5.1f}  {row['init']}"
-              + (f"; pose stage: {row['pose_branch']}" if row["pose_branch"] else ""), flush=True)
+              + (f"; far cloth branch: {row['far_cloth_branch']}" if row["far_cloth_branch"]
+                 else ""), flush=True)
     return rows
 
 

@@ -74,15 +74,15 @@ def scenario_seed(kind: str, pose: str, variant: str, subject: int) -> int:
 
 def _search_label(info: dict) -> str:
     """What the limb searches moved (after the start; ``again``: after the pose stage), and
-    which pose-stage branch went on when it was not the pulling one."""
+    which far-cloth branch went on when it was not the pulling one."""
     out = ""
     for key, label in ((None, " + limbs "), ("limbs_after_pose", " + limbs again ")):
         search = info if key is None else info.get(key) or {}
         if search.get("limb_kept"):
             out += label + ",".join(search["limbs_moved"])
-    kept = (info.get("pose_branches") or {}).get("kept", "pull")
+    kept = (info.get("far_cloth_branches") or {}).get("kept", "pull")
     if kept != "pull":
-        out += f" + pose stage far cloth {kept}"
+        out += f" + far cloth {kept} branch"
     return out
 
 

@@ -144,39 +144,71 @@ def test_far_cloth_from_switches_the_rule_on_at_its_stage(skirt_scan, monkeypatc
     assert seen == expected
 
 
-def test_pose_stage_branches_keep_the_lower_symmetric_score(skirt_scan, monkeypatch):
-    """``far_cloth_branch``: the pose stage runs with far cloth pulling and then with the
-    rule, from the same start; the body with the lower symmetric score goes on, and the
-    shape stage runs with the rule. Off, or with ``far_cloth="pull"``: one pose stage."""
+def test_far_cloth_branches_keep_the_lower_final_objective(skirt_scan, monkeypatch):
+    """``far_cloth_branch``: pose and shape stages run with far cloth pulling in the pose
+    stage and then, from the same start, with the rule throughout; both shape stages use the
+    rule, and the body where that final objective is lower is the result. Off, or with
+    ``far_cloth="pull"``: one pose and one shape stage."""
     import dressmeup.body.registration.optimizer as optimizer
     from dressmeup.body.registration import register
+    from dressmeup.body.registration.problem import FitProblem
 
     model, _, scan = skirt_scan
-    calls, starts, scores = [], [], []
-    real_adam, real_score = optimizer.run_adam, optimizer.symmetric_score
+    calls, starts, ends, finals = [], [], [], []
+    real_adam, real_objective = optimizer.run_adam, FitProblem.objective
 
     def adam(problem, stage, *args, **kwargs):
         if stage == "pose":
             starts.append(problem.posed_numpy())
         calls.append((stage, problem.far_cloth_on))
-        return real_adam(problem, stage, *args, **kwargs)
+        out = real_adam(problem, stage, *args, **kwargs)
+        if stage == "shape":
+            ends.append(problem.posed_numpy())
+        return out
 
-    def score(problem):
-        scores.append(real_score(problem))
-        return scores[-1]
+    def objective(problem, stage, far_cloth_on=True):
+        finals.append((stage, far_cloth_on, real_objective(problem, stage, far_cloth_on)))
+        return finals[-1][2]
 
     monkeypatch.setattr(optimizer, "run_adam", adam)
-    monkeypatch.setattr(optimizer, "symmetric_score", score)
+    monkeypatch.setattr(FitProblem, "objective", objective)
     fast = dict(iterations=(3, 8, 3), n_scan_points=1000, n_body_points=500, verbose=False,
                 hypotheses=("a-pose",), hypothesis_steps=(3, 3, 3), yaw_candidates=2,
                 hypothesis_yaws=1, limb_search=False, return_result=True)
     res = register(scan, model, **fast)
-    assert calls[1:] == [("pose", False), ("pose", True), ("shape", True)]
+    assert calls[1:] == [("pose", False), ("shape", True), ("pose", True), ("shape", True)]
     assert np.allclose(starts[0], starts[1])  # both branches start from the same body
-    b = res.info["pose_branches"]
-    assert b["kept"] == ("free" if b["free"] < b["pull"] else "pull")
-    assert [round(x, 5) for x in scores[-2:]] == [b["pull"], b["free"]]
+    assert not np.allclose(ends[0], ends[1])
+    assert [f[:2] for f in finals] == [("shape", True), ("shape", True)]
+    b = res.info["far_cloth_branches"]
+    assert [b["pull"], b["free"]] == [round(f[2], 4) for f in finals]
+    kept = int(finals[1][2] < finals[0][2])
+    assert b["kept"] == ("pull", "free")[kept]
+    assert np.allclose(model.posed(res.params).vertices, ends[kept], atol=1e-5)
     for off in ({"far_cloth_branch": False}, {"far_cloth": "pull"}):
         calls.clear()
         res = register(scan, model, **fast, **off)
-        assert [c[0] for c in calls[1:]] == ["pose", "shape"] and "pose_branches" not in res.info
+        assert [c[0] for c in calls[1:]] == ["pose", "shape"]
+        assert "far_cloth_branches" not in res.info
+
+
+def test_objective_is_the_stage_loss_with_fresh_correspondences(skirt_scan):
+    """``FitProblem.objective`` equals the loss of a stage's first step, with far cloth as
+    asked, and leaves the problem's far-cloth switch and parameters as they were."""
+    from dressmeup.body.registration.problem import FitProblem
+    from dressmeup.body.registration.scan import prepare_scan
+
+    model, truth, scan = skirt_scan
+    opts = OptimizationRegistrar(n_scan_points=1500, n_body_points=800, verbose=False)
+    problem = FitProblem(opts, model, prepare_scan(scan, 1500, 0), None)
+    problem.set_params(shape=truth.shape, pose=truth.pose, transl=truth.transl)
+    problem.far_cloth_on = False
+    before = problem.posed_numpy()
+    free, pull = problem.objective("shape", True), problem.objective("shape", False)
+    assert problem.far_cloth_on is False and np.array_equal(problem.posed_numpy(), before)
+    for on, value in ((True, free), (False, pull)):
+        problem.far_cloth_on = on
+        problem.reset_correspondences()
+        loss, _ = problem.loss("shape")
+        assert float(loss.detach()) == pytest.approx(value, rel=1e-6)
+    assert free < pull  # the skirt's far points cost only under the pull

@@ -169,10 +169,10 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     assert len(starts) == 2 and not np.allclose(starts[0], starts[1])
     assert set(res.info["limbs_after_pose"]) >= {"limbs_moved", "limb_score", "limb_kept"}
     starts.clear()
-    # with the pose-stage branches (the default), each branch has its own second search
+    # with the far-cloth branches (the default), each branch has its own second search
     res = register(scan, model, return_result=True, **fast)
     assert len(starts) == 3 and not np.allclose(starts[1], starts[2])
-    assert res.info["pose_branches"]["kept"] in ("pull", "free")
+    assert res.info["far_cloth_branches"]["kept"] in ("pull", "free")
     starts.clear()
     res = register(scan, model, return_result=True, limb_search_after_pose=False, **fast)
     assert len(starts) == 1 and "limbs_after_pose" not in res.info

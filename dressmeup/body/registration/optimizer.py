@@ -69,12 +69,12 @@ class OptimizationRegistrar:
         ``"start"`` (the whole fit, searches included), ``"pose"`` (after the start),
         ``"shape"`` (the shape stage only, once the pose has settled).
     far_cloth_branch : with ``far_cloth_from="shape"`` and a ``far_cloth`` other than
-        ``"pull"``, the pose stage (and the second limb search after it) runs twice from the
-        same start, once with far cloth pulling and once with ``far_cloth``, and the body
-        with the lower symmetric score
-        (:func:`~dressmeup.body.registration.init.symmetric_score`) goes on: the pull brings
-        misplaced limbs back, the free rule keeps legs out of a skirt; the score tells which
-        mattered on this scan (one pose stage and one limb search more CPU).
+        ``"pull"``, everything after the global stage (pose stage, second limb search, size
+        handover, shape stage) runs twice from the same start, once with far cloth pulling
+        in the pose stage and once with ``far_cloth`` throughout; both end in the same shape
+        stage, and the body where its objective is lower goes on: the pull brings misplaced
+        limbs back, the free rule keeps legs out of a skirt; the final objective tells which
+        mattered on this scan (one pose stage, limb search and shape stage more CPU).
     hand_weight : data weight of hand vertices (skinned to the wrists); < 1 keeps the many
         hand vertices from pulling the arm.
     skip_unseen : leave out body -> scan pairs whose scan point lies on a surface of the body
@@ -338,39 +338,71 @@ class OptimizationRegistrar:
                                 fit_size, verbose=self.verbose)
         return terms, again
 
-    def _pose_stage_branches(self, p: FitProblem, *args) -> tuple[dict, dict | None, dict]:
-        """``far_cloth_branch``: :meth:`_pose_and_limbs` with far cloth pulling, then from
-        the same start with ``far_cloth``; the body with the lower symmetric score stays in
-        ``p`` (ties: the pulling one). Each branch is scored after its own limb search: the
-        pulling branch may need that search to turn a limb the rule would not have
-        misplaced. Returns the kept branch's terms and limb-search info, and the scores."""
+    def _shape_stage(self, p: FitProblem, fit_size: bool) -> tuple[dict[str, float], list]:
+        """The size handover (``size_handover``), then the shape stage with far cloth as
+        configured (``far_cloth``); returns its loss terms (prefixed) and the parameters it
+        moved (for the optional L-BFGS rounds)."""
+        losses: dict[str, float] = {}
+        if fit_size and self.size_handover and not self.optimize_scale:
+            losses["size_handover_rms_mm"] = 1000 * p.scale_into_shape()
+        p.far_cloth_on = True
+        params = [p.pose, p.transl, p.shape_z]
+        lrs = [self.lr_pose * 0.5, self.lr_transl * 0.5, self.lr_shape]
+        if self.optimize_scale or abs(float(p.log_scale.detach())) > 0:
+            params.append(p.log_scale)
+            lrs.append(0.01)
+        losses.update({f"shape_{k}": x for k, x in run_adam(
+            p, "shape", self.iterations[2], params, lrs, verbose=self.verbose).items()})
+        return losses, params
+
+    def _pose_to_shape(self, p: FitProblem, n_pose: int, pose_params: list, pose_lrs: list,
+                       fit_size: bool, limbs_again: bool) -> tuple[dict, dict | None, list]:
+        """:meth:`_pose_and_limbs` then :meth:`_shape_stage`; returns the loss terms
+        (prefixed), the second limb search's info (or None) and the shape stage's
+        parameters."""
+        terms, again = self._pose_and_limbs(p, n_pose, pose_params, pose_lrs, fit_size,
+                                            limbs_again)
+        losses = {f"pose_{k}": x for k, x in terms.items()}
+        shape_losses, shape_params = self._shape_stage(p, fit_size)
+        losses.update(shape_losses)
+        return losses, again, shape_params
+
+    def _far_cloth_branches(self, p: FitProblem, *args) -> tuple[dict, dict | None, list, dict]:
+        """``far_cloth_branch``: :meth:`_pose_to_shape` with far cloth pulling in the pose
+        stage, then from the same start with ``far_cloth`` throughout; both end in the same
+        shape stage, so they are two local minima of one objective, and the body where that
+        objective (:meth:`~dressmeup.body.registration.problem.FitProblem.objective`) is lower
+        stays in ``p`` (ties: the pulling one). Returns what :meth:`_pose_to_shape` returns
+        for the kept branch and ``{"pull": objective, <far_cloth>: objective, "kept": ...}``.
+        """
         start = p.snapshot()
         out = []
         for rule_on in (False, True):
             p.restore(start)
             p.far_cloth_on = rule_on
-            terms, again = self._pose_and_limbs(p, *args)
-            out.append((symmetric_score(p), rule_on, p.snapshot(), terms, again))
-        _, rule_on, snap, terms, again = min(out, key=lambda t: (t[0], t[1]))
+            losses, again, params = self._pose_to_shape(p, *args)
+            out.append((p.objective("shape"), rule_on, p.snapshot(), losses, again, params))
+        _, rule_on, snap, losses, again, params = min(out, key=lambda t: (t[0], t[1]))
         p.restore(snap)
-        scores = {"pull": round(out[0][0], 5), self.far_cloth: round(out[1][0], 5),
+        scores = {"pull": round(out[0][0], 4), self.far_cloth: round(out[1][0], 4),
                   "kept": self.far_cloth if rule_on else "pull"}
-        return terms, again, scores
+        return losses, again, params, scores
 
     def _refine(self, problem: FitProblem, fit_size: bool, info: dict | None = None,
                 limbs_again: bool = False) -> dict[str, float]:
         """Global (rigid, core joints), pose, (``limbs_again`` and the options
         ``limb_search``, ``limb_search_after_pose``: a second limb search, its info into
-        ``info["limbs_after_pose"]``; with ``far_cloth_branch`` both twice, see
-        :meth:`_pose_stage_branches`), shape and optional L-BFGS stages."""
-        n_global, n_pose, n_shape = self.iterations
+        ``info["limbs_after_pose"]``), size handover and shape stages (with
+        ``far_cloth_branch`` all of them after the global stage twice, see
+        :meth:`_far_cloth_branches`; the objectives into ``info["far_cloth_branches"]``),
+        then the optional L-BFGS rounds."""
+        n_global, n_pose, _ = self.iterations
         p = problem
-        v = self.verbose
         losses: dict[str, float] = {}
         p.core_only = True
         losses.update({f"global_{k}": x for k, x in run_adam(
             p, "global", n_global, [p.pose, p.transl], [self.lr_pose, self.lr_transl],
-            verbose=v).items()})
+            verbose=self.verbose).items()})
         p.core_only = False
         p.far_cloth_on = self.far_cloth_from in ("start", "pose")
         pose_params, pose_lrs = [p.pose, p.transl], [self.lr_pose, self.lr_transl]
@@ -382,24 +414,14 @@ class OptimizationRegistrar:
             pose_lrs.append(0.003)
         stage = (p, n_pose, pose_params, pose_lrs, fit_size, limbs_again)
         if self.far_cloth_branch and self.far_cloth_from == "shape" and self.far_cloth != "pull":
-            terms, again, scores = self._pose_stage_branches(*stage)
+            stage_losses, again, shape_params, scores = self._far_cloth_branches(*stage)
             if info is not None:
-                info["pose_branches"] = scores
+                info["far_cloth_branches"] = scores
         else:
-            terms, again = self._pose_and_limbs(*stage)
-        losses.update({f"pose_{k}": x for k, x in terms.items()})
+            stage_losses, again, shape_params = self._pose_to_shape(*stage)
+        losses.update(stage_losses)
         if again is not None and info is not None:
             info["limbs_after_pose"] = again
-        if fit_size and self.size_handover and not self.optimize_scale:
-            losses["size_handover_rms_mm"] = 1000 * p.scale_into_shape()
-        p.far_cloth_on = True
-        shape_params = [p.pose, p.transl, p.shape_z]
-        shape_lrs = [self.lr_pose * 0.5, self.lr_transl * 0.5, self.lr_shape]
-        if self.optimize_scale or abs(float(p.log_scale.detach())) > 0:
-            shape_params.append(p.log_scale)
-            shape_lrs.append(0.01)
-        losses.update({f"shape_{k}": x for k, x in run_adam(
-            p, "shape", n_shape, shape_params, shape_lrs, verbose=v).items()})
         losses.update({f"refine_{k}": x for k, x in run_lbfgs(
-            p, self.refine_rounds, shape_params, self.lbfgs_steps, verbose=v).items()})
+            p, self.refine_rounds, shape_params, self.lbfgs_steps, verbose=self.verbose).items()})
         return losses

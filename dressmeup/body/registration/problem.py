@@ -268,6 +268,24 @@ class FitProblem:
             self.transl.add_(torch.as_tensor(before - after, dtype=self.dt, device=self.dev))
         return float(rms)
 
+    def objective(self, stage: str, far_cloth_on: bool = True) -> float:
+        """The ``stage`` objective (data term, priors and keypoints, as :meth:`loss` sums
+        them; float) at the current parameters, with fresh correspondences and far cloth
+        on or off. The correspondence cache is reset afterwards: the next stage starts
+        afresh, as after :meth:`reset_correspondences`."""
+        import torch
+
+        keep = self.far_cloth_on
+        self.reset_correspondences()
+        self.far_cloth_on = far_cloth_on
+        try:
+            with torch.no_grad():
+                loss, _ = self.loss(stage)
+        finally:
+            self.far_cloth_on = keep
+            self.reset_correspondences()
+        return float(loss)
+
     def posed_numpy(self) -> np.ndarray:
         """(n, 3) float64 vertices of the whole body at the current parameters."""
         import torch
