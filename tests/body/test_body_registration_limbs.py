@@ -179,3 +179,21 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     starts.clear()
     res = register(scan, model, init=truth, return_result=True, **fast)
     assert not starts and "limbs_after_pose" not in res.info
+
+
+def test_capped_distances_equal_the_capped_full_search():
+    """The bounded k-d tree search gives exactly the capped nearest-neighbour distances,
+    for points near the tree, far from it and at the cap."""
+    from scipy.spatial import cKDTree
+
+    from dressmeup.body.registration.init import capped_distances
+
+    rng = np.random.default_rng(3)
+    P = rng.uniform(-0.5, 0.5, (3000, 3))
+    X = np.r_[rng.uniform(-0.6, 0.6, (500, 3)), rng.uniform(1.0, 2.0, (200, 3)),
+              P[:5] + [0.1, 0.0, 0.0]]
+    tree = cKDTree(P)
+    full = np.minimum(tree.query(X, k=1)[0], 0.1)
+    out = capped_distances(tree, X, 0.1)
+    assert np.array_equal(out, full)
+    assert (out[500:700] == 0.1).all() and (out[:500] < 0.1).any()

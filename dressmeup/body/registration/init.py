@@ -100,6 +100,14 @@ def kept_yaws(ranked: list[tuple[float, dict, float]], n_kept: int,
     return out
 
 
+def capped_distances(tree, X: np.ndarray, cap: float) -> np.ndarray:
+    """(k,) distance (m) from each of ``X`` (k, 3) to its nearest point in ``tree`` (a
+    ``cKDTree``), capped at ``cap``: the same values as ``minimum(tree.query(X)[0], cap)``,
+    but the search stops at ``cap`` (a far limb's points cost a fraction of a full search)."""
+    d, _ = tree.query(X, k=1, distance_upper_bound=cap, workers=1)
+    return np.minimum(d, cap)
+
+
 def symmetric_score(problem, cap: float = 0.1) -> float:
     """Mean capped nearest-neighbour distance (m) body -> scan plus scan -> body.
 
@@ -110,9 +118,9 @@ def symmetric_score(problem, cap: float = 0.1) -> float:
     from scipy.spatial import cKDTree
 
     V = problem.posed_numpy()[problem.body_ids]
-    d1, _ = problem.tree.query(V, k=1, workers=1)
-    d2, _ = cKDTree(V).query(problem.P, k=1, workers=1)
-    return float(np.minimum(d1, cap).mean() + np.minimum(d2, cap).mean())
+    d1 = capped_distances(problem.tree, V, cap)
+    d2 = capped_distances(cKDTree(V), problem.P, cap)
+    return float(d1.mean() + d2.mean())
 
 
 def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, keep: int,

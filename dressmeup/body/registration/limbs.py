@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from dressmeup.body.registration.init import capped_distances
+
 logger = logging.getLogger(__name__)
 
 #: (upper joint, lower joint, hinge axis of the lower joint in its local frame).
@@ -72,8 +74,8 @@ class LimbScorer:
         self.tree, self.cap = tree, cap
         rest = ~(limb_up | limb_lo)
         self.n_b, self.n_p = len(Vb), len(P)
-        self.const_body = float(np.minimum(tree.query(Vb[rest], k=1, workers=1)[0], cap).sum())
-        d_rest = np.minimum(cKDTree(Vb[rest]).query(P, k=1, workers=1)[0], cap)
+        self.const_body = float(capped_distances(tree, Vb[rest], cap).sum())
+        d_rest = capped_distances(cKDTree(Vb[rest]), P, cap)
         self.J_up, self.J_lo = np.asarray(J_up, np.float64), np.asarray(J_lo, np.float64)
         self.X_up = Vb[limb_up] - self.J_up
         self.X_lo = Vb[limb_lo] - self.J_lo
@@ -95,7 +97,7 @@ class LimbScorer:
         from scipy.spatial import cKDTree
 
         X = self.points(M_up, M_lo)
-        b = float(np.minimum(self.tree.query(X, k=1, workers=1)[0], self.cap).sum())
+        b = float(capped_distances(self.tree, X, self.cap).sum())
         d, _ = cKDTree(X).query(self.P_near, k=1, distance_upper_bound=self.cap, workers=1)
         s = float(np.minimum(self.d_near, d).sum())
         return (self.const_body + b) / self.n_b + (self.const_scan + s) / self.n_p
