@@ -92,7 +92,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", default="", help="comma list of sample-id parts to fit")
     args = ap.parse_args(argv)
     os.environ.setdefault("DRESSMEUP_NO_PROGRESS", "1")
-    root = make(args.out, args.subjects, args.poses, args.seed)
+    from pathlib import Path
+
+    if args.fit and (Path(args.out) / "manifest.parquet").is_file():
+        root = args.out  # made already: resuming would rewrite the manifest, and concurrent
+        # --fit runs (e.g. --only S01,S02 and --only S03,S04) would race on it
+    else:
+        root = make(args.out, args.subjects, args.poses, args.seed)
     if not args.fit:
         return 0
     import numpy as np
