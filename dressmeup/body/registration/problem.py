@@ -271,8 +271,9 @@ class FitProblem:
     def objective(self, stage: str, far_cloth_on: bool = True) -> float:
         """The ``stage`` objective (data term, priors and keypoints, as :meth:`loss` sums
         them; float) at the current parameters, with fresh correspondences and far cloth
-        on or off. The correspondence cache is reset afterwards: the next stage starts
-        afresh, as after :meth:`reset_correspondences`."""
+        on or off. The shape stage's pull of the temporary scale back to 1 is not counted
+        (it grows over a stage from zero weight). The correspondence cache is reset
+        afterwards: the next stage starts afresh, as after :meth:`reset_correspondences`."""
         import torch
 
         keep = self.far_cloth_on
