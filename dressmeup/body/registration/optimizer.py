@@ -326,18 +326,6 @@ class OptimizationRegistrar:
                 "planes": [p.summary() for p in planes], "cpu_s": time.process_time() - cpu}
         return P, planes, info
 
-    def _pose_and_limbs(self, p: FitProblem, n_pose: int, params: list, lrs: list,
-                        fit_size: bool, limbs_again: bool) -> tuple[dict, dict | None]:
-        """The pose stage, then (``limbs_again`` and the options ``limb_search``,
-        ``limb_search_after_pose``) the second limb search; returns the stage's last loss
-        terms and the search's info (None when it did not run)."""
-        terms = run_adam(p, "pose", n_pose, params, lrs, verbose=self.verbose)
-        again = None
-        if limbs_again and self.limb_search and self.limb_search_after_pose:
-            again = limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl,
-                                fit_size, verbose=self.verbose)
-        return terms, again
-
     def _shape_stage(self, p: FitProblem, fit_size: bool) -> tuple[dict[str, float], list]:
         """The size handover (``size_handover``), then the shape stage with far cloth as
         configured (``far_cloth``); returns its loss terms (prefixed) and the parameters it
@@ -357,12 +345,16 @@ class OptimizationRegistrar:
 
     def _pose_to_shape(self, p: FitProblem, n_pose: int, pose_params: list, pose_lrs: list,
                        fit_size: bool, limbs_again: bool) -> tuple[dict, dict | None, list]:
-        """:meth:`_pose_and_limbs` then :meth:`_shape_stage`; returns the loss terms
-        (prefixed), the second limb search's info (or None) and the shape stage's
-        parameters."""
-        terms, again = self._pose_and_limbs(p, n_pose, pose_params, pose_lrs, fit_size,
-                                            limbs_again)
-        losses = {f"pose_{k}": x for k, x in terms.items()}
+        """The pose stage, then (``limbs_again`` and the options ``limb_search``,
+        ``limb_search_after_pose``) the second limb search, then :meth:`_shape_stage`;
+        returns the loss terms (prefixed), the second limb search's info (None when it did
+        not run) and the shape stage's parameters."""
+        losses = {f"pose_{k}": x for k, x in run_adam(
+            p, "pose", n_pose, pose_params, pose_lrs, verbose=self.verbose).items()}
+        again = None
+        if limbs_again and self.limb_search and self.limb_search_after_pose:
+            again = limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl,
+                                fit_size, verbose=self.verbose)
         shape_losses, shape_params = self._shape_stage(p, fit_size)
         losses.update(shape_losses)
         return losses, again, shape_params
