@@ -10,7 +10,8 @@ was not used), ``partial`` drops the surface facing one side (a capture that mis
 multi-hypothesis search (``--keypoints truth`` gives it the true 3D joints instead).
 
 Suites: ``tuning`` (generator poses a-pose, walking, arms-raised, sitting: the registrar's
-defaults were chosen on these), ``hard`` (the registration poses t-pose, wide-stance,
+defaults were chosen on these), ``tuning-support`` (tuning poses with a seat and / or a
+floor in the scan: sitting + box, sitting + box + floor, a-pose + floor), ``hard`` (the registration poses t-pose, wide-stance,
 sitting-box, arms-crossed, one-knee-up, bending-forward, never used for tuning), ``partial``
 and ``legacy`` (the v2 scenarios). Reported per fit: mean vertex error, joint error, vertex
 error without the hands and on the hands (mm), worst per-part outside distance against the
@@ -47,20 +48,24 @@ def scenarios(suite: str) -> list[tuple[str, str, str]]:
             out += [("naked", "sitting-box", "box"), ("clothed", "sitting-box", "box")]
             out += [(k, p, v) for p, v in (("wide-stance", "floor"), ("sitting-box", "box-floor"))
                     for k in ("naked", "clothed")]
+        elif s == "tuning-support":
+            out += [(k, p, v) for p, v in (("sitting", "box"), ("sitting", "box-floor"),
+                                           ("a-pose", "floor")) for k in ("naked", "clothed")]
         elif s == "partial":
             out += [("naked", p, "partial") for p in ("a-pose", "t-pose", "walking")]
             out += [("clothed", "wide-stance", "partial")]
         elif s == "legacy":
             out += [(k, p, "legacy") for p in LEGACY for k in ("naked", "clothed")]
         elif s:
-            raise SystemExit(f"--suite: unknown {s!r} (tuning, hard, partial, legacy)")
+            raise SystemExit(f"--suite: unknown {s!r} (tuning, tuning-support, hard, partial, "
+                             "legacy)")
     return out
 
 
 #: Where each suite's scenarios start in the seed sequence: a scenario keeps its body
 #: (seed) whatever ``--suite`` list it is run in; these offsets reproduce the bodies of the
 #: first published runs (hard and tuning were run alone, partial after tuning).
-SEED_OFFSET = {"tuning": 0, "hard": 0, "partial": 8, "legacy": 0}
+SEED_OFFSET = {"tuning": 0, "hard": 0, "partial": 8, "legacy": 0, "tuning-support": 100}
 
 
 def scenario_seed(kind: str, pose: str, variant: str, subject: int) -> int:

@@ -147,15 +147,16 @@ def test_kept_yaws_always_keep_the_opposite_of_the_best():
 def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, monkeypatch):
     """``limb_search_after_pose``: the limb search runs again after the pose stage (its
     start is the settled body, not the hypothesis'), reported in ``info``; never with a
-    given ``init`` or when switched off."""
+    given ``init`` or when switched off; ``limb_aim`` aims the second searches only."""
     import dressmeup.body.registration.optimizer as optimizer
     from dressmeup.body.registration import register
 
-    starts = []
+    starts, aims = [], []
     real = optimizer.limb_search
 
     def spy(problem, *args, **kwargs):
         starts.append(problem.posed_numpy().copy())
+        aims.append(kwargs.get("aim", "none"))
         return real(problem, *args, **kwargs)
 
     monkeypatch.setattr(optimizer, "limb_search", spy)
@@ -173,6 +174,11 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     res = register(scan, model, return_result=True, **fast)
     assert len(starts) == 3 and not np.allclose(starts[1], starts[2])
     assert res.info["far_cloth_branches"]["kept"] in ("pull", "free")
+    starts.clear()
+    aims.clear()
+    # ``limb_aim`` reaches the second searches only (the first starts from a rough body)
+    register(scan, model, return_result=True, limb_aim="arms", **fast)
+    assert aims == ["none", "arms", "arms"]
     starts.clear()
     res = register(scan, model, return_result=True, limb_search_after_pose=False, **fast)
     assert len(starts) == 1 and "limbs_after_pose" not in res.info
@@ -197,3 +203,96 @@ def test_capped_distances_equal_the_capped_full_search():
     out = capped_distances(tree, X, 0.1)
     assert np.array_equal(out, full)
     assert (out[500:700] == 0.1).all() and (out[:500] < 0.1).any()
+
+
+def test_unexplained_groups_find_the_scan_the_body_leaves_out():
+    """Scan points more than the gap from the body form groups (largest first); points
+    near the body and groups smaller than ``min_points`` are not reported."""
+    from dressmeup.body.registration.limbs import fibonacci_directions, unexplained_groups
+
+    rng = np.random.default_rng(0)
+    body = 0.2 * fibonacci_directions(2000)  # a sphere of radius 0.2 m
+    near = 0.22 * fibonacci_directions(500)  # a 2 cm shell: explained
+    hand = np.array([0.5, 0.1, 0.0]) + rng.normal(0, 0.01, (60, 3))
+    foot = np.array([0.0, -0.6, 0.1]) + rng.normal(0, 0.01, (30, 3))
+    speck = np.array([-0.5, 0.0, 0.0]) + rng.normal(0, 0.005, (5, 3))
+    groups = unexplained_groups(np.r_[body, near, hand, foot, speck], body)
+    assert [len(g) for g in groups] == [60, 30]
+    assert np.allclose(groups[0].mean(0), hand.mean(0))
+    assert np.allclose(groups[1].mean(0), foot.mean(0))
+    assert unexplained_groups(np.r_[body, near], body) == []
+
+
+def test_aimed_candidates_run_the_bones_through_the_group():
+    """Scan points along an arm held ahead and bent: the nearest aimed candidate, posed as
+    the limb search poses it (:func:`_world`), runs its bones within 2 cm of them on
+    average and puts the hand within 6 cm of the true one; a group out of reach gives no
+    candidate. Checked against a brute-force point-to-segment distance."""
+    from scipy.spatial.transform import Rotation
+
+    from dressmeup.body.registration.limbs import _segment_distances, _world, aimed_candidates
+
+    J_up, J_lo = np.zeros(3), np.array([0.3, 0.0, 0.0])  # an arm held sideways, 30 cm
+    W_up = Rotation.from_rotvec([0.1, 0.2, 0.0]).as_matrix()
+    W_lo = Rotation.from_rotvec([0.0, 0.1, 0.1]).as_matrix()  # hinge: about -y
+    hand = np.array([0.55, 0.01, 0.0])
+    hinge = (0.0, -1.0, 0.0)
+    c_up = (J_lo - J_up) / 0.3
+    # the truth: upper arm ahead and a little up, forearm bent 60 degrees
+    d_true = np.array([0.2, 0.3, 0.9]) / np.linalg.norm([0.2, 0.3, 0.9])
+    R_up, R_lo = _world(c_up, W_up, d_true, 0.7, np.radians(60), hinge)
+    elbow = J_up + 0.3 * d_true
+    tip = elbow + R_lo.apply(W_lo.T @ (hand - J_lo))
+    s = np.linspace(0, 1, 40)[:, None]
+    rng = np.random.default_rng(1)
+    arm = np.r_[s * elbow, elbow + s * (tip - elbow)] + rng.normal(0, 0.01, (80, 3))
+    out = aimed_candidates(c_up, W_up, W_lo, J_up, J_lo, hand, hinge, [arm])
+    assert len(out) == 60
+    d, twist, bend = out[0]
+    R_up, R_lo = _world(c_up, W_up, d, twist, bend, hinge)
+    e = J_up + 0.3 * R_up.apply(W_up.T @ c_up)
+    t = e + R_lo.apply(W_lo.T @ (hand - J_lo))
+    dist = np.minimum(_segment_distances(arm, J_up, e[None]), _segment_distances(arm, e[None], t[None]))
+    assert dist.mean() < 0.02 and np.linalg.norm(t - tip) < 0.06
+    u = np.linspace(0, 1, 20001)[:, None]
+    for a_, b_ in ((J_up, e), (e, t)):  # the fast distance equals a brute-force one
+        brute = [np.linalg.norm(q - a_ - u * (b_ - a_), axis=1).min() for q in arm[:5]]
+        assert np.allclose(_segment_distances(arm[:5], a_, b_[None])[0], brute, atol=1e-5)
+    assert aimed_candidates(c_up, W_up, W_lo, J_up, J_lo, hand, hinge, [arm + 2.0]) == []
+
+
+def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):
+    """An arm held out ahead, from a start with it hanging. The cube grid is replaced by
+    the hanging arm alone (on real scans the right configuration's basin can be narrower
+    than the grid's spacing): without aim the arm stays lost; aimed at the unexplained
+    scan, the search's candidate alone (no pose steps) brings the wrist within 4 cm."""
+    from dressmeup.body.registration import limbs
+    from dressmeup.body.registration.hypotheses import align_directions, canonical_pose
+
+    names = list(model.joint_names)
+    rest = model.posed(model.default_params()).joints
+    a_pose = canonical_pose("a-pose", names, rest)
+    pose = a_pose.copy()
+    s, e = names.index("left_shoulder"), names.index("left_elbow")
+    pose[s] = align_directions(rest[e] - rest[s], np.array([0.55, 0.2, 0.8]))
+    pose[e] = (0.0, -np.deg2rad(35), 0.0)
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=pose, transl=[0.1, 0.0, 0.2])
+    scan = synthetic_scan(model, truth, n_points=8000, noise=0.002, seed=4)
+    wrist = names.index("left_wrist")
+    true_wrist = model.posed(truth).joints[wrist]
+    monkeypatch.setattr(limbs, "_limb_candidates", lambda c_up, *a: [(c_up, 0.0, 0.0)])
+    errors, infos = {}, {}
+    for aim in ("none", "arms"):
+        problem = _problem(model, scan)
+        problem.set_params(shape=truth.shape, pose=a_pose, transl=truth.transl)
+        infos[aim] = limbs.limb_search(problem, n_pose=0, lr_pose=0.015, lr_transl=0.01,
+                                       size_init=False, aim=aim)
+        errors[aim] = float(np.linalg.norm(
+            model.posed(problem.body_params(False)).joints[wrist] - true_wrist))
+    assert errors["none"] > 0.3, errors  # the one grid candidate leaves the arm down
+    assert errors["arms"] < 0.04 and "left_shoulder" in infos["arms"]["limbs_moved"], errors
+    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    from dressmeup.errors import InputError
+
+    with pytest.raises(InputError, match="limb_aim: expected one of none, arms, all"):
+        OptimizationRegistrar(limb_aim=True).fit(scan, model)

@@ -13,6 +13,14 @@ blended joints, so a candidate costs two small k-d tree queries. The best candid
 polished by a small pattern search; a short pose stage then settles the body, and the
 whole change is kept only if the symmetric score of the settled body beats the start's.
 
+The score's basin around the right configuration of an outstretched arm is narrow (about
+10 degrees at the shoulder on a sitting scan whose hand the fit had lost: the nearest grid
+candidates score worse than the lost arm). With ``aim`` the search also aims the limb at
+the scan the body leaves unexplained: scan points farther than a gap from the body are
+grouped (:func:`unexplained_groups`), the limb is reduced to its two bones, and the
+configurations of a finer grid whose bones run nearest through a group within reach
+(:func:`aimed_candidates`) compete with the cube grid under the same score.
+
 Hinge conventions are those of :mod:`.hypotheses` (SMPL frame: y up, facing +z, left on
 +x): elbows bend about -y (left) / +y (right), knees about +x.
 """
@@ -103,6 +111,120 @@ class LimbScorer:
         return (self.const_body + b) / self.n_b + (self.const_scan + s) / self.n_p
 
 
+def fibonacci_directions(n: int) -> np.ndarray:
+    """(n, 3) unit vectors spread evenly over the sphere (Fibonacci lattice)."""
+    i = np.arange(n) + 0.5
+    polar = np.arccos(1.0 - 2.0 * i / n)
+    turn = math.pi * (1.0 + 5.0 ** 0.5) * i
+    return np.c_[np.cos(turn) * np.sin(polar), np.cos(polar), np.sin(turn) * np.sin(polar)]
+
+
+def unexplained_groups(P: np.ndarray, V: np.ndarray, gap: float = 0.05, link: float = 0.03,
+                       min_points: int = 15, most: int = 3) -> list[np.ndarray]:
+    """The groups of scan points the body leaves unexplained, largest first.
+
+    Parameters
+    ----------
+    P : (p, 3) scan points (m); V : (b, 3) body points (m), current pose.
+    gap : a scan point farther than this from every body point is unexplained (m); above
+        a clothed scan's shell (1-3 cm) and the noise.
+    link : unexplained points closer than this are in one group (m).
+    min_points, most : smaller groups are ignored; at most ``most`` groups are returned.
+
+    Returns
+    -------
+    groups : list of (m_k, 3) arrays of scan points.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    d = capped_distances(cKDTree(V), P, gap)
+    far = P[d >= gap]
+    if len(far) < min_points:
+        return []
+    pairs = cKDTree(far).query_pairs(link, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(len(far), len(far)))
+    _, label = connected_components(graph, directed=False)
+    sizes = np.bincount(label)
+    order = [k for k in np.argsort(-sizes, kind="stable") if sizes[k] >= min_points][:most]
+    return [far[label == k] for k in order]
+
+
+def _segment_distances(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(n, m) distances of points ``q`` (m, 3) to the segments ``a`` -> ``b`` ((n, 3) or
+    (3,) each); through (n, 3) x (3, m) products, no (n, m, 3) array."""
+    a = np.broadcast_to(a, b.shape) if a.ndim == 1 else a
+    ab = b - a
+    ab2 = np.maximum(np.einsum("nk,nk->n", ab, ab), 1e-12)
+    # einsum, not @: these products are too small for BLAS threads to pay
+    proj = np.einsum("nk,mk->nm", ab, q) - np.einsum("nk,nk->n", a, ab)[:, None]  # (q-a).ab
+    w2 = ((q * q).sum(1)[None] - 2.0 * np.einsum("nk,mk->nm", a, q)
+          + np.einsum("nk,nk->n", a, a)[:, None])
+    t = np.clip(proj / ab2[:, None], 0.0, 1.0)
+    return np.sqrt(np.maximum(w2 - 2.0 * t * proj + t * t * ab2[:, None], 0.0))
+
+
+def aimed_candidates(c_up: np.ndarray, W_up: np.ndarray, W_lo: np.ndarray,
+                     J_up: np.ndarray, J_lo: np.ndarray, end: np.ndarray, hinge,
+                     groups, most: int = 60, samples: int = 32, n_directions: int = 300,
+                     twists: int = 24, bends_deg=tuple(range(0, 141, 10)),
+                     seed: int = 0) -> list[tuple]:
+    """(direction, twist rad, bend rad) candidates (parametrised as in
+    :func:`_limb_candidates`) whose bones run through a group of unexplained scan points.
+
+    The limb is reduced to its two bones, upper joint -> lower joint -> ``end``; on a finer
+    grid (upper-bone directions x twists x bends) a configuration's distance to a group is
+    the mean distance of the group's points (``samples`` of them) to the nearer bone. Per
+    group within reach, the ``most`` nearest configurations are returned.
+
+    Parameters
+    ----------
+    c_up : (3,) current unit direction of the upper bone; W_up, W_lo : (3, 3) current world
+        rotations of the upper and lower joint; J_up, J_lo : (3,) their positions (m).
+    end : (3,) end of the lower bone (e.g. the centre of the hand's or foot's points),
+        current pose (m); it moves with the lower bone.
+    groups : list of (m_k, 3) scan points (m), e.g. :func:`unexplained_groups`.
+    """
+    from scipy.spatial.transform import Rotation
+
+    length = float(np.linalg.norm(J_lo - J_up))
+    reach = length + float(np.linalg.norm(end - J_lo))
+    rng = np.random.default_rng(seed)
+    groups = [g[rng.choice(len(g), min(samples, len(g)), replace=False)] for g in groups]
+    groups = [g for g in groups if np.linalg.norm(g - J_up, axis=1).min() <= reach]
+    if not groups:
+        return []
+    D = fibonacci_directions(n_directions)
+    T = 2 * math.pi * np.arange(twists) / twists
+    axis = np.cross(c_up, D)
+    s = np.linalg.norm(axis, axis=1, keepdims=True)
+    ang = np.arctan2(s[:, 0], D @ c_up)
+    align = np.where(s > 1e-9, axis / np.maximum(s, 1e-12) * ang[:, None], 0.0)
+    d_all = np.repeat(D, twists, axis=0)
+    t_all = np.tile(T, n_directions)
+    R_up = (Rotation.from_rotvec(d_all * t_all[:, None])
+            * Rotation.from_rotvec(np.repeat(align, twists, axis=0)) * Rotation.from_matrix(W_up))
+    j_lo = J_up + length * d_all
+    local_end = W_lo.T @ (end - J_lo)  # in the lower joint's current frame
+    upper = [_segment_distances(g, J_up, j_lo) for g in groups]
+    scores: list[list[np.ndarray]] = [[] for _ in groups]
+    bends = np.radians(np.asarray(bends_deg, dtype=np.float64))
+    for bend in bends:
+        M = (R_up * Rotation.from_rotvec(np.asarray(hinge) * bend)).as_matrix()
+        tip = j_lo + M @ local_end
+        for k, g in enumerate(groups):
+            scores[k].append(np.minimum(upper[k], _segment_distances(g, j_lo, tip)).mean(1))
+    out = []
+    for per_bend in scores:
+        flat = np.concatenate(per_bend)  # bend-major: index = bend * n + candidate
+        for i in np.argsort(flat, kind="stable")[:most]:
+            b, c = divmod(int(i), len(d_all))
+            out.append((d_all[c], float(t_all[c]), float(bends[b])))
+    return out
+
+
 def _limb_candidates(c_up: np.ndarray, twists: int, bends_deg) -> list[tuple]:
     """(direction, twist rad, bend rad) triples of the grid for a limb now pointing ``c_up``."""
     out = [(d, 0.0, 0.0) for d in cube_directions()]
@@ -147,11 +269,12 @@ def _within_limits(name: str, rotvec: np.ndarray, margin: float = 0.3) -> bool:
 
 
 def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, twists: int,
-                bends_deg, top: int = 3, rounds: int = 2) -> tuple[float, float, np.ndarray,
-                                                                   np.ndarray]:
-    """Best configuration of one limb by the grid then a pattern search around the
-    ``top`` best. Returns (start score, best score, local rotvec upper, local rotvec lower);
-    ``W`` (j, 3, 3) are the current world rotations of the joints."""
+                bends_deg, top: int = 3, rounds: int = 2, extra=()) -> tuple[
+                    float, float, np.ndarray, np.ndarray]:
+    """Best configuration of one limb by the grid (and the ``extra`` candidates, e.g.
+    :func:`aimed_candidates`) then a pattern search around the ``top`` best. Returns (start
+    score, best score, local rotvec upper, local rotvec lower); ``W`` (j, 3, 3) are the
+    current world rotations of the joints."""
     from scipy.spatial.transform import Rotation
 
     names = list(problem.model.joint_names)
@@ -171,7 +294,7 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
             return math.inf
         return scorer.score(R_up.as_matrix() @ W_up_inv, R_lo.as_matrix() @ W_lo_inv)
 
-    scored = [(evaluate(*c), c) for c in _limb_candidates(c_up, twists, bends_deg)]
+    scored = [(evaluate(*c), c) for c in [*_limb_candidates(c_up, twists, bends_deg), *extra]]
     scored.sort(key=lambda t: t[0])
     best = scored[0]
     step = math.radians(15.0)
@@ -197,7 +320,7 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
 
 def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_init: bool,
                 twists: int = 6, bends_deg=(0, 50, 100, 140), min_gain: float = 2e-4,
-                verbose: bool = False) -> dict:
+                aim: str = "none", verbose: bool = False) -> dict:
     """Try other directions for each arm and leg of the current fit (see module docstring);
     leaves the better of (start, start with moved limbs + ``n_pose`` pose steps) in
     ``problem``.
@@ -208,6 +331,10 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
     twists, bends_deg : twists about each upper-limb direction (evenly spaced) and bends of
         the lower limb (degrees) of the grid; 26 x (1 + twists x bends > 0) candidates a limb.
     min_gain : a limb moves only if the symmetric score drops by more than this (m).
+    aim : which limbs (``"none"``, ``"arms"``, ``"all"``) also score the configurations
+        that run their bones through the scan the body leaves unexplained
+        (:func:`unexplained_groups`, :func:`aimed_candidates`); the groups are found again
+        before each limb, so a group one limb took is not chased again.
 
     Returns
     -------
@@ -240,8 +367,17 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
         if up_mask.sum() + lo_mask.sum() < 10:
             continue
         scorer = LimbScorer(problem.P, problem.tree, V, up_mask, lo_mask, J[upper], J[lower])
+        extra = []
+        if aim == "all" or (aim == "arms" and up_name.endswith("shoulder")):
+            groups = unexplained_groups(problem.P, V)
+            below = [j for j in range(len(parents)) if parents[j] == lower]
+            end_mask = np.isin(dom, _descendants(parents, below[0])) if below else lo_mask
+            if groups and end_mask.any():
+                c_up = (J[lower] - J[upper]) / max(np.linalg.norm(J[lower] - J[upper]), 1e-12)
+                extra = aimed_candidates(c_up, W[upper], W[lower], J[upper], J[lower],
+                                         V[end_mask].mean(0), hinge, groups)
         base, best, rv_up, rv_lo = search_limb(problem, scorer, upper, lower, hinge, W, twists,
-                                               bends_deg)
+                                               bends_deg, extra=extra)
         logger.info("limb %s: %.4f -> %.4f", up_name, base, best)
         if best < base - min_gain:
             with torch.no_grad():
