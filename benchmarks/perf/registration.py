@@ -11,9 +11,9 @@ multi-hypothesis search (``--keypoints truth`` gives it the true 3D joints inste
 
 Suites: ``tuning`` (generator poses a-pose, walking, arms-raised, sitting: the registrar's
 defaults were chosen on these), ``tuning-support`` (tuning poses with a seat and / or a
-floor in the scan: sitting + box, sitting + box + floor, a-pose + floor), ``hard`` (the registration poses t-pose, wide-stance,
-sitting-box, arms-crossed, one-knee-up, bending-forward, never used for tuning), ``partial``
-and ``legacy`` (the v2 scenarios). Reported per fit: mean vertex error, joint error, vertex
+floor in the scan: sitting + box, sitting + box + floor, a-pose + floor), ``hard`` (the
+registration poses t-pose, wide-stance, sitting-box, arms-crossed, one-knee-up,
+bending-forward, never used for tuning), ``partial`` and ``legacy`` (the v2 scenarios). Reported per fit: mean vertex error, joint error, vertex
 error without the hands and on the hands (mm), worst per-part outside distance against the
 scan (mm; goal <= 15 mm clothed), wall and CPU seconds, with the load average beside them.
 

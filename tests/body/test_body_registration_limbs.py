@@ -246,19 +246,20 @@ def test_aimed_candidates_run_the_bones_through_the_group():
     s = np.linspace(0, 1, 40)[:, None]
     rng = np.random.default_rng(1)
     arm = np.r_[s * elbow, elbow + s * (tip - elbow)] + rng.normal(0, 0.01, (80, 3))
-    out = aimed_candidates(c_up, W_up, W_lo, J_up, J_lo, hand, hinge, [arm])
+    out = aimed_candidates(W_up, W_lo, J_up, J_lo, hand, hinge, [arm])
     assert len(out) == 60
     d, twist, bend = out[0]
     R_up, R_lo = _world(c_up, W_up, d, twist, bend, hinge)
     e = J_up + 0.3 * R_up.apply(W_up.T @ c_up)
     t = e + R_lo.apply(W_lo.T @ (hand - J_lo))
-    dist = np.minimum(_segment_distances(arm, J_up, e[None]), _segment_distances(arm, e[None], t[None]))
+    dist = np.minimum(_segment_distances(arm, J_up, e[None]),
+                      _segment_distances(arm, e[None], t[None]))
     assert dist.mean() < 0.02 and np.linalg.norm(t - tip) < 0.06
     u = np.linspace(0, 1, 20001)[:, None]
     for a_, b_ in ((J_up, e), (e, t)):  # the fast distance equals a brute-force one
         brute = [np.linalg.norm(q - a_ - u * (b_ - a_), axis=1).min() for q in arm[:5]]
         assert np.allclose(_segment_distances(arm[:5], a_, b_[None])[0], brute, atol=1e-5)
-    assert aimed_candidates(c_up, W_up, W_lo, J_up, J_lo, hand, hinge, [arm + 2.0]) == []
+    assert aimed_candidates(W_up, W_lo, J_up, J_lo, hand, hinge, [arm + 2.0]) == []
 
 
 def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):

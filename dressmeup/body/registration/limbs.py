@@ -166,7 +166,7 @@ def _segment_distances(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarra
     return np.sqrt(np.maximum(w2 - 2.0 * t * proj + t * t * ab2[:, None], 0.0))
 
 
-def aimed_candidates(c_up: np.ndarray, W_up: np.ndarray, W_lo: np.ndarray,
+def aimed_candidates(W_up: np.ndarray, W_lo: np.ndarray,
                      J_up: np.ndarray, J_lo: np.ndarray, end: np.ndarray, hinge,
                      groups, most: int = 60, samples: int = 32, n_directions: int = 300,
                      twists: int = 24, bends_deg=tuple(range(0, 141, 10)),
@@ -181,8 +181,8 @@ def aimed_candidates(c_up: np.ndarray, W_up: np.ndarray, W_lo: np.ndarray,
 
     Parameters
     ----------
-    c_up : (3,) current unit direction of the upper bone; W_up, W_lo : (3, 3) current world
-        rotations of the upper and lower joint; J_up, J_lo : (3,) their positions (m).
+    W_up, W_lo : (3, 3) current world rotations of the upper and lower joint; J_up, J_lo :
+        (3,) their positions (m); the upper bone runs from J_up to J_lo.
     end : (3,) end of the lower bone (e.g. the centre of the hand's or foot's points),
         current pose (m); it moves with the lower bone.
     groups : list of (m_k, 3) scan points (m), e.g. :func:`unexplained_groups`.
@@ -190,22 +190,22 @@ def aimed_candidates(c_up: np.ndarray, W_up: np.ndarray, W_lo: np.ndarray,
     from scipy.spatial.transform import Rotation
 
     length = float(np.linalg.norm(J_lo - J_up))
+    c_up = (J_lo - J_up) / max(length, 1e-12)
     reach = length + float(np.linalg.norm(end - J_lo))
     rng = np.random.default_rng(seed)
     groups = [g[rng.choice(len(g), min(samples, len(g)), replace=False)] for g in groups]
     groups = [g for g in groups if np.linalg.norm(g - J_up, axis=1).min() <= reach]
     if not groups:
         return []
+    from dressmeup.body.registration.hypotheses import align_directions
+
     D = fibonacci_directions(n_directions)
-    T = 2 * math.pi * np.arange(twists) / twists
-    axis = np.cross(c_up, D)
-    s = np.linalg.norm(axis, axis=1, keepdims=True)
-    ang = np.arctan2(s[:, 0], D @ c_up)
-    align = np.where(s > 1e-9, axis / np.maximum(s, 1e-12) * ang[:, None], 0.0)
     d_all = np.repeat(D, twists, axis=0)
-    t_all = np.tile(T, n_directions)
-    R_up = (Rotation.from_rotvec(d_all * t_all[:, None])
-            * Rotation.from_rotvec(np.repeat(align, twists, axis=0)) * Rotation.from_matrix(W_up))
+    t_all = np.tile(2 * math.pi * np.arange(twists) / twists, n_directions)
+    align = np.repeat([align_directions(c_up, d) for d in D], twists, axis=0)
+    # :func:`_world`'s upper rotation for every candidate at once
+    R_up = (Rotation.from_rotvec(d_all * t_all[:, None]) * Rotation.from_rotvec(align)
+            * Rotation.from_matrix(W_up))
     j_lo = J_up + length * d_all
     local_end = W_lo.T @ (end - J_lo)  # in the lower joint's current frame
     upper = [_segment_distances(g, J_up, j_lo) for g in groups]
@@ -373,8 +373,7 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
             below = [j for j in range(len(parents)) if parents[j] == lower]
             end_mask = np.isin(dom, _descendants(parents, below[0])) if below else lo_mask
             if groups and end_mask.any():
-                c_up = (J[lower] - J[upper]) / max(np.linalg.norm(J[lower] - J[upper]), 1e-12)
-                extra = aimed_candidates(c_up, W[upper], W[lower], J[upper], J[lower],
+                extra = aimed_candidates(W[upper], W[lower], J[upper], J[lower],
                                          V[end_mask].mean(0), hinge, groups)
         base, best, rv_up, rv_lo = search_limb(problem, scorer, upper, lower, hinge, W, twists,
                                                bends_deg, extra=extra)
