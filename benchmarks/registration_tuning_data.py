@@ -10,6 +10,8 @@ six subject shapes. Not published; fit it with ``benchmarks/run_baselines.py``-l
 or ``--fit`` here.
 
     python benchmarks/registration_tuning_data.py /tmp/regtune            # 18 scans, ~2 CPU-min
+    python benchmarks/registration_tuning_data.py /tmp/regbend --pose-set registration-tuning \
+        --poses 2                                                          # 12 bent scans
     python benchmarks/registration_tuning_data.py /tmp/regtune --fit OUT.json \
         --options '{"cloth_max": 0.06}'
 
@@ -26,19 +28,23 @@ import sys
 import time
 
 
-def make(out: str, subjects: int = 6, poses: int = 3, seed: int = 1, workers: int = 1) -> str:
+def make(out: str, subjects: int = 6, poses: int = 3, seed: int = 1, workers: int = 1,
+         pose_set: str = "generator") -> str:
     """Generate (or resume) the tuning dataset in ``out``; returns its path."""
     from dressmeup.data.synth.generate import generate_dataset
     from dressmeup.data.synth.wardrobe import plan_v3, pose_names
 
-    tuning = {"a-pose", "walking", "arms-raised", "sitting"}
-    plan = plan_v3(subjects, poses, (0, 0, 2), seed, pose_set="generator", wear="rotate")
-    bad = [p for p in plan["poses"].values() if p not in tuning or p not in pose_names()]
+    tuning = {"a-pose", "walking", "arms-raised", "sitting"} | \
+        set(pose_names("registration-tuning"))
+    if pose_set not in ("generator", "registration-tuning"):
+        raise SystemExit(f"--pose-set: {pose_set!r} is not a tuning set")
+    plan = plan_v3(subjects, poses, (0, 0, 2), seed, pose_set=pose_set, wear="rotate")
+    bad = [p for p in plan["poses"].values() if p not in tuning]
     if bad:
         raise SystemExit(f"poses {bad} are not tuning poses: use --poses <= 3")
     return str(generate_dataset(out, subjects=subjects, poses=poses, seed=seed,
                                 version="2.0.0", garments_per_split=(0, 0, 2), pose_steps=3,
-                                pose_set="generator", wear="rotate", scan_body="uncovered",
+                                pose_set=pose_set, wear="rotate", scan_body="uncovered",
                                 workers=workers))
 
 
@@ -87,6 +93,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--subjects", type=int, default=6)
     ap.add_argument("--poses", type=int, default=3)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--pose-set", default="generator",
+                    help="generator (sitting, arms-raised, walking) or registration-tuning "
+                    "(the bent poses bowing, picking-up; use --poses 2)")
     ap.add_argument("--fit", help="register every scan and write rows to this JSON file")
     ap.add_argument("--options", default="", help="registrar options as JSON")
     ap.add_argument("--only", default="", help="comma list of sample-id parts to fit")
@@ -98,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
         root = args.out  # made already: resuming would rewrite the manifest, and concurrent
         # --fit runs (e.g. --only S01,S02 and --only S03,S04) would race on it
     else:
-        root = make(args.out, args.subjects, args.poses, args.seed)
+        root = make(args.out, args.subjects, args.poses, args.seed, pose_set=args.pose_set)
     if not args.fit:
         return 0
     import numpy as np

@@ -173,13 +173,15 @@ def test_registration_poses_and_scan_variants(model):
     hard = pose_names("registration")
     assert {"t-pose", "wide-stance", "sitting-box", "arms-crossed", "one-knee-up",
             "bending-forward"} <= set(hard) and not set(hard) & set(generator)
-    assert pose_names("all") == generator + hard
+    tuning = pose_names("registration-tuning")
+    assert tuning == ["bowing", "picking-up"]
+    assert pose_names("all") == generator + hard + tuning
 
     class Frame:
         up, left, forward = np.eye(3)[1], np.eye(3)[0], np.eye(3)[2]
         joints: dict = {}
 
-    for name in hard:
+    for name in hard + tuning:
         assert np.isfinite(pose_axis_angle(name, model.joint_names, Frame)).all()
     truth = _truth(model, "sitting", 6)
     full = synthetic_scan(model, truth, n_points=6000, noise=0.0, seed=6)

@@ -29,7 +29,8 @@ def pose_names(pose_set: str = "generator") -> list[str]:
     """Names of the library poses of ``pose_set``, in library order.
 
     ``"generator"`` (entries without a ``set``: what the synthetic generator draws from),
-    ``"registration"`` (the hard poses of the registration benchmark) or ``"all"``.
+    ``"registration"`` (the hard poses of the registration benchmark),
+    ``"registration-tuning"`` (bent poses for choosing registration defaults) or ``"all"``.
     """
     poses = pose_library()["poses"]
     if pose_set == "all":

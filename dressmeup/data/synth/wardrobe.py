@@ -76,7 +76,7 @@ SUBJECTS: tuple[tuple[str, tuple[float, ...]], ...] = (
 POSE_ORDER = ("sitting", "arms-raised", "walking", "one-arm-up", "bent-knees", "arms-forward",
               "twist-side", "bent-elbows", "a-pose", "arms-down")
 #: pose sets of the library a plan may draw from (:func:`dressmeup.data.synth.poses.pose_names`)
-POSE_SETS = ("generator", "registration", "all")
+POSE_SETS = ("generator", "registration", "registration-tuning", "all")
 #: who wears what (:func:`plan_v3`): every garment on everyone, or one garment per sample
 WEAR_MODES = ("all", "rotate")
 DEFAULT_EDGE_LENGTH = {"anny": 0.02, "procedural": 0.025}
@@ -169,7 +169,8 @@ def plan_v3(subjects: int, poses: int, garments_per_split: tuple[int, int, int],
     seed : random seed (garment parameters, textures).
     categories : categories to make (default all of :data:`CATEGORY_TYPES`).
     pose_set : library pose set the poses come from (:data:`POSE_SETS`): ``"generator"``
-        (default), ``"registration"`` (the registration benchmark's hard poses) or ``"all"``;
+        (default), ``"registration"`` (the registration benchmark's hard poses),
+        ``"registration-tuning"`` (bent poses for choosing registration defaults) or ``"all"``;
         generator poses come in the order :data:`POSE_ORDER`, the others in library order.
     wear : ``"all"`` (default: every garment on every subject in every pose) or
         ``"rotate"``: each (subject, pose) wears one garment, subject ``i`` in pose ``k``
@@ -196,7 +197,7 @@ def plan_v3(subjects: int, poses: int, garments_per_split: tuple[int, int, int],
     if min(n_train, n_val, n_test) < 0 or n_train + n_val + n_test < 1:
         raise ValueError(f"garments_per_split: expected non-negative counts, got "
                          f"{garments_per_split!r}")
-    # generator poses in POSE_ORDER, then the others (the registration set) in library order
+    # generator poses in POSE_ORDER, then the others (the registration sets) in library order
     order = [n for n in POSE_ORDER if n in names] + [n for n in names if n not in POSE_ORDER]
     plan: dict[str, Any] = {
         "subjects": {f"S{i + 1:02d}": {"name": SUBJECTS[i][0], "shape": list(SUBJECTS[i][1])}
@@ -398,7 +399,7 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
         (:class:`GarmentJob`): a Dask one starts its workers with :data:`CANONICAL_ENV`; a
         ``LocalExecutor`` means the spawned pool above with its number of workers.
     pose_set : library pose set the poses come from (``"generator"``, ``"registration"``,
-        ``"all"``; see :func:`plan_v3`).
+        ``"registration-tuning"``, ``"all"``; see :func:`plan_v3`).
     wear : ``"all"`` (every garment on every subject in every pose) or ``"rotate"`` (one
         garment per subject and pose, rotating; see :func:`plan_v3`).
     scan_body : ``"whole"`` (the entire body mesh in ``scan.ply``, also under the garment) or
