@@ -144,6 +144,50 @@ def test_kept_yaws_always_keep_the_opposite_of_the_best():
     assert [s["k"] for _, s, _ in kept_yaws(ranked, 3, keep_opposite=True)] == [1, 5, 2]
 
 
+def test_deep_bend_tilts_the_root_and_the_search_keeps_its_heading():
+    """``deep-bend``: the whole body tilted 60 degrees forward (row 0 of the pose), the
+    thighs near vertical and the torso about horizontal in the world, arms hanging; the
+    hypothesis search turns that tilt to the yaw search's heading (tilt first, then yaw)."""
+    from scipy.spatial.transform import Rotation
+
+    from dressmeup.body.registration.hypotheses import canonical_pose
+    from dressmeup.body.registration.init import compose_root
+
+    def unit(v):
+        return v / np.linalg.norm(v)
+
+    for model in (get_body_model("procedural"), get_body_model("anny")):
+        names = list(model.joint_names)
+        params = model.default_params()
+        pose = canonical_pose("deep-bend", names, model.posed(params).joints)
+        assert np.allclose(pose[0], (np.deg2rad(60), 0, 0))
+        params.pose = pose
+        J = model.posed(params).joints
+
+        def bone(a, b, J=J, names=names):
+            return unit(J[names.index(b)] - J[names.index(a)])
+
+        assert bone("spine1", "neck") @ (0, 0, 1) > 0.95, model.name  # torso ahead
+        for side in ("left", "right"):
+            assert bone(f"{side}_hip", f"{side}_knee") @ (0, -1, 0) > 0.95, model.name
+            assert bone(f"{side}_shoulder", f"{side}_elbow") @ (0, -1, 0) > 0.95, model.name
+        for name in ("a-pose", "sitting", "bending"):  # the others stay upright
+            assert not canonical_pose(name, names, model.posed(params).joints)[0].any()
+    heading = np.array([0.0, np.pi / 2, 0.0])  # facing +x
+    root = Rotation.from_rotvec(compose_root(heading, np.array([np.deg2rad(60), 0, 0])))
+    up = np.array([0.0, 1.0, 0.0])
+    assert np.allclose(root.apply(up), (np.sin(np.deg2rad(60)), 0.5, 0.0), atol=1e-9)
+
+
+def test_unknown_hypotheses_fail_before_the_fit(model):
+    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    from dressmeup.errors import InputError
+
+    for bad in (("a-pose", "moonwalk"), "a-pose"):
+        with pytest.raises(InputError, match="hypotheses: expected a list of"):
+            OptimizationRegistrar(hypotheses=bad).fit(np.zeros((10, 3)), model)
+
+
 def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, monkeypatch):
     """``limb_search_after_pose``: the limb search runs again after the pose stage (its
     start is the settled body, not the hypothesis'), reported in ``info``; never with a

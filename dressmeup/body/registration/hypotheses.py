@@ -13,7 +13,11 @@ import numpy as np
 
 #: name -> directions and bends. ``arm``: left upper-arm direction (x left, y up, z
 #: forward); ``thigh``: left thigh direction; ``knee``, ``elbow``, ``spine`` bends (degrees:
-#: knees bend the shin back, elbows bend the forearm forward, the spine leans forward).
+#: knees bend the shin back, elbows bend the forearm forward, the spine leans forward);
+#: ``pelvis``: forward tilt of the whole body (degrees, the root's rotation before the
+#: search's yaw), so a torso bent further than the short rigid stages can turn it is still
+#: reached (15 rigid steps turn the root by at most ~13 degrees). Arm and thigh directions
+#: are in the world (the tilt and the spine bend are undone for them).
 CANONICAL_POSES: dict[str, dict] = {
     "arms-down": {"arm": (0.25, -1.0, 0.0)},
     "a-pose": {"arm": (1.0, -1.0, 0.0)},
@@ -24,6 +28,8 @@ CANONICAL_POSES: dict[str, dict] = {
                 "elbow": 40},
     "bending": {"arm": (0.2, -1.0, 0.5), "spine": 50},
     "arms-forward": {"arm": (0.3, -0.2, 1.0), "elbow": 60},
+    "deep-bend": {"pelvis": 60, "spine": 30, "thigh": (0.05, -1.0, 0.2), "knee": 20,
+                  "arm": (0.15, -1.0, 0.1)},
 }
 
 #: The hypotheses tried by default (all of :data:`CANONICAL_POSES`).
@@ -43,7 +49,8 @@ def align_directions(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarray:
-    """Axis-angle pose ``(j, 3) float64`` of hypothesis ``name`` for a model.
+    """Axis-angle pose ``(j, 3) float64`` of hypothesis ``name`` for a model (row 0, the
+    root, holds the ``pelvis`` tilt; a search composes its yaw with it).
 
     Parameters
     ----------
@@ -63,7 +70,11 @@ def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarra
 
     from scipy.spatial.transform import Rotation
 
-    trunk = Rotation.identity()  # the spine's rotation, which the shoulders inherit
+    tilt = Rotation.identity()  # the root's forward tilt, which everything inherits
+    if spec.get("pelvis"):
+        pose[0] = (np.deg2rad(spec["pelvis"]), 0.0, 0.0)
+        tilt = Rotation.from_rotvec(pose[0])
+    trunk = tilt  # the root's and the spine's rotation, which the shoulders inherit
     if spec.get("spine"):
         parts = [n for n in ("spine1", "spine2", "spine3") if n in names]
         for n in parts:
@@ -74,8 +85,8 @@ def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarra
             r, c = idx(f"{side}_{root}"), idx(f"{side}_{child}")
             if key in spec and r is not None and c is not None:
                 target = np.asarray(spec[key], dtype=np.float64) * (sx, 1.0, 1.0)
-                if key == "arm":  # the target is in the world: undo the trunk's rotation
-                    target = trunk.inv().apply(target)
+                # the target is in the world: undo the trunk's (arms) or the tilt's (thighs)
+                target = (trunk if key == "arm" else tilt).inv().apply(target)
                 pose[r] = align_directions(J[c] - J[r], target)
         k = idx(f"{side}_knee")
         if k is not None and spec.get("knee"):

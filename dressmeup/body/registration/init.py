@@ -123,6 +123,14 @@ def symmetric_score(problem, cap: float = 0.1) -> float:
     return float(d1.mean() + d2.mean())
 
 
+def compose_root(heading: np.ndarray, tilt: np.ndarray) -> np.ndarray:
+    """Axis-angle (3,) of a hypothesis' root: its own ``tilt`` (e.g. a deep bend's forward
+    lean, in the model frame) first, then the search's ``heading`` (the yaw search's root)."""
+    from scipy.spatial.transform import Rotation
+
+    return (Rotation.from_rotvec(heading) * Rotation.from_rotvec(tilt)).as_rotvec()
+
+
 def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, keep: int,
                       yaws_kept: int, lr_pose: float, lr_transl: float, size_init: bool,
                       verbose: bool = False, yaw_candidates: int = 4,
@@ -162,7 +170,8 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
         for root in roots:
             problem.set_params(pose=hyp, scale=1.0)
             with torch.no_grad():
-                problem.pose[0] = root
+                problem.pose[0] = root if not hyp[0].any() else torch.as_tensor(
+                    compose_root(root.cpu().numpy(), hyp[0]), dtype=problem.dt)
             place_on_scan(problem, size_init)
             run_adam(problem, "global", n_rigid, [problem.pose, problem.transl],
                      [lr_pose, lr_transl], label=f"hypothesis {name}", verbose=verbose)

@@ -265,6 +265,12 @@ class OptimizationRegistrar:
             if getattr(self, name) not in allowed:
                 raise InputError(f"{name}: expected one of {', '.join(allowed)}, got "
                                  f"{getattr(self, name)!r}")
+        from dressmeup.body.registration.hypotheses import CANONICAL_POSES
+
+        unknown = [p for p in self.hypotheses if p not in CANONICAL_POSES]
+        if unknown or isinstance(self.hypotheses, str):
+            raise InputError(f"hypotheses: expected a list of {', '.join(CANONICAL_POSES)}; "
+                             f"got {self.hypotheses!r}")
 
     def _use_keypoints(self) -> bool:
         """Whether this fit detects keypoints on the scan (see ``init_route``, checked by
