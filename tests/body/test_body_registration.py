@@ -204,7 +204,7 @@ def test_scale_into_shape_keeps_the_body_and_drops_the_scale(model):
     prob = FitProblem(OptimizationRegistrar(n_body_points=1500), model, P, None)
     prob.set_params(shape=np.full(6, 0.5), pose=truth.pose, transl=[0.1, 0.2, 0.3])
     assert prob.scale_into_shape() == 0.0
-    assert float(prob.log_scale) == 0.0 and np.allclose(prob.shape_value().detach(), 0.5)
+    assert float(prob.log_scale.detach()) == 0.0 and np.allclose(prob.shape_value().detach(), 0.5)
 
     prob.set_params(scale=1.08)
     centroid = prob.posed_numpy()[prob.body_ids].mean(0)
