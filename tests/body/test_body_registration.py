@@ -209,7 +209,7 @@ def test_scale_into_shape_keeps_the_body_and_drops_the_scale(model):
     prob.set_params(scale=1.08)
     centroid = prob.posed_numpy()[prob.body_ids].mean(0)
     rms = prob.scale_into_shape()
-    assert float(prob.log_scale) == 0.0
+    assert float(prob.log_scale.detach()) == 0.0
     assert np.allclose(prob.posed_numpy()[prob.body_ids].mean(0), centroid, atol=1e-5)
     new = model.posed(BodyParams("procedural", shape=prob.shape_value().detach().numpy(),
                                  pose=np.zeros((22, 3)))).vertices
