@@ -169,7 +169,8 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
         hyp = canonical_pose(name, model.joint_names, rest)
         for root in roots:
             problem.set_params(pose=hyp, scale=1.0)
-            with torch.no_grad():
+            with torch.no_grad():  # untilted: the heading as is (a round trip through
+                # scipy would move its last bits, and with them every fit)
                 problem.pose[0] = root if not hyp[0].any() else torch.as_tensor(
                     compose_root(root.cpu().numpy(), hyp[0]), dtype=problem.dt)
             place_on_scan(problem, size_init)

@@ -267,8 +267,7 @@ class OptimizationRegistrar:
                                  f"{getattr(self, name)!r}")
         from dressmeup.body.registration.hypotheses import CANONICAL_POSES
 
-        unknown = [p for p in self.hypotheses if p not in CANONICAL_POSES]
-        if unknown or isinstance(self.hypotheses, str):
+        if any(p not in CANONICAL_POSES for p in self.hypotheses):  # a bare name fails too
             raise InputError(f"hypotheses: expected a list of {', '.join(CANONICAL_POSES)}; "
                              f"got {self.hypotheses!r}")
 
