@@ -81,7 +81,24 @@ def build_data(edition: str | Edition, root: str | os.PathLike, log: Log = _quie
                              f"accepted by this toolkit's generate_dataset")
         generate_dataset(root, seed=pin.seed, **pin.params)
     log(f"data for {ed.name}: {root} ({time.perf_counter() - t0:.0f} s)")
+    other = data_differs(ed, root)
+    if other:
+        log(f"warning: {other}. This machine generates other data than the one that pinned "
+            "the edition (docs/synthetic-data.md, 'Reproducibility'); scores on it are marked "
+            "not comparable")
     return root
+
+
+def data_differs(edition: str | Edition, root: str | os.PathLike) -> str | None:
+    """Why the generated data at ``root`` are not the data ``edition`` pins (its
+    ``expected_manifest_sha256``), or None when they are or the edition pins no manifest."""
+    from dressmeup.bench.score import other_data_reason
+    from dressmeup.bench.tasks.common import manifest_sha256
+
+    ed = load_edition(edition)
+    if not (Path(root) / "manifest.parquet").is_file():
+        return None
+    return other_data_reason(ed, {"manifest_sha256": manifest_sha256(root)}, root)
 
 
 def retarget_methods() -> list[str]:
@@ -360,15 +377,18 @@ def run_baselines(edition: str | Edition, data_root: str | os.PathLike,
 
 def score_many(subs: dict[str, Path], edition: str | Edition, data_root: str | os.PathLike,
                results_dir: str | os.PathLike, workers: int | None = None, executor: Any = None,
-               log: Log = _quiet) -> list[Path]:
-    """Score each submission into ``results_dir/<name>`` (new folders); return the folders."""
+               log: Log = _quiet, allow_other_data: bool = False) -> list[Path]:
+    """Score each submission into ``results_dir/<name>`` (new folders); return the folders.
+    ``allow_other_data``: score data that differ from the edition's pin, marked not
+    comparable (see :func:`~dressmeup.bench.score.score_submission`)."""
     from dressmeup.bench.leaderboard import format_summary
     from dressmeup.bench.score import score_submission
 
     out = []
     for sub in subs.values():
         res = score_submission(sub, edition, data_root, Path(results_dir) / sub.name,
-                               workers=workers, executor=executor)
+                               workers=workers, executor=executor,
+                               allow_other_data=allow_other_data)
         log(format_summary(res.summary))
         out.append(res.path)
     return out
