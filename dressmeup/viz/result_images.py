@@ -220,8 +220,9 @@ def render_grouped_bars(groups: Sequence[str], series: dict[str, Sequence[float]
             ax.errorbar(xs[has], m[has], yerr=[np.maximum(lo[has], 0), np.maximum(hi[has], 0)],
                         fmt="none", ecolor="#1d2330", capsize=2, linewidth=0.8)
     _style_bar_axes(ax, x, groups, ylabel)
-    ax.legend(fontsize=6.5, frameon=False, ncol=min(n, 4), loc="upper left",
-              bbox_to_anchor=(0, -0.12))
+    if names:  # no series (e.g. every result not comparable): no legend, no warning
+        ax.legend(fontsize=6.5, frameon=False, ncol=min(n, 4), loc="upper left",
+                  bbox_to_anchor=(0, -0.12))
     if title:
         ax.set_title(title, fontsize=8)
     fig.tight_layout()

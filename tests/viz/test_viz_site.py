@@ -164,3 +164,15 @@ def test_picture_budget_is_shared_between_methods(site_inputs, tmp_path):
                                + list(page.parent.glob(f"img/{page.stem}-worst-*.png")))
     assert drawn.pop("gone") == 0
     assert all(n >= 2 for n in drawn.values()) and sum(drawn.values()) == 8, drawn
+
+
+def test_grouped_bars_without_series_draw_quietly(tmp_path):
+    """Every result not comparable leaves a chart with no series: no legend warning."""
+    import warnings
+
+    from dressmeup.viz.result_images import render_grouped_bars
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        render_grouped_bars(["re-pose", "cross"], {}, {}, tmp_path / "b.png", ylabel="P2S [mm]")
+    assert (tmp_path / "b.png").stat().st_size > 0
