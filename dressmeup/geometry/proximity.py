@@ -4,6 +4,13 @@ open3d's ``RaycastingScene`` (a BVH in float32) finds the closest face of every 
 point; the closest point and the distance are then recomputed exactly in float64 against
 that face, so distances are float64 as docs/spec.md section 1 requires. The coordinates are centred before
 the float32 conversion so that meshes far from the origin keep their precision.
+
+With ``exact_faces=True`` the BVH's pick is only a hint: every face sharing a vertex with
+it is measured in float64 and the nearest wins (ties: the lowest face id). Where several
+faces are (nearly) equally close, e.g. a query above a shared edge or vertex, the result
+then does not depend on the BVH's float32 rounding, which differs between CPUs (a 1e-7 m
+shift of the float32 frame changes which face the BVH returns; docs/synthetic-data.md,
+"Reproducibility").
 """
 
 from __future__ import annotations
@@ -106,7 +113,7 @@ def _closest_on_degenerate(
 
 
 def closest_points(
-    V: np.ndarray, F: np.ndarray, query: np.ndarray
+    V: np.ndarray, F: np.ndarray, query: np.ndarray, exact_faces: bool = False
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Closest points on a triangle surface to query points.
 
@@ -118,6 +125,8 @@ def closest_points(
         Surface triangles.
     query : (q, 3) float array
         Query points.
+    exact_faces : choose among the faces around the BVH's pick in float64 (see the module
+        docstring); about ``3 x max vertex valence`` times the float64 work.
 
     Returns
     -------
@@ -152,7 +161,41 @@ def closest_points(
         q32 = o3d.core.Tensor(np.ascontiguousarray(Q[sel] - center, dtype=np.float32))
         ans = scene.compute_closest_points(q32)
         face_ids[sel] = ans["primitive_ids"].numpy().astype(np.int64)
+    if exact_faces:
+        return _nearest_around(V, F, Q, face_ids)
     tri = F[face_ids]
     pts = closest_point_on_triangles(Q, V[tri[:, 0]], V[tri[:, 1]], V[tri[:, 2]])
     dist = np.linalg.norm(Q - pts, axis=1)
     return dist, pts, face_ids
+
+
+def faces_around_faces(F: np.ndarray, n_vertices: int) -> np.ndarray:
+    """(m, 3 k) int64: for each face, the faces incident to any of its 3 vertices (k: the
+    largest vertex valence; repeats allowed, -1 pads)."""
+    F = np.asarray(F, dtype=np.int64)
+    v = F.ravel()
+    f = np.repeat(np.arange(len(F)), 3)
+    order = np.argsort(v, kind="stable")
+    v, f = v[order], f[order]
+    counts = np.bincount(v, minlength=n_vertices)
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    per_vertex = np.full((n_vertices, max(int(counts.max()), 1)), -1, dtype=np.int64)
+    per_vertex[v, np.arange(len(v)) - start[v]] = f
+    return per_vertex[F].reshape(len(F), -1)
+
+
+def _nearest_around(V, F, Q, face_ids) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``exact_faces``: the float64-nearest of the faces around each BVH pick."""
+    cand = faces_around_faces(F, len(V))[face_ids]
+    dist = np.full(len(Q), np.inf)
+    pts = np.zeros((len(Q), 3))
+    best = np.full(len(Q), np.iinfo(np.int64).max)
+    for c in cand.T:
+        rows = np.nonzero(c >= 0)[0]
+        tri = F[c[rows]]
+        p = closest_point_on_triangles(Q[rows], V[tri[:, 0]], V[tri[:, 1]], V[tri[:, 2]])
+        d = np.linalg.norm(Q[rows] - p, axis=1)
+        win = (d < dist[rows]) | ((d == dist[rows]) & (c[rows] < best[rows]))
+        rows, p, d = rows[win], p[win], d[win]
+        dist[rows], pts[rows], best[rows] = d, p, c[rows]
+    return dist, pts, best

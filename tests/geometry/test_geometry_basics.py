@@ -229,3 +229,38 @@ def test_as_arrays_rejects_bad_input(V, F, match):
         as_arrays(V, F, name="thing")
     with pytest.raises(ValueError, match="thing"):
         as_arrays(V, F, name="thing")
+
+
+def test_faces_around_faces_against_a_loop():
+    from dressmeup.geometry.proximity import faces_around_faces
+
+    V, F = random_mesh(3)
+    ring = faces_around_faces(F, len(V))
+    for f in range(len(F)):
+        want = {g for g in range(len(F)) if set(F[g]) & set(F[f])}
+        assert set(ring[f][ring[f] >= 0]) == want
+
+
+def test_exact_faces_do_not_depend_on_the_bvh_pick():
+    """A grid queried above its shared vertices and edges: every incident face is equally
+    close, the float32 BVH picks one of them, ``exact_faces`` the lowest id; shifting the
+    whole problem (other float32 roundings) changes nothing in float64."""
+    n = 6
+    u, v = np.meshgrid(np.arange(n, dtype=np.float64), np.arange(n, dtype=np.float64))
+    V = np.c_[u.ravel(), v.ravel(), np.zeros(n * n)] * 0.1
+    q = np.arange(n * n).reshape(n, n)
+    F = np.r_[np.c_[q[:-1, :-1].ravel(), q[:-1, 1:].ravel(), q[1:, 1:].ravel()],
+              np.c_[q[:-1, :-1].ravel(), q[1:, 1:].ravel(), q[1:, :-1].ravel()]]
+    rng = np.random.default_rng(0)
+    on_grid = V[rng.choice(len(V), 20)] + (0, 0, 0.05)  # above vertices
+    mid = (V[F[:, 0]] + V[F[:, 1]]) / 2 + (0, 0, 0.03)     # above edges
+    Q = np.r_[on_grid, mid[:20], rng.uniform(0, 0.5, (40, 3))]
+    d, p, fid = closest_points(V, F, Q, exact_faces=True)
+    np.testing.assert_allclose(d, ref_closest_distance(V, F, Q), rtol=0, atol=1e-15)
+    for i in range(len(Q)):  # the lowest id among the faces at the minimum distance
+        dd = np.array([np.ravel(ref_point_triangle(Q[i], *V[f][:, None, :]))[0] for f in F])
+        assert fid[i] == np.flatnonzero(dd <= dd.min() + 1e-15)[0]
+    for shift in (1e-7, 3e-6, 123.456):
+        d2, p2, fid2 = closest_points(V + shift, F, Q + shift, exact_faces=True)
+        np.testing.assert_array_equal(fid2, fid)
+        np.testing.assert_allclose(p2 - shift, p, rtol=0, atol=1e-9)
