@@ -70,8 +70,9 @@ def fit(root: str, options: dict, only: str = "", seeds: tuple[int, ...] = (0,))
         labels = {"sample": sid, "pose": ds.info["poses"][m.loc[sid, "pose_id"]],
                   "category": str(m.loc[sid, "category"]),
                   "garment": str(m.loc[sid, "garment_type"])}
+        scan = sample.scan()  # read once for all seeds
         for seed in seeds:
-            rows.append(_fit_one(sample.scan(), truth, model, {**options, "seed": seed}, labels))
+            rows.append(_fit_one(scan, truth, model, {**options, "seed": seed}, labels))
     return rows
 
 

@@ -26,7 +26,6 @@ from dressmeup.bench.score import score_submission
 from dressmeup.bench.submission import write_submission
 
 EDITION = "synth-retarget-tiny-v3"
-ALLOW_OTHER_DATA = False  # set by the fixture: this machine's data are not the pinned ones
 SIGMA = 0.001
 
 
@@ -36,9 +35,14 @@ def tiny(other_data):
 
     ed = load_edition(EDITION)
     data = runs.build_data(ed, cache_dir("e2e") / f"{ed.name}-{ed.hash[:10]}")
-    global ALLOW_OTHER_DATA  # the ladder checks the scoring, valid on either machine's data
-    ALLOW_OTHER_DATA = other_data(ed, data) is not None
+    other_data(ed, data)  # the pin or a known machine's data; any other manifest fails
     return ed, data
+
+
+def _other(ed, data) -> bool:
+    """Whether ``data`` are not the pinned data: the ladder checks the scoring, valid on
+    either machine's data, so such data are scored marked not comparable."""
+    return runs.data_differs(ed, data) is not None
 
 
 def _pairs(ed, data):
@@ -50,7 +54,7 @@ def _pairs(ed, data):
 def _score(ed, data, preds, tmp_path, name):
     sub = write_submission(tmp_path / f"sub-{name}", preds, edition=ed, method=name)
     res = score_submission(sub, ed, data, tmp_path / f"res-{name}", workers=1,
-                           show_progress=False, allow_other_data=ALLOW_OTHER_DATA)
+                           show_progress=False, allow_other_data=_other(ed, data))
     return res.table
 
 
@@ -67,7 +71,7 @@ def test_ground_truth_scores_zero(tiny, tmp_path):
     assert table["p2s"].abs().max() < 1e-12
     assert np.allclose(table["nc"], 1.0, atol=1e-12)
     summary = json.loads((tmp_path / "res-gt" / "summary.json").read_text())
-    assert summary.get("comparable", True) is not ALLOW_OTHER_DATA
+    assert summary.get("comparable", True) is not _other(ed, data)
 
 
 def expected_noise_p2s(sigma: float, n: int = 400_000, seed: int = 1) -> float:
@@ -98,9 +102,9 @@ def test_source_garment_worse_than_rigid_on_cross(tiny, tmp_path):
                     tmp_path, "source")
     subs = runs.run_baselines(ed, data, tmp_path / "subs", methods=["rigid", "skinning"])
     rigid = score_submission(subs["rigid"], ed, data, tmp_path / "res-rigid", workers=1,
-                             show_progress=False, allow_other_data=ALLOW_OTHER_DATA).table
+                             show_progress=False, allow_other_data=_other(ed, data)).table
     skin = score_submission(subs["skinning"], ed, data, tmp_path / "res-skin", workers=1,
-                            show_progress=False, allow_other_data=ALLOW_OTHER_DATA).table
+                            show_progress=False, allow_other_data=_other(ed, data)).table
 
     def cross(t: pd.DataFrame, metric: str = "p2s", track: str = "cross") -> float:
         return float(t.loc[t["track"] == track, metric].mean())
