@@ -155,6 +155,43 @@ def _quiet_warp() -> None:
         warp.config.quiet = True
 
 
+#: what warp's native code writes to stderr at initialisation on every machine without an
+#: NVIDIA driver (it is CPU-only use here, as intended: nothing to act on)
+NO_CUDA_NOTICE = "Could not find or load the NVIDIA CUDA driver"
+
+
+def init_warp_quietly() -> None:
+    """Initialise warp with its "no CUDA driver" notice left out of stderr.
+
+    warp's native library prints that notice with ``fprintf(stderr, ...)``, which no
+    ``warp.config`` setting silences; so file descriptor 2 is captured for the
+    initialisation and everything else it wrote is passed on. Does nothing when warp is
+    missing; ``warp.init()`` itself does nothing the second time.
+    """
+    import sys
+    import tempfile
+
+    try:
+        import warp
+    except ImportError:  # pragma: no cover - warp is a dependency of anny
+        return
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            warp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        tmp.seek(0)
+        text = tmp.read().decode("utf-8", errors="replace")
+    rest = "".join(line for line in text.splitlines(keepends=True)
+                   if NO_CUDA_NOTICE not in line)
+    if rest:
+        sys.stderr.write(rest)
+
+
 def _configure_caches():
     from dressmeup.cache import cache_dir
 
@@ -167,6 +204,7 @@ def _configure_caches():
                 warp.config.kernel_cache_dir = str(cache_dir("warp"))
         except ImportError:  # pragma: no cover - warp is a dependency of anny
             pass
+    init_warp_quietly()
     import anny.paths
 
     path = cache_dir("anny")

@@ -170,8 +170,8 @@ def closest_points(
 
 
 def faces_around_faces(F: np.ndarray, n_vertices: int) -> np.ndarray:
-    """(m, 3 k) int64: for each face, the faces incident to any of its 3 vertices (k: the
-    largest vertex valence; repeats allowed, -1 pads)."""
+    """(m, r) int64: for each face, the distinct faces incident to any of its 3 vertices,
+    ascending, -1 padded (r: the largest such ring)."""
     F = np.asarray(F, dtype=np.int64)
     v = F.ravel()
     f = np.repeat(np.arange(len(F)), 3)
@@ -181,12 +181,39 @@ def faces_around_faces(F: np.ndarray, n_vertices: int) -> np.ndarray:
     start = np.concatenate([[0], np.cumsum(counts)[:-1]])
     per_vertex = np.full((n_vertices, max(int(counts.max()), 1)), -1, dtype=np.int64)
     per_vertex[v, np.arange(len(v)) - start[v]] = f
-    return per_vertex[F].reshape(len(F), -1)
+    ring = np.sort(per_vertex[F].reshape(len(F), -1), axis=1)
+    ring[:, 1:][ring[:, 1:] == ring[:, :-1]] = -1  # repeats (faces sharing 2 vertices)
+    ring = np.where(ring < 0, np.iinfo(np.int64).max, ring)
+    ring.sort(axis=1)
+    ring = ring[:, : int((ring < np.iinfo(np.int64).max).sum(1).max())]
+    ring[ring == np.iinfo(np.int64).max] = -1
+    return ring
+
+
+_RINGS: dict[bytes, np.ndarray] = {}  # faces_around_faces of the last few meshes
+_RINGS_KEEP = 4
+
+
+def _ring_of(F: np.ndarray, n_vertices: int) -> np.ndarray:
+    """``faces_around_faces``, remembered for the last few face arrays (the drape asks about
+    the same body every iteration)."""
+    import hashlib
+
+    key = hashlib.blake2b(np.ascontiguousarray(F).tobytes(), digest_size=16,
+                          person=int(n_vertices).to_bytes(8, "little")).digest()
+    ring = _RINGS.get(key)
+    if ring is None:
+        ring = faces_around_faces(F, n_vertices)
+        if len(_RINGS) >= _RINGS_KEEP:
+            _RINGS.pop(next(iter(_RINGS)))
+        _RINGS[key] = ring
+    return ring
 
 
 def _nearest_around(V, F, Q, face_ids) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``exact_faces``: the float64-nearest of the faces around each BVH pick."""
-    cand = faces_around_faces(F, len(V))[face_ids]
+    """``exact_faces``: the float64-nearest of the faces around each BVH pick (ties: the
+    lowest face id, so the order the candidates are measured in does not matter)."""
+    cand = _ring_of(F, len(V))[face_ids]
     dist = np.full(len(Q), np.inf)
     pts = np.zeros((len(Q), 3))
     best = np.full(len(Q), np.iinfo(np.int64).max)

@@ -237,14 +237,15 @@ def test_faces_around_faces_against_a_loop():
     V, F = random_mesh(3)
     ring = faces_around_faces(F, len(V))
     for f in range(len(F)):
-        want = {g for g in range(len(F)) if set(F[g]) & set(F[f])}
-        assert set(ring[f][ring[f] >= 0]) == want
+        want = sorted(g for g in range(len(F)) if set(F[g]) & set(F[f]))
+        assert ring[f][ring[f] >= 0].tolist() == want  # distinct, ascending
+        assert np.all(ring[f][len(want):] == -1)
+    assert np.any(ring[:, -1] >= 0)  # no column of padding only
 
 
-def test_exact_faces_do_not_depend_on_the_bvh_pick():
-    """A grid queried above its shared vertices and edges: every incident face is equally
-    close, the float32 BVH picks one of them, ``exact_faces`` the lowest id; shifting the
-    whole problem (other float32 roundings) changes nothing in float64."""
+def grid_with_ties():
+    """A flat 6 x 6 grid and queries above its vertices and edges (several faces equally
+    close) and elsewhere: (V (36, 3), F (50, 3), Q (80, 3)), metres."""
     n = 6
     u, v = np.meshgrid(np.arange(n, dtype=np.float64), np.arange(n, dtype=np.float64))
     V = np.c_[u.ravel(), v.ravel(), np.zeros(n * n)] * 0.1
@@ -254,12 +255,34 @@ def test_exact_faces_do_not_depend_on_the_bvh_pick():
     rng = np.random.default_rng(0)
     on_grid = V[rng.choice(len(V), 20)] + (0, 0, 0.05)  # above vertices
     mid = (V[F[:, 0]] + V[F[:, 1]]) / 2 + (0, 0, 0.03)     # above edges
-    Q = np.r_[on_grid, mid[:20], rng.uniform(0, 0.5, (40, 3))]
-    d, p, fid = closest_points(V, F, Q, exact_faces=True)
+    return V, F, np.r_[on_grid, mid[:20], rng.uniform(0, 0.5, (40, 3))]
+
+
+def assert_nearest_lowest_id(V, F, Q, d, fid):
+    """d is the exact distance, fid the lowest id among the faces at that distance."""
     np.testing.assert_allclose(d, ref_closest_distance(V, F, Q), rtol=0, atol=1e-15)
-    for i in range(len(Q)):  # the lowest id among the faces at the minimum distance
+    for i in range(len(Q)):
         dd = np.array([np.ravel(ref_point_triangle(Q[i], *V[f][:, None, :]))[0] for f in F])
         assert fid[i] == np.flatnonzero(dd <= dd.min() + 1e-15)[0]
+
+
+def test_exact_faces_remember_the_ring_by_content_not_by_shape():
+    """The face ring is cached per mesh: a second face array of the same shape (the same
+    faces in another order) gets its own ring, so the tie rule still finds its lowest id."""
+    V, F, Q = grid_with_ties()
+    F2 = F[np.random.default_rng(2).permutation(len(F))]
+    for faces in (F, F2, F):
+        d, _, fid = closest_points(V, faces, Q, exact_faces=True)
+        assert_nearest_lowest_id(V, faces, Q, d, fid)
+
+
+def test_exact_faces_do_not_depend_on_the_bvh_pick():
+    """A grid queried above its shared vertices and edges: every incident face is equally
+    close, the float32 BVH picks one of them, ``exact_faces`` the lowest id; shifting the
+    whole problem (other float32 roundings) changes nothing in float64."""
+    V, F, Q = grid_with_ties()
+    d, p, fid = closest_points(V, F, Q, exact_faces=True)
+    assert_nearest_lowest_id(V, F, Q, d, fid)
     for shift in (1e-7, 3e-6, 123.456):
         d2, p2, fid2 = closest_points(V + shift, F, Q + shift, exact_faces=True)
         np.testing.assert_array_equal(fid2, fid)
