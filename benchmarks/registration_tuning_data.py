@@ -1,7 +1,7 @@
 """A private tuning set for clothed registration, made like synth-registration-v3.
 
 synth-registration-v3 is test data: no registrar default may be chosen on it. This script
-makes a dataset with the same generator and options (generator 2.0.0, ``wear="rotate"``,
+makes a dataset with the same generator and options (generator 2.1.0, ``wear="rotate"``,
 ``scan_body="uncovered"``: one garment per scan, the skin under the garment not in the scan)
 but in tuning poses of the generator set (``pose_set="generator"``: its first three poses
 are sitting, arms-raised and walking, all in ``benchmarks/perf/registration.py``'s
@@ -47,7 +47,7 @@ def make(out: str, subjects: int = 6, poses: int = 3, seed: int = 1, workers: in
     if bad:
         raise SystemExit(f"poses {bad} are not tuning poses: use --poses <= 3")
     return str(generate_dataset(out, subjects=subjects, poses=poses, seed=seed,
-                                version="2.0.0", garments_per_split=(0, 0, 2), pose_steps=3,
+                                version="2.1.0", garments_per_split=(0, 0, 2), pose_steps=3,
                                 pose_set=pose_set, wear="rotate", scan_body="uncovered",
                                 workers=workers))
 

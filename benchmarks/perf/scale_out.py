@@ -13,7 +13,7 @@ Job types: ``score`` (one retarget pair of synth-retarget-v2: 100,000 samples, s
 needs its data, see benchmarks/perf/scoring.py), ``build`` (build-dataset: one synthetic
 7-camera 640x576 capture session fused at 4 mm, garments extracted, UV-mapped and textured
 at 1024 px; body source none, registration excluded), ``synth1`` (generator 1.1.0, anny:
-one sample) and ``synth2`` (generator 2.0.0, anny: one garment on 2 subjects x 2 poses).
+one sample) and ``synth2`` (generator 2.x, anny: one garment on 2 subjects x 2 poses).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ JOBS = ("score", "build", "synth1", "synth2")
 
 
 def _cpu() -> float:
-    """CPU seconds of this process and its finished children (generator 2.0.0 computes in
+    """CPU seconds of this process and its finished children (generator 2.x computes in
     spawned workers)."""
     r = [resource.getrusage(w) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)]
     return sum(x.ru_utime + x.ru_stime for x in r)
@@ -40,7 +40,7 @@ def _cpu() -> float:
 
 def _vm_hwm_mb() -> float:
     """Peak resident memory of this process in MB (VmHWM: ru_maxrss would include the peak
-    of the parent that started it). Spawned workers (generator 2.0.0) are not counted."""
+    of the parent that started it). Spawned workers (generator 2.x) are not counted."""
     for line in open("/proc/self/status"):
         if line.startswith("VmHWM:"):
             return int(line.split()[1]) / 1024
@@ -120,10 +120,10 @@ def measure(job: str, score_data: str | None) -> dict:
         from dressmeup.data.synth import generate_dataset
 
         t, c = time.perf_counter(), _cpu()
-        generate_dataset(tmp / "d", version="2.0.0", subjects=2, poses=2,
+        generate_dataset(tmp / "d", version="2.1.0", subjects=2, poses=2,
                          garments_per_split=(1, 0, 0), categories=["topwear"],
                          body_model="anny")
-        n, what = 4, "sample (generator 2.0.0, anny, 1 garment x 2 subjects x 2 poses)"
+        n, what = 4, "sample (generator 2.x, anny, 1 garment x 2 subjects x 2 poses)"
     cpu = _cpu() - c
     return {"job": job, "what": what, "items": n, "cpu_per_item_s": cpu / n,
             "wall_s": time.perf_counter() - t,

@@ -9,7 +9,7 @@ CPU seconds per sample, with the load average beside every timing.
     python benchmarks/perf/synth_drape.py [--body-model anny] [--variants v2,v3]
 
 Variants: ``v2`` = generator 1.1.0's solver (direct drape, no self-collision, 1 mm final
-clearance); ``v3`` = generator 2.0.0 (3-step pose path, self-collision 10 mm, 3 mm clearance);
+clearance); ``v3`` = generator 2.1.0 (3-step pose path, self-collision 10 mm, 3 mm clearance);
 ``v3-noself`` and ``v3-direct`` switch one of the two off.
 """
 
@@ -96,7 +96,7 @@ def main() -> None:
                 t0 = time.process_time()
                 start = transfer_to_body(V0, V_d, V_w, skin_F)
                 fitted = drape(V0, g.faces, start, g.support, V_w, skin_F, fr_w.up,
-                               settings).vertices
+                               settings, exact_faces=True).vertices  # as the generator
                 W = garment_weights(FittedGarment(fitted, g.faces, gtype), V_w, skin_F, body_W,
                                      names, fr_w)
                 draper = PoseDraper(model, keep, skin_F, V0, g.faces, g.support, fitted, W,

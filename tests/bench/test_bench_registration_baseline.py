@@ -29,7 +29,7 @@ def data(tmp_path_factory):
     from dressmeup.data.synth import generate_dataset
 
     add_registrar("test-rest-pose", lambda **_: _RestPose())
-    return generate_dataset(tmp_path_factory.mktemp("reg") / "d", version="2.0.0", subjects=2,
+    return generate_dataset(tmp_path_factory.mktemp("reg") / "d", version="2.1.0", subjects=2,
                             poses=1, garments_per_split=(0, 0, 1), categories=["topwear"],
                             body_model="procedural", edge_length=0.05, pose_steps=1,
                             pose_set="registration", wear="rotate", scan_body="uncovered")

@@ -1,4 +1,4 @@
-"""``synth`` (generator 2.0.0) on Dask distributed: one job per garment on a 2-worker
+"""``synth`` (generator 2.1.0) on Dask distributed: one job per garment on a 2-worker
 LocalCluster; an interrupted run resumed on Dask, with a worker killed mid-garment, ends
 with exactly the pinned manifest of synth-retarget-tiny-v3."""
 
@@ -16,6 +16,7 @@ pytest.importorskip("distributed")
 import cloudpickle  # noqa: E402
 
 from dressmeup.bench import load_edition  # noqa: E402
+from dressmeup.bench.tasks.common import manifest_sha256  # noqa: E402
 from dressmeup.executors.dask_executor import DaskExecutor  # noqa: E402
 
 cloudpickle.register_pickle_by_value(sys.modules[__name__])
@@ -54,12 +55,6 @@ def canon_cluster():
 
     with DaskExecutor(2, worker_env=CANONICAL_ENV, log=None) as ex:
         yield ex
-
-
-def _manifest_sha(root: Path) -> str:
-    from dressmeup.bench.tasks.common import manifest_sha256
-
-    return manifest_sha256(root)
 
 
 def test_interrupted_synth_resumes_on_dask_to_the_pinned_manifest(canon_cluster, tmp_path,
@@ -112,4 +107,4 @@ def test_synth_with_a_one_worker_local_executor_still_uses_a_canonical_worker(tm
     out = tmp_path / "tiny"
     assert main(["synth", str(out), "--edition", TINY, "--executor", "local", "-j", "1"]) == 0
     assert "matches the edition's expected manifest" in capsys.readouterr().out
-    assert _manifest_sha(out) == load_edition(TINY).dataset.expected_manifest_sha256
+    assert manifest_sha256(out) == load_edition(TINY).dataset.expected_manifest_sha256

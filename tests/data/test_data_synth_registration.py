@@ -1,4 +1,4 @@
-"""Generator 2.0.0 drawing from the registration pose set, one garment per sample, scans
+"""Generator 2.1.0 drawing from the registration pose set, one garment per sample, scans
 without the skin under the garment (the synth-registration-v3 edition, issue #14): plans and
 scan geometry only, plus one slow small regeneration."""
 
@@ -48,7 +48,7 @@ def test_default_plans_are_unchanged(name):
 def test_default_parameters_are_not_recorded():
     base = dict(subjects=2, poses=2, pose_steps=2)
     assert generator_params(**base, pose_set="generator", wear="all", scan_body="whole") == \
-        {"version": "2.0.0", **base}
+        {"version": "2.1.0", **base}
     rec = generator_params(**base, pose_set="registration", wear="rotate",
                            scan_body="uncovered")
     assert (rec["pose_set"], rec["wear"], rec["scan_body"]) == \
@@ -178,7 +178,7 @@ def test_small_registration_dataset_regenerates(tmp_path):
     from dressmeup.data.synth import generate_dataset
     from dressmeup.data.validate import validate_dataset
 
-    kw = dict(version="2.0.0", subjects=2, poses=2, garments_per_split=(0, 0, 1),
+    kw = dict(version="2.1.0", subjects=2, poses=2, garments_per_split=(0, 0, 1),
               categories=["topwear", "bottomwear"], body_model="procedural",
               edge_length=0.05, pose_steps=1, pose_set="registration", wear="rotate",
               scan_body="uncovered")

@@ -1,9 +1,9 @@
-"""Generator 2.0.0 (issue #13): one garment on several bodies, identical poses, splits,
-pinned manifests that a fresh run (other thread settings) regenerates exactly."""
+"""Generator 2.1.0 (issue #13): one garment on several bodies, identical poses, splits,
+pinned manifests that a fresh run (other thread settings, kernels, float32 rounding)
+regenerates exactly."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import subprocess
@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from dressmeup.bench import load_edition, runs
+from dressmeup.bench.tasks.common import manifest_sha256
 from dressmeup.data import Dataset
 from dressmeup.data.synth.wardrobe import SUBJECTS, plan_v3
 
@@ -71,15 +72,11 @@ def test_tiny_garments_stay_outside_the_body(tiny):
     assert min(s["min_signed_distance_m"] for s in stats) > -0.0035
 
 
-def _manifest_sha(root) -> str:
-    return hashlib.sha256((root / "manifest.parquet").read_bytes()).hexdigest()
-
-
 def test_tiny_manifest_is_the_pinned_one(tiny, other_data):
     known = other_data(TINY, tiny)  # an unknown manifest fails here
     if known:  # a known reproducibility bug, reported as such (docs/synthetic-data.md)
         pytest.xfail(f"this machine generates other data: {known}")
-    assert _manifest_sha(tiny) == load_edition(TINY).dataset.expected_manifest_sha256
+    assert manifest_sha256(tiny) == load_edition(TINY).dataset.expected_manifest_sha256
 
 
 def _regenerate(edition: str, out, env: dict) -> str:
@@ -89,7 +86,7 @@ def _regenerate(edition: str, out, env: dict) -> str:
     """)
     subprocess.run([sys.executable, "-c", code], check=True, env={**os.environ, **env},
                    capture_output=True)
-    return _manifest_sha(out)
+    return manifest_sha256(out)
 
 
 #: a "different machine" as far as one machine can emulate it: thread pools of another size
@@ -101,7 +98,33 @@ OTHER_MACHINE = {"OMP_NUM_THREADS": "2", "MKL_NUM_THREADS": "2", "OPENBLAS_NUM_T
 def test_tiny_regenerates_identically_with_other_threads_and_kernels(tiny, tmp_path):
     # the same data as this machine's default run (the pinned manifest on the machine that
     # pinned it: test_tiny_manifest_is_the_pinned_one)
-    assert _regenerate(TINY, tmp_path / "tiny", OTHER_MACHINE) == _manifest_sha(tiny)
+    assert _regenerate(TINY, tmp_path / "tiny", OTHER_MACHINE) == manifest_sha256(tiny)
+
+
+#: sitecustomize for the generator's worker processes: shifts the float32 frame of
+#: ``geometry.proximity.closest_points`` (open3d's BVH) by FRAME_SHIFT metres, so the BVH rounds
+#: every coordinate differently, as another CPU's code may; the float64 arithmetic is unchanged
+SHIFT_FLOAT32_FRAME = textwrap.dedent("""
+    import inspect, os, textwrap
+    import dressmeup.geometry.proximity as px
+    src = textwrap.dedent(inspect.getsource(px.closest_points))
+    line = "center = V.mean(axis=0)\\n"
+    assert src.count(line) == 1, "closest_points changed: update the test's float32 shift"
+    src = src.replace(line, "center = V.mean(axis=0) + " + os.environ["FRAME_SHIFT"] + "\\n")
+    ns = dict(vars(px))
+    exec(compile(src, px.__file__, "exec"), ns)
+    px.closest_points = ns["closest_points"]
+""")
+
+
+def test_tiny_does_not_depend_on_the_float32_rounding_of_closest_faces(tiny, tmp_path):
+    """Generator 2.0.0 let the BVH's float32 pick decide among equally close faces, and a
+    1e-7 m shift changed the data (as another CPU did); 2.1.0 decides in float64."""
+    (tmp_path / "site").mkdir()
+    (tmp_path / "site" / "sitecustomize.py").write_text(SHIFT_FLOAT32_FRAME)
+    path = os.pathsep.join([str(tmp_path / "site"), os.environ.get("PYTHONPATH", "")])
+    env = {"PYTHONPATH": path, "FRAME_SHIFT": "1e-7", "DRESSMEUP_NO_PROGRESS": "1"}
+    assert _regenerate(TINY, tmp_path / "tiny", env) == manifest_sha256(tiny)
 
 
 @pytest.mark.slow
@@ -110,3 +133,12 @@ def test_mini_regenerates_identically(tmp_path):
     ed = "synth-retarget-mini-v3"
     expected = load_edition(ed).dataset.expected_manifest_sha256
     assert _regenerate(ed, tmp_path / "mini", OTHER_MACHINE) == expected
+
+
+def test_generator_2_0_0_is_refused_with_the_reason(tmp_path):
+    from dressmeup.data.synth import generate_dataset
+    from dressmeup.errors import InputError
+
+    with pytest.raises(InputError, match="2.1.0.*float32 rounding"):
+        generate_dataset(tmp_path / "d", version="2.0.0", subjects=1, poses=1)
+    assert not (tmp_path / "d").exists()

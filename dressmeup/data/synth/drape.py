@@ -89,13 +89,14 @@ def _vertex_areas(V, F):
     return out
 
 
-def _body_query(body_V, body_F, x):
-    """Signed distance (positive outside), closest points and outward unit directions."""
+def _body_query(body_V, body_F, x, exact_faces=False):
+    """Signed distance (positive outside), closest points and outward unit directions
+    (``exact_faces``: see :func:`dressmeup.geometry.proximity.closest_points`)."""
     from dressmeup.geometry.mesh import face_normals
     from dressmeup.geometry.proximity import closest_points
     from dressmeup.geometry.winding import winding_number
 
-    d, p, fid = closest_points(body_V, body_F, x)
+    d, p, fid = closest_points(body_V, body_F, x, exact_faces=exact_faces)
     inside = winding_number(body_V, body_F, x) > 0.5
     sd = np.where(inside, -d, d)
     diff = x - p
@@ -108,8 +109,8 @@ def _body_query(body_V, body_F, x):
 
 def drape(rest_V: np.ndarray, faces: np.ndarray, skinned: np.ndarray, support: np.ndarray,
           body_V: np.ndarray, body_F: np.ndarray, up: np.ndarray,
-          settings: DrapeSettings | None = None, start: np.ndarray | None = None
-          ) -> DrapeResult:
+          settings: DrapeSettings | None = None, start: np.ndarray | None = None,
+          exact_faces: bool = False) -> DrapeResult:
     """Relax a skinned garment on a posed body (see module docstring).
 
     Parameters
@@ -123,6 +124,9 @@ def drape(rest_V: np.ndarray, faces: np.ndarray, skinned: np.ndarray, support: n
     settings : material and solver settings.
     start : (n, 3) float64 start point (default ``skinned``); the pose-continuation path of
         generator 2.x starts each step from the previous step's drape.
+    exact_faces : the body's closest faces chosen in float64 among the faces around the
+        BVH's pick (:func:`dressmeup.geometry.proximity.closest_points`), so the drape does
+        not depend on the CPU's float32 rounding (generator 2.1.0; off reproduces 1.x).
 
     Returns
     -------
@@ -135,7 +139,8 @@ def drape(rest_V: np.ndarray, faces: np.ndarray, skinned: np.ndarray, support: n
     threads = torch.get_num_threads()
     torch.set_num_threads(1)  # small problems: one thread is faster and deterministic
     try:
-        return _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start)
+        return _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start,
+                      exact_faces)
     finally:
         torch.set_num_threads(threads)
 
@@ -152,7 +157,8 @@ def _self_pairs(x: np.ndarray, rest_V: np.ndarray, thickness: float) -> np.ndarr
     return P[np.lexsort((P[:, 1], P[:, 0]))]
 
 
-def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=None):
+def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=None,
+           exact_faces=False):
     import torch
 
     s = settings or DrapeSettings()
@@ -201,7 +207,7 @@ def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=
     e_start = e_end = float("nan")
     for it in range(max(1, s.outer_iterations)):
         xn = x.detach().numpy()
-        sd, p, n = _body_query(body_V, body_F, xn)
+        sd, p, n = _body_query(body_V, body_F, xn, exact_faces)
         active = t((sd < s.margin + 0.03).astype(np.float64))
         tp, tn = t(p), t(n)
         if s.self_stiffness > 0:
@@ -223,10 +229,10 @@ def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=
         with torch.no_grad():
             e_end = float(energy(x, tp, tn, active, tpairs))
     xf = x.detach().numpy().copy()
-    sd, p, n = _body_query(body_V, body_F, xf)
+    sd, p, n = _body_query(body_V, body_F, xf, exact_faces)
     fix = sd < s.clearance
     xf[fix] = p[fix] + n[fix] * s.clearance
-    sd_final = _body_query(body_V, body_F, xf)[0]
+    sd_final = _body_query(body_V, body_F, xf, exact_faces)[0]
     le = np.linalg.norm(xf[E[:, 1]] - xf[E[:, 0]], axis=1)
     dist = np.linalg.norm(xf - x0, axis=1)
     stats = {"skinning_mean_m": float(dist.mean()), "skinning_max_m": float(dist.max()),
@@ -235,6 +241,6 @@ def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=
              "stretch_mean": float(np.mean(np.abs(le / L - 1.0))),
              "skinned_stretch_mean": float(np.mean(np.abs(
                  np.linalg.norm(x0[E[:, 1]] - x0[E[:, 0]], axis=1) / L - 1.0))),
-             "skinned_min_signed_distance_m": float(_body_query(body_V, body_F, x0)[0].min()),
+             "skinned_min_signed_distance_m": float(_body_query(body_V, body_F, x0, exact_faces)[0].min()),
              "energy_start": e_start, "energy_end": e_end}
     return DrapeResult(xf, x0, stats)

@@ -136,7 +136,7 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                      wear: str = "all", scan_body: str = "whole") -> Path:
     """Generate (or resume) the synthetic dataset in ``out``.
 
-    ``version="2.0.0"`` runs generator 2.0.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
+    ``version="2.1.0"`` runs generator 2.1.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
     every garment worn by every subject, identical poses; it reads ``subjects``, ``poses``,
     ``seed``, ``body_model``, ``edge_length``, ``write_scan``, ``texture_size``,
     ``drape_settings``, ``garments_per_split``, ``categories``, ``pose_steps``, ``pose_set``
@@ -177,7 +177,10 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
         from dressmeup.data.synth.wardrobe import VERSION, generate_v3
 
         if version != VERSION:
-            raise InputError(f"version: this toolkit generates 2.x as {VERSION}, got {version!r}")
+            retired = (" (2.0.0's drapes depended on the CPU's float32 rounding; "
+                       "docs/synthetic-data.md, Reproducibility)" if version == "2.0.0" else "")
+            raise InputError(f"version: this toolkit generates 2.x as {VERSION}, got "
+                             f"{version!r}{retired}")
         return generate_v3(out, subjects=subjects, poses=poses,
                            garments_per_split=garments_per_split or (6, 2, 4), seed=seed,
                            body_model=body_model, categories=categories,
@@ -187,11 +190,11 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                            pose_set=pose_set, wear=wear, scan_body=scan_body,
                            **({"executor": executor} if executor is not None else {}))
     if version != GENERATOR_VERSION:
-        raise InputError(f"version: expected {GENERATOR_VERSION!r} or '2.0.0', got {version!r}")
+        raise InputError(f"version: expected {GENERATOR_VERSION!r} or '2.1.0', got {version!r}")
     if (pose_set, wear, scan_body) != ("generator", "all", "whole"):
         raise InputError(f"pose_set={pose_set!r}, wear={wear!r}, scan_body={scan_body!r}: "
                          f"generator {GENERATOR_VERSION} draws generator poses for every "
-                         f"garment and writes whole-body scans; use version='2.0.0'")
+                         f"garment and writes whole-body scans; use version='2.1.0'")
     for v, n in ((subjects, "subjects"), (garments, "garments"), (poses, "poses")):
         if not isinstance(v, (int, np.integer)) or v < 1:
             raise InputError(f"{n}: expected a positive integer, got {v!r}")

@@ -1,4 +1,4 @@
-"""Generator 2.0.0: each garment is one pattern worn by several bodies (the v3 retargeting data).
+"""Generator 2.1.0: each garment is one pattern worn by several bodies (the v3 retargeting data).
 
 A garment (one rest mesh: vertices, faces, UVs) is made around its *design* body, then
 **fitted** to every subject of the dataset and draped in every pose:
@@ -28,10 +28,13 @@ A garment (one rest mesh: vertices, faces, UVs) is made around its *design* body
 
 Reproducibility: the numbers are computed in worker processes started with
 :data:`CANONICAL_ENV` (one thread, the portable kernels of torch, MKL, OpenBLAS and numpy);
-body vertices and LBS matrices are rounded (1e-9 m, 1e-12) before use, and every stored
+body vertices and LBS matrices are rounded (1e-9 m, 1e-12) before use; every closest body
+face (fit, drape, displacement transfer) is chosen in float64 among the faces around
+open3d's float32 pick (``closest_points(..., exact_faces=True)``, new in 2.1.0: 2.0.0 let
+the float32 pick decide, and another CPU's rounding changed the drapes); and every stored
 garment, body and scan vertex is rounded to 1e-6 m (one micrometre), so the data and their
-manifest do not depend on the thread count or the CPU's vector extensions (see
-docs/synthetic-data.md, "Reproducibility").
+manifest do not depend on the thread count, the CPU's vector extensions or its float32
+rounding (see docs/synthetic-data.md, "Reproducibility").
 """
 
 from __future__ import annotations
@@ -54,7 +57,7 @@ from dressmeup.data.synth.scans import SCAN_BODY, clothed_scan
 
 log = logging.getLogger(__name__)
 
-VERSION = "2.0.0"
+VERSION = "2.1.0"
 CATEGORY_TYPES: dict[str, tuple[str, ...]] = {
     "topwear": ("t-shirt", "long-sleeve", "tank-top"),
     "bottomwear": ("skirt", "trousers", "shorts"),
@@ -71,7 +74,7 @@ SUBJECTS: tuple[tuple[str, tuple[float, ...]], ...] = (
     ("average-person", (0.5, 0.5, 0.5, 0.5, 0.5, 0.5)),
     ("slim-short-man", (0.1, 0.45, 0.2, 0.1, 0.15, 0.5)),
 )
-#: Pose order of generator 2.0.0 (the first ``poses`` are used): legs and arms alternate so
+#: Pose order of generator 2.x (the first ``poses`` are used): legs and arms alternate so
 #: that even two or three poses load both (sitting is the hardest for skirts and dresses).
 POSE_ORDER = ("sitting", "arms-raised", "walking", "one-arm-up", "bent-knees", "arms-forward",
               "twist-side", "bent-elbows", "a-pose", "arms-down")
@@ -87,7 +90,7 @@ POSE_DECIMALS = 9  # stored pose arrays (body.npz), radians
 
 
 def v3_drape_settings() -> DrapeSettings:
-    """Drape settings of generator 2.0.0: 1.x's material, cloth self-collision on, and a
+    """Drape settings of generator 2.x: 1.x's material, cloth self-collision on, and a
     3 mm final clearance (1 mm let 20 mm triangles of a garment stretched over a heavier body
     cut into its curved surface between their vertices)."""
     return DrapeSettings(self_stiffness=2.0e5, self_thickness=0.010, margin=0.006,
@@ -267,7 +270,7 @@ def transfer_to_body(points: np.ndarray, from_V: np.ndarray, to_V: np.ndarray,
     from dressmeup.geometry.proximity import closest_points
 
     F = np.asarray(faces, np.int64)
-    _, p, fid = closest_points(from_V, F, points)
+    _, p, fid = closest_points(from_V, F, points, exact_faces=True)
     bary = _barycentric(p, from_V[F[fid]])
     disp = np.einsum("pk,pkd->pd", bary, (to_V - from_V)[F[fid]])
     return np.asarray(points, np.float64) + disp
@@ -305,7 +308,7 @@ def drape_stats(V: np.ndarray, F: np.ndarray, rest_V: np.ndarray, body_V: np.nda
     from dressmeup.geometry.proximity import closest_points
     from dressmeup.geometry.winding import winding_number
 
-    d, _, _ = closest_points(body_V, body_F, V)
+    d, _, _ = closest_points(body_V, body_F, V, exact_faces=True)
     inside = winding_number(body_V, body_F, V) > 0.5
     area = face_areas(V, F)
     inside_f = winding_number(body_V, body_F, V[F].mean(1)) > 0.5
@@ -350,7 +353,7 @@ class PoseDraper:
             skin = lbs(self.fitted, self.W, A)
             start = prev + (skin - prev_skin)
             res = drape(self.rest_V0, self.faces, skin, self.support, body_V, self.skin_F, up,
-                        self.settings, start=start)
+                        self.settings, start=start, exact_faces=True)
             prev, prev_skin = res.vertices, skin
         return res, body_V
 
@@ -375,7 +378,7 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
                 drape_settings: DrapeSettings | None = None, workers: int = 1,
                 executor: Any = None, pose_set: str = "generator", wear: str = "all",
                 scan_body: str = "whole") -> Path:
-    """Generate (or resume) a generator-2.0.0 dataset in ``out`` (see the module docstring).
+    """Generate (or resume) a generator-2.1.0 dataset in ``out`` (see the module docstring).
 
     Parameters
     ----------
@@ -435,7 +438,7 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
         "name": "dressmeup-synthetic",
         "version": VERSION,
         "licence": "CC0-1.0 (generated data; anny body model data is CC0)",
-        "description": "Synthetic DressMeUp-style dataset, generator 2.0.0: each parametric "
+        "description": f"Synthetic DressMeUp-style dataset, generator {VERSION}: each parametric "
                        "garment is fitted to several bodies of different shape and draped "
                        "in identical poses (quasi-static cloth relaxation with body and self "
                        "collision along a pose path).",
@@ -603,7 +606,7 @@ def _garment_job(job) -> dict[str, Any]:
         else:
             start = transfer_to_body(V0, design.rest_V, body.rest_V, skin_F)
             fit = drape(V0, F, start, garment.support, body.rest_V, skin_F, body.frame.up,
-                        S["settings"])
+                        S["settings"], exact_faces=True)
             fitted = quantize(fit.vertices, STORE_DECIMALS)
             fit_stats = {"fit": "fitted", **{f"fit_{k}": v for k, v in fit.stats.items()}}
         res["fitted"][sid] = fitted
