@@ -241,6 +241,7 @@ def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=
              "stretch_mean": float(np.mean(np.abs(le / L - 1.0))),
              "skinned_stretch_mean": float(np.mean(np.abs(
                  np.linalg.norm(x0[E[:, 1]] - x0[E[:, 0]], axis=1) / L - 1.0))),
-             "skinned_min_signed_distance_m": float(_body_query(body_V, body_F, x0, exact_faces)[0].min()),
+             "skinned_min_signed_distance_m": float(
+                 _body_query(body_V, body_F, x0, exact_faces)[0].min()),
              "energy_start": e_start, "energy_end": e_end}
     return DrapeResult(xf, x0, stats)
