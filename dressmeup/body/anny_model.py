@@ -181,15 +181,15 @@ def init_warp_quietly() -> None:
         os.dup2(tmp.fileno(), 2)
         try:
             warp.init()
-        finally:
+        finally:  # also when init fails: what it wrote is passed on
             os.dup2(saved, 2)
             os.close(saved)
-        tmp.seek(0)
-        text = tmp.read().decode("utf-8", errors="replace")
-    rest = "".join(line for line in text.splitlines(keepends=True)
-                   if NO_CUDA_NOTICE not in line)
-    if rest:
-        sys.stderr.write(rest)
+            tmp.seek(0)
+            text = tmp.read().decode("utf-8", errors="replace")
+            rest = "".join(line for line in text.splitlines(keepends=True)
+                           if NO_CUDA_NOTICE not in line)
+            if rest:
+                sys.stderr.write(rest)
 
 
 def _configure_caches():

@@ -183,10 +183,10 @@ def faces_around_faces(F: np.ndarray, n_vertices: int) -> np.ndarray:
     per_vertex[v, np.arange(len(v)) - start[v]] = f
     ring = np.sort(per_vertex[F].reshape(len(F), -1), axis=1)
     ring[:, 1:][ring[:, 1:] == ring[:, :-1]] = -1  # repeats (faces sharing 2 vertices)
-    ring = np.where(ring < 0, np.iinfo(np.int64).max, ring)
+    ring[ring < 0] = len(F)  # padding and repeats sort last
     ring.sort(axis=1)
-    ring = ring[:, : int((ring < np.iinfo(np.int64).max).sum(1).max())]
-    ring[ring == np.iinfo(np.int64).max] = -1
+    ring = ring[:, : int((ring < len(F)).sum(1).max())]
+    ring[ring == len(F)] = -1
     return ring
 
 

@@ -39,3 +39,23 @@ def test_the_no_cuda_notice_is_left_out_of_stderr():
     assert NO_CUDA_NOTICE not in proc.stderr, proc.stderr
     assert proc.stderr.strip().endswith("after"), proc.stderr
     assert proc.stdout.strip() == "", proc.stdout
+
+
+def test_what_a_failing_init_wrote_still_reaches_stderr(monkeypatch, capfd):
+    """Nothing is lost when warp's initialisation fails: its own stderr is passed on."""
+    import os
+
+    import pytest
+    import warp
+
+    from dressmeup.body.anny_model import NO_CUDA_NOTICE, init_warp_quietly
+
+    def failing_init():
+        os.write(2, f"Warp CUDA warning: {NO_CUDA_NOTICE}.\nthe real problem\n".encode())
+        raise RuntimeError("init failed")
+
+    monkeypatch.setattr(warp, "init", failing_init)
+    with pytest.raises(RuntimeError, match="init failed"):
+        init_warp_quietly()
+    err = capfd.readouterr().err
+    assert "the real problem" in err and NO_CUDA_NOTICE not in err
