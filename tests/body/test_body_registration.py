@@ -101,6 +101,16 @@ def test_canonical_poses_point_the_limbs():
         arm = J[names.index("left_elbow")] - J[names.index("left_shoulder")]
         want = np.asarray(spec["arm"], float)
         assert arm @ want / np.linalg.norm(arm) / np.linalg.norm(want) > 0.99, name
+        if "thigh" in spec and not spec.get("pelvis"):  # untilted: the world direction
+            right = {**spec, **spec.get("right", {})}
+            for side, sx, limbs in (("left", 1.0, spec), ("right", -1.0, right)):
+                thigh = J[names.index(f"{side}_knee")] - J[names.index(f"{side}_hip")]
+                want = np.asarray(limbs["thigh"], float) * (sx, 1.0, 1.0)
+                cos = thigh @ want / np.linalg.norm(thigh) / np.linalg.norm(want)
+                assert cos > 0.99, (name, side)
+    # an asymmetric pose: the stride's front leg is the left one in stride-left
+    stride = canonical_pose("stride-left", names, rest.joints)
+    assert stride[names.index("left_knee"), 0] > stride[names.index("right_knee"), 0] > 0
     with pytest.raises(ValueError, match="unknown pose"):
         canonical_pose("moonwalk", names, rest.joints)
 
@@ -174,7 +184,7 @@ def test_registration_poses_and_scan_variants(model):
     assert {"t-pose", "wide-stance", "sitting-box", "arms-crossed", "one-knee-up",
             "bending-forward"} <= set(hard) and not set(hard) & set(generator)
     tuning = pose_names("registration-tuning")
-    assert tuning == ["bowing", "picking-up"]
+    assert tuning == ["bowing", "picking-up", "stepping-up", "lunge"]
     assert pose_names("all") == generator + hard + tuning
 
     class Frame:

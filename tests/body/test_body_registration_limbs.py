@@ -306,12 +306,32 @@ def test_aimed_candidates_run_the_bones_through_the_group():
     assert aimed_candidates(W_up, W_lo, J_up, J_lo, hand, hinge, [arm + 2.0]) == []
 
 
+def _search_from(model, truth, start, joint: str, aims, seed: int, monkeypatch):
+    """One limb search (no pose steps) per ``aims`` entry from pose ``start`` on a scan of
+    ``truth``, with the cube grid replaced by each limb's current direction; returns the
+    distance (m) of ``joint`` to its true position and the search's info, per aim."""
+    from dressmeup.body.registration import limbs
+
+    scan = synthetic_scan(model, truth, n_points=8000, noise=0.002, seed=seed)
+    j = list(model.joint_names).index(joint)
+    true_joint = model.posed(truth).joints[j]
+    monkeypatch.setattr(limbs, "_limb_candidates", lambda c_up, *a: [(c_up, 0.0, 0.0)])
+    errors, infos = {}, {}
+    for aim in aims:
+        problem = _problem(model, scan)
+        problem.set_params(shape=truth.shape, pose=start, transl=truth.transl)
+        infos[aim] = limbs.limb_search(problem, n_pose=0, lr_pose=0.015, lr_transl=0.01,
+                                       size_init=False, aim=aim)
+        errors[aim] = float(np.linalg.norm(
+            model.posed(problem.body_params(False)).joints[j] - true_joint))
+    return errors, infos
+
+
 def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):
     """An arm held out ahead, from a start with it hanging. The cube grid is replaced by
     the hanging arm alone (on real scans the right configuration's basin can be narrower
     than the grid's spacing): without aim the arm stays lost; aimed at the unexplained
     scan, the search's candidate alone (no pose steps) brings the wrist within 4 cm."""
-    from dressmeup.body.registration import limbs
     from dressmeup.body.registration.hypotheses import align_directions, canonical_pose
 
     names = list(model.joint_names)
@@ -322,22 +342,34 @@ def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):
     pose[s] = align_directions(rest[e] - rest[s], np.array([0.55, 0.2, 0.8]))
     pose[e] = (0.0, -np.deg2rad(35), 0.0)
     truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=pose, transl=[0.1, 0.0, 0.2])
-    scan = synthetic_scan(model, truth, n_points=8000, noise=0.002, seed=4)
-    wrist = names.index("left_wrist")
-    true_wrist = model.posed(truth).joints[wrist]
-    monkeypatch.setattr(limbs, "_limb_candidates", lambda c_up, *a: [(c_up, 0.0, 0.0)])
-    errors, infos = {}, {}
-    for aim in ("none", "arms"):
-        problem = _problem(model, scan)
-        problem.set_params(shape=truth.shape, pose=a_pose, transl=truth.transl)
-        infos[aim] = limbs.limb_search(problem, n_pose=0, lr_pose=0.015, lr_transl=0.01,
-                                       size_init=False, aim=aim)
-        errors[aim] = float(np.linalg.norm(
-            model.posed(problem.body_params(False)).joints[wrist] - true_wrist))
+    errors, infos = _search_from(model, truth, a_pose, "left_wrist", ("none", "arms"), 4,
+                                 monkeypatch)
     assert errors["none"] > 0.3, errors  # the one grid candidate leaves the arm down
     assert errors["arms"] < 0.04 and "left_shoulder" in infos["arms"]["limbs_moved"], errors
     from dressmeup.body.registration.optimizer import OptimizationRegistrar
     from dressmeup.errors import InputError
 
     with pytest.raises(InputError, match="limb_aim: expected one of none, arms, all"):
-        OptimizationRegistrar(limb_aim=True).fit(scan, model)
+        OptimizationRegistrar(limb_aim=True).fit(np.zeros((100, 3)), model)
+
+
+def test_aimed_limb_search_finds_a_raised_knee(model, monkeypatch):
+    """One thigh raised ahead with the shin hanging from the knee (a step up), from a start
+    standing on both legs. With the cube grid replaced by the standing leg alone, aiming
+    only the arms leaves the leg down (42 cm off); aiming the legs too (``"all"``) brings
+    the ankle within 8 cm by the search's candidate alone (no pose steps; 5.6 cm here: the
+    grid's angular steps at the end of a 45 cm shin)."""
+    from dressmeup.body.registration.hypotheses import align_directions, canonical_pose
+
+    names = list(model.joint_names)
+    rest = model.posed(model.default_params()).joints
+    a_pose = canonical_pose("a-pose", names, rest)
+    pose = a_pose.copy()
+    h, k = names.index("left_hip"), names.index("left_knee")
+    pose[h] = align_directions(rest[k] - rest[h], np.array([0.1, -0.4, 0.9]))
+    pose[k] = (np.deg2rad(80), 0.0, 0.0)
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=pose, transl=[0.1, 0.0, 0.2])
+    errors, infos = _search_from(model, truth, a_pose, "left_ankle", ("arms", "all"), 5,
+                                 monkeypatch)
+    assert errors["arms"] > 0.3, errors  # the one grid candidate leaves the leg down
+    assert errors["all"] < 0.08 and "left_hip" in infos["all"]["limbs_moved"], errors

@@ -17,7 +17,10 @@ import numpy as np
 #: ``pelvis``: forward tilt of the whole body (degrees, the root's rotation before the
 #: search's yaw), so a torso bent further than the short rigid stages can turn it is still
 #: reached (15 rigid steps turn the root by at most ~13 degrees). Arm and thigh directions
-#: are in the world (the tilt and the spine bend are undone for them).
+#: are in the world (the tilt and the spine bend are undone for them). ``right``: overrides
+#: of ``arm``, ``thigh``, ``knee``, ``elbow`` for the right side, written like the left's
+#: (x towards the body's own side), for the asymmetric poses; without it the right side
+#: mirrors the left.
 CANONICAL_POSES: dict[str, dict] = {
     "arms-down": {"arm": (0.25, -1.0, 0.0)},
     "a-pose": {"arm": (1.0, -1.0, 0.0)},
@@ -31,9 +34,18 @@ CANONICAL_POSES: dict[str, dict] = {
     "deep-bend": {"pelvis": 60, "spine": 30, "thigh": (0.05, -1.0, 0.2), "knee": 20,
                   "arm": (0.15, -1.0, 0.1)},
 }
+#: A stride: one thigh 55 degrees forward with the knee bent 70, the other 17 degrees back
+#: with the knee bent 15, arms down (a step up, a lunge, one knee raised); once with the
+#: left leg in front, once with the right.
+_FRONT_LEG = {"thigh": (0.1, -0.57, 0.82), "knee": 70}
+_BACK_LEG = {"thigh": (0.05, -0.95, -0.3), "knee": 15}
+CANONICAL_POSES["stride-left"] = {"arm": (0.25, -1.0, 0.0), **_FRONT_LEG, "right": _BACK_LEG}
+CANONICAL_POSES["stride-right"] = {"arm": (0.25, -1.0, 0.0), **_BACK_LEG, "right": _FRONT_LEG}
 
-#: The hypotheses tried by default (all of :data:`CANONICAL_POSES`).
-DEFAULT_HYPOTHESES: tuple[str, ...] = tuple(CANONICAL_POSES)
+#: The hypotheses tried by default.
+DEFAULT_HYPOTHESES: tuple[str, ...] = ("arms-down", "a-pose", "t-pose", "arms-up",
+                                       "wide-stance", "sitting", "bending", "arms-forward",
+                                       "deep-bend")
 
 
 def align_directions(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -81,17 +93,18 @@ def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarra
             pose[names.index(n)] = (np.deg2rad(spec["spine"]) / len(parts), 0.0, 0.0)
             trunk = trunk * Rotation.from_rotvec(pose[names.index(n)])
     for side, sx in (("left", 1.0), ("right", -1.0)):
+        limbs = {**spec, **spec.get("right", {})} if side == "right" else spec
         for root, child, key in (("shoulder", "elbow", "arm"), ("hip", "knee", "thigh")):
             r, c = idx(f"{side}_{root}"), idx(f"{side}_{child}")
-            if key in spec and r is not None and c is not None:
-                target = np.asarray(spec[key], dtype=np.float64) * (sx, 1.0, 1.0)
+            if key in limbs and r is not None and c is not None:
+                target = np.asarray(limbs[key], dtype=np.float64) * (sx, 1.0, 1.0)
                 # the target is in the world: undo the trunk's (arms) or the tilt's (thighs)
                 target = (trunk if key == "arm" else tilt).inv().apply(target)
                 pose[r] = align_directions(J[c] - J[r], target)
         k = idx(f"{side}_knee")
-        if k is not None and spec.get("knee"):
-            pose[k] = (np.deg2rad(spec["knee"]), 0.0, 0.0)
+        if k is not None and limbs.get("knee"):
+            pose[k] = (np.deg2rad(limbs["knee"]), 0.0, 0.0)
         e = idx(f"{side}_elbow")
-        if e is not None and spec.get("elbow"):
-            pose[e] = (0.0, -sx * np.deg2rad(spec["elbow"]), 0.0)
+        if e is not None and limbs.get("elbow"):
+            pose[e] = (0.0, -sx * np.deg2rad(limbs["elbow"]), 0.0)
     return pose

@@ -103,10 +103,12 @@ class OptimizationRegistrar:
         placed roughly (a thigh raised, its shin folded the wrong way) is found again.
     limb_aim : which limbs the second limb search (``limb_search_after_pose``) also aims
         at the scan the settled body leaves unexplained (a group of scan points more than 5
-        cm from the body; see :mod:`.limbs`): ``"none"``, ``"arms"``, ``"all"``. A lost
-        outstretched arm lies outside the cube grid's reach. Not in the first search: from
-        the hypotheses' rough body the unexplained scan is everywhere (aimed there, arms
-        and legs moved on a clothed tuning set and a sitting skirt went 22 -> 37 mm).
+        cm from the body; see :mod:`.limbs`): ``"none"``, ``"arms"``, ``"all"`` (default
+        since session 11). A lost outstretched arm, or the shin of a raised thigh folded
+        the wrong way, lies outside the cube grid's reach (raised-knee tuning scans 52.5 ->
+        39.0 mm, the other tuning sets within 1.7 mm). Not in the first search: from the
+        hypotheses' rough body the unexplained scan is everywhere (aimed there, arms and
+        legs moved on a clothed tuning set and a sitting skirt went 22 -> 37 mm).
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
         ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (with the extra both
@@ -168,7 +170,7 @@ class OptimizationRegistrar:
     keep_opposite_yaw: bool = True
     limb_search: bool = True
     limb_search_after_pose: bool = True
-    limb_aim: str = "arms"
+    limb_aim: str = "all"
     init_route: str = "hypotheses"
     keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
