@@ -128,8 +128,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", default="anny")
     parser.add_argument("--suite", default="tuning,hard,partial",
-                        help="comma list of tuning, tuning-support, tuning-bend, tuning-knee, hard, "
-                        "partial, legacy")
+                        help="comma list of tuning, tuning-support, tuning-bend, "
+                        "tuning-knee, hard, partial, legacy")
     parser.add_argument("--subjects", type=int, default=2, help="random bodies per scenario")
     parser.add_argument("--first-subject", type=int, default=0,
                         help="index of the first body (subjects first..first+subjects-1), e.g. "

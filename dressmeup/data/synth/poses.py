@@ -30,7 +30,8 @@ def pose_names(pose_set: str = "generator") -> list[str]:
 
     ``"generator"`` (entries without a ``set``: what the synthetic generator draws from),
     ``"registration"`` (the hard poses of the registration benchmark),
-    ``"registration-tuning"`` (bent and raised-knee poses for choosing registration defaults) or ``"all"``.
+    ``"registration-tuning"`` (bent and raised-knee poses for choosing registration
+    defaults) or ``"all"``.
     """
     poses = pose_library()["poses"]
     if pose_set == "all":

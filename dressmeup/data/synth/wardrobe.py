@@ -173,7 +173,8 @@ def plan_v3(subjects: int, poses: int, garments_per_split: tuple[int, int, int],
     categories : categories to make (default all of :data:`CATEGORY_TYPES`).
     pose_set : library pose set the poses come from (:data:`POSE_SETS`): ``"generator"``
         (default), ``"registration"`` (the registration benchmark's hard poses),
-        ``"registration-tuning"`` (bent and raised-knee poses for choosing registration defaults) or ``"all"``;
+        ``"registration-tuning"`` (bent and raised-knee poses for choosing registration
+        defaults) or ``"all"``;
         generator poses come in the order :data:`POSE_ORDER`, the others in library order.
     wear : ``"all"`` (default: every garment on every subject in every pose) or
         ``"rotate"``: each (subject, pose) wears one garment, subject ``i`` in pose ``k``
