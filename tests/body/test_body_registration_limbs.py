@@ -69,7 +69,10 @@ def test_limb_search_folds_an_arm_the_start_left_hanging(model):
     assert info["limb_score"][1] < info["limb_score"][0]
 
 
-def test_limb_scorer_matches_the_symmetric_score(model):
+@pytest.mark.parametrize("scan_cap", [None, 0.03])
+def test_limb_scorer_matches_the_symmetric_score(model, scan_cap):
+    from scipy.spatial import cKDTree
+
     from dressmeup.body.registration.init import symmetric_score
     from dressmeup.body.registration.limbs import LimbScorer
 
@@ -80,12 +83,42 @@ def test_limb_scorer_matches_the_symmetric_score(model):
     names = list(model.joint_names)
     dom = problem.W_sub.numpy().argmax(1)
     up, lo = names.index("left_shoulder"), names.index("left_elbow")
-    scorer = LimbScorer(problem.P, problem.tree, out.vertices[problem.body_ids], dom == up,
-                        np.isin(dom, [lo, names.index("left_wrist")]), out.joints[up],
-                        out.joints[lo])
-    assert scorer.score(np.eye(3), np.eye(3)) == pytest.approx(symmetric_score(problem), rel=1e-4)
+    Vb = out.vertices[problem.body_ids]
+    limb_up, limb_lo = dom == up, np.isin(dom, [lo, names.index("left_wrist")])
+    scorer = LimbScorer(problem.P, problem.tree, Vb, limb_up, limb_lo, out.joints[up],
+                        out.joints[lo], scan_cap=scan_cap)
+    assert scorer.score(np.eye(3), np.eye(3)) == pytest.approx(
+        symmetric_score(problem, scan_cap=scan_cap), rel=1e-4)
     turn = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]])  # the arm swung away: worse
     assert scorer.score(turn, turn) > scorer.score(np.eye(3), np.eye(3)) + 0.002
+    # the moved limb scored by brute force: the body's points with the limb's replaced
+    V = np.r_[Vb[~(limb_up | limb_lo)], scorer.points(turn, turn)]
+    cap_s = 0.1 if scan_cap is None else scan_cap
+    slow = (np.minimum(cKDTree(problem.P).query(V)[0], 0.1).mean()
+            + np.minimum(cKDTree(V).query(problem.P)[0], cap_s).mean())
+    assert scorer.score(turn, turn) == pytest.approx(slow, rel=1e-6)
+
+
+def test_symmetric_score_caps_each_direction_on_its_own(model):
+    """Analytic: a scan of the body's own points plus points 5 cm off it; the scan -> body
+    term pays each far point its distance up to ``scan_cap``, the body -> scan term is 0."""
+    from scipy.spatial import cKDTree
+
+    from dressmeup.body.registration.init import symmetric_score
+
+    problem = _problem(model, synthetic_scan(model, model.default_params(), n_points=3000))
+    problem.set_params(shape=np.full(6, 0.5))
+    V = problem.posed_numpy()[problem.body_ids]
+    far = V[:500] + np.array([0.0, 0.0, 0.05])  # 5 cm in front of 500 body points
+    far = far[cKDTree(V).query(far)[0] > 0.045]  # keep those 5 cm from the whole body
+    d_far = cKDTree(V).query(far)[0]
+    problem.P = np.r_[V, far]
+    problem.tree = cKDTree(problem.P)
+    n = len(problem.P)
+    for scan_cap in (0.1, 0.03):
+        expected = np.minimum(d_far, scan_cap).sum() / n
+        assert symmetric_score(problem, scan_cap=scan_cap) == pytest.approx(expected, abs=1e-9)
+    assert symmetric_score(problem, scan_cap=0.03) == pytest.approx(0.03 * len(far) / n)
 
 
 def test_unseen_body_points_carry_no_body_to_scan_cost():
@@ -191,16 +224,18 @@ def test_unknown_hypotheses_fail_before_the_fit(model):
 def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, monkeypatch):
     """``limb_search_after_pose``: the limb search runs again after the pose stage (its
     start is the settled body, not the hypothesis'), reported in ``info``; never with a
-    given ``init`` or when switched off; ``limb_aim`` aims the second searches only."""
+    given ``init`` or when switched off; ``limb_aim`` aims the second searches only;
+    ``limb_scan_cap`` reaches every search."""
     import dressmeup.body.registration.optimizer as optimizer
     from dressmeup.body.registration import register
 
-    starts, aims = [], []
+    starts, aims, caps = [], [], []
     real = optimizer.limb_search
 
     def spy(problem, *args, **kwargs):
         starts.append(problem.posed_numpy().copy())
         aims.append(kwargs.get("aim", "none"))
+        caps.append(kwargs.get("scan_cap"))
         return real(problem, *args, **kwargs)
 
     monkeypatch.setattr(optimizer, "limb_search", spy)
@@ -221,8 +256,10 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     starts.clear()
     aims.clear()
     # ``limb_aim`` reaches the second searches only (the first starts from a rough body)
-    register(scan, model, return_result=True, limb_aim="arms", **fast)
+    caps.clear()
+    register(scan, model, return_result=True, limb_aim="arms", limb_scan_cap=0.05, **fast)
     assert aims == ["none", "arms", "arms"]
+    assert caps == [0.05, 0.05, 0.05]
     starts.clear()
     res = register(scan, model, return_result=True, limb_search_after_pose=False, **fast)
     assert len(starts) == 1 and "limbs_after_pose" not in res.info
@@ -351,6 +388,8 @@ def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):
 
     with pytest.raises(InputError, match="limb_aim: expected one of none, arms, all"):
         OptimizationRegistrar(limb_aim=True).fit(np.zeros((100, 3)), model)
+    with pytest.raises(InputError, match="limb_scan_cap: expected a distance in metres > 0"):
+        OptimizationRegistrar(limb_scan_cap=0).fit(np.zeros((100, 3)), model)
 
 
 def test_aimed_limb_search_finds_a_raised_knee(model, monkeypatch):

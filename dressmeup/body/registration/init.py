@@ -108,18 +108,23 @@ def capped_distances(tree, X: np.ndarray, cap: float) -> np.ndarray:
     return np.minimum(d, cap)
 
 
-def symmetric_score(problem, cap: float = 0.1) -> float:
-    """Mean capped nearest-neighbour distance (m) body -> scan plus scan -> body.
+def symmetric_score(problem, cap: float = 0.1, scan_cap: float | None = None) -> float:
+    """Mean capped nearest-neighbour distance (m) body -> scan (capped at ``cap``) plus
+    scan -> body (capped at ``scan_cap``; None: ``cap``).
 
     Hypotheses are ranked by this, not by the fit's one-sided data term: that term forgives
     scan points outside the body (clothes), so a body with its arms down would look as good
-    as one with its arms out on a T-pose scan.
+    as one with its arms out on a T-pose scan. The scan -> body cap decides what loose cloth
+    is worth: with a cap above the cloth's distance from the body, a limb folded up into a
+    skirt or dress explains cloth points and can outscore the right limb, whose bare shin it
+    leaves unexplained (the limb search's option ``limb_scan_cap``).
     """
     from scipy.spatial import cKDTree
 
+    scan_cap = cap if scan_cap is None else scan_cap
     V = problem.posed_numpy()[problem.body_ids]
     d1 = capped_distances(problem.tree, V, cap)
-    d2 = capped_distances(cKDTree(V), problem.P, cap)
+    d2 = capped_distances(cKDTree(V), problem.P, scan_cap)
     return float(d1.mean() + d2.mean())
 
 

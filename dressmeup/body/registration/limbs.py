@@ -73,22 +73,25 @@ class LimbScorer:
     Vb : (b, 3) the body points scored (the problem's ``body_ids`` subset), current pose.
     limb_up, limb_lo : (b,) bool, points moving with the upper / lower limb bone.
     J_up, J_lo : (3,) current positions of the upper and lower joint.
-    cap : distance cap (m) of the score.
+    cap, scan_cap : distance caps (m) of the score's body -> scan and scan -> body terms
+        (``scan_cap`` None: ``cap``).
     """
 
-    def __init__(self, P, tree, Vb, limb_up, limb_lo, J_up, J_lo, cap: float = 0.1):
+    def __init__(self, P, tree, Vb, limb_up, limb_lo, J_up, J_lo, cap: float = 0.1,
+                 scan_cap: float | None = None):
         from scipy.spatial import cKDTree
 
-        self.tree, self.cap = tree, cap
+        scan_cap = cap if scan_cap is None else scan_cap
+        self.tree, self.cap, self.scan_cap = tree, cap, scan_cap
         rest = ~(limb_up | limb_lo)
         self.n_b, self.n_p = len(Vb), len(P)
         self.const_body = float(capped_distances(tree, Vb[rest], cap).sum())
-        d_rest = capped_distances(cKDTree(Vb[rest]), P, cap)
+        d_rest = capped_distances(cKDTree(Vb[rest]), P, scan_cap)
         self.J_up, self.J_lo = np.asarray(J_up, np.float64), np.asarray(J_lo, np.float64)
         self.X_up = Vb[limb_up] - self.J_up
         self.X_lo = Vb[limb_lo] - self.J_lo
         reach = float(np.linalg.norm(np.r_[self.X_up, self.X_lo + self.J_lo - self.J_up],
-                                     axis=1).max()) + cap
+                                     axis=1).max()) + scan_cap
         near = np.linalg.norm(P - self.J_up, axis=1) < reach  # others cannot change
         self.P_near, self.d_near = P[near], d_rest[near]
         self.const_scan = float(d_rest[~near].sum())
@@ -106,7 +109,8 @@ class LimbScorer:
 
         X = self.points(M_up, M_lo)
         b = float(capped_distances(self.tree, X, self.cap).sum())
-        d, _ = cKDTree(X).query(self.P_near, k=1, distance_upper_bound=self.cap, workers=1)
+        d, _ = cKDTree(X).query(self.P_near, k=1, distance_upper_bound=self.scan_cap,
+                                workers=1)
         s = float(np.minimum(self.d_near, d).sum())
         return (self.const_body + b) / self.n_b + (self.const_scan + s) / self.n_p
 
@@ -320,7 +324,7 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
 
 def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_init: bool,
                 twists: int = 6, bends_deg=(0, 50, 100, 140), min_gain: float = 2e-4,
-                aim: str = "none", verbose: bool = False) -> dict:
+                aim: str = "none", scan_cap: float = 0.1, verbose: bool = False) -> dict:
     """Try other directions for each arm and leg of the current fit (see module docstring);
     leaves the better of (start, start with moved limbs + ``n_pose`` pose steps) in
     ``problem``.
@@ -335,6 +339,8 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
         that run their bones through the scan the body leaves unexplained
         (:func:`unexplained_groups`, :func:`aimed_candidates`); the groups are found again
         before each limb, so a group one limb took is not chased again.
+    scan_cap : cap (m) of the score's scan -> body distances (its body -> scan cap is 0.1;
+        :func:`~dressmeup.body.registration.init.symmetric_score`).
 
     Returns
     -------
@@ -350,7 +356,7 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
     names = list(model.joint_names)
     parents = np.asarray(model.joint_parents)
     dom = problem.W_sub.cpu().numpy().argmax(1)
-    start_score, start = symmetric_score(problem), problem.snapshot()
+    start_score, start = symmetric_score(problem, scan_cap=scan_cap), problem.snapshot()
     moved: list[str] = []
     for up_name, lo_name, hinge in LIMBS:
         if up_name not in names or lo_name not in names:
@@ -366,7 +372,8 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
         lo_mask = np.isin(dom, _descendants(parents, lower))
         if up_mask.sum() + lo_mask.sum() < 10:
             continue
-        scorer = LimbScorer(problem.P, problem.tree, V, up_mask, lo_mask, J[upper], J[lower])
+        scorer = LimbScorer(problem.P, problem.tree, V, up_mask, lo_mask, J[upper], J[lower],
+                            scan_cap=scan_cap)
         extra = []
         if aim == "all" or (aim == "arms" and up_name.endswith("shoulder")):
             groups = unexplained_groups(problem.P, V)
@@ -393,7 +400,7 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
             params.append(problem.log_scale)
             lrs.append(0.003)
         run_adam(problem, "pose", n_pose, params, lrs, label="limb search pose", verbose=verbose)
-    after = symmetric_score(problem)
+    after = symmetric_score(problem, scan_cap=scan_cap)
     info["limb_score"] = (round(start_score, 5), round(after, 5))
     if after < start_score:
         info["limb_kept"] = True

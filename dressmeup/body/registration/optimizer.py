@@ -95,6 +95,12 @@ class OptimizationRegistrar:
     keep_opposite_yaw : besides the ``hypothesis_yaws`` best, the yaw facing opposite the
         best always goes on (a torso alone hardly tells front from back; see
         :func:`~dressmeup.body.registration.init.kept_yaws`).
+    limb_scan_cap : cap (m) of the scan -> body distances in the symmetric score that
+        decides both limb searches (:func:`~dressmeup.body.registration.init.symmetric_score`;
+        its body -> scan cap, and both caps of the score that ranks the hypotheses, are 0.1).
+        Loose cloth farther from the body than the cap costs the same wherever the body is,
+        so a leg folded up into a skirt gains nothing from the cloth it nears while the bare
+        shin it leaves unexplained still costs.
     limb_search : after the hypothesis search, try other directions for each arm and leg
         (:mod:`.limbs`) and keep them if the settled body fits the scan better (the
         pose stage of that check has the hypotheses' pose-step count).
@@ -168,6 +174,7 @@ class OptimizationRegistrar:
     hypothesis_yaws: int = 3
     yaw_candidates: int = 8
     keep_opposite_yaw: bool = True
+    limb_scan_cap: float = 0.1
     limb_search: bool = True
     limb_search_after_pose: bool = True
     limb_aim: str = "all"
@@ -228,7 +235,8 @@ class OptimizationRegistrar:
                                  keep_opposite=self.keep_opposite_yaw)
         if self.limb_search:
             info.update(limb_search(problem, n_pose, self.lr_pose, self.lr_transl,
-                                    self.size_init, verbose=self.verbose))
+                                    self.size_init, scan_cap=self.limb_scan_cap,
+                                    verbose=self.verbose))
         return info
 
     def _competing_starts(self, problem: FitProblem) -> dict:
@@ -267,6 +275,9 @@ class OptimizationRegistrar:
             if getattr(self, name) not in allowed:
                 raise InputError(f"{name}: expected one of {', '.join(allowed)}, got "
                                  f"{getattr(self, name)!r}")
+        if not float(self.limb_scan_cap) > 0:
+            raise InputError(f"limb_scan_cap: expected a distance in metres > 0 (default 0.1), "
+                             f"got {self.limb_scan_cap!r}")
         from dressmeup.body.registration.hypotheses import CANONICAL_POSES
 
         if any(p not in CANONICAL_POSES for p in self.hypotheses):  # a bare name fails too
@@ -369,7 +380,8 @@ class OptimizationRegistrar:
         again = None
         if limbs_again and self.limb_search and self.limb_search_after_pose:
             again = limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl,
-                                fit_size, aim=self.limb_aim, verbose=self.verbose)
+                                fit_size, aim=self.limb_aim, scan_cap=self.limb_scan_cap,
+                                verbose=self.verbose)
         shape_losses, shape_params = self._shape_stage(p, fit_size)
         losses.update(shape_losses)
         return losses, again, shape_params
