@@ -42,8 +42,9 @@ _BACK_LEG = {"thigh": (0.05, -0.95, -0.3), "knee": 15}
 CANONICAL_POSES["stride-left"] = {"arm": (0.25, -1.0, 0.0), **_FRONT_LEG, "right": _BACK_LEG}
 CANONICAL_POSES["stride-right"] = {"arm": (0.25, -1.0, 0.0), **_BACK_LEG, "right": _FRONT_LEG}
 
-#: Hypotheses defined but tried only when asked for (``hypotheses=``): the strides cost
-#: 63-70 CPU-s a fit with the rest (docs/body-models.md, "Session 11").
+#: Hypotheses defined but tried only when asked for (``hypotheses=``): the strides help the
+#: raised-knee tuning fits but make a clothed walking fit 13 mm worse (docs/body-models.md,
+#: "Session 12").
 OPT_IN_HYPOTHESES: tuple[str, ...] = ("stride-left", "stride-right")
 #: The hypotheses tried by default: all of :data:`CANONICAL_POSES` but the opt-in ones.
 DEFAULT_HYPOTHESES: tuple[str, ...] = tuple(n for n in CANONICAL_POSES
