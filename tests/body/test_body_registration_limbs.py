@@ -388,8 +388,9 @@ def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):
 
     with pytest.raises(InputError, match="limb_aim: expected one of none, arms, all"):
         OptimizationRegistrar(limb_aim=True).fit(np.zeros((100, 3)), model)
-    with pytest.raises(InputError, match="limb_scan_cap: expected a distance in metres > 0"):
-        OptimizationRegistrar(limb_scan_cap=0).fit(np.zeros((100, 3)), model)
+    for bad in (0, "0.05", float("nan")):  # a string must not pass float() unnoticed
+        with pytest.raises(InputError, match="limb_scan_cap: expected a distance in metres > 0"):
+            OptimizationRegistrar(limb_scan_cap=bad).fit(np.zeros((100, 3)), model)
 
 
 def test_aimed_limb_search_finds_a_raised_knee(model, monkeypatch):

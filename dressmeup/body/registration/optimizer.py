@@ -98,9 +98,10 @@ class OptimizationRegistrar:
     limb_scan_cap : cap (m) of the scan -> body distances in the symmetric score that
         decides both limb searches (:func:`~dressmeup.body.registration.init.symmetric_score`;
         its body -> scan cap, and both caps of the score that ranks the hypotheses, are 0.1).
-        Loose cloth farther from the body than the cap costs the same wherever the body is,
-        so a leg folded up into a skirt gains nothing from the cloth it nears while the bare
-        shin it leaves unexplained still costs.
+        With a smaller cap, loose cloth farther from the body than the cap costs the same
+        wherever the body is, so a leg folded up into a skirt gains nothing from the cloth
+        it nears; 0.03 and 0.05 made the tuning fits worse (docs/body-models.md, "Session
+        12"), so the default stays 0.1.
     limb_search : after the hypothesis search, try other directions for each arm and leg
         (:mod:`.limbs`) and keep them if the settled body fits the scan better (the
         pose stage of that check has the hypotheses' pose-step count).
@@ -275,7 +276,8 @@ class OptimizationRegistrar:
             if getattr(self, name) not in allowed:
                 raise InputError(f"{name}: expected one of {', '.join(allowed)}, got "
                                  f"{getattr(self, name)!r}")
-        if not float(self.limb_scan_cap) > 0:
+        cap = self.limb_scan_cap
+        if isinstance(cap, bool) or not isinstance(cap, (int, float)) or not cap > 0:
             raise InputError(f"limb_scan_cap: expected a distance in metres > 0 (default 0.1), "
                              f"got {self.limb_scan_cap!r}")
         from dressmeup.body.registration.hypotheses import CANONICAL_POSES
