@@ -69,6 +69,29 @@ def test_limb_search_folds_an_arm_the_start_left_hanging(model):
     assert info["limb_score"][1] < info["limb_score"][0]
 
 
+def test_leg_bends_replace_the_knee_bends_of_the_legs_only(model, monkeypatch):
+    """``leg_bends_deg`` sets the grid's knee bends; the elbows keep ``bends_deg`` (the
+    first limb search's ``limb_first_knee_bends``)."""
+    import dressmeup.body.registration.limbs as limbs
+
+    scan = synthetic_scan(model, model.default_params(), n_points=3000, noise=0.002, seed=0)
+    problem = _problem(model, scan)
+    seen = {}
+    real = limbs.search_limb
+
+    def spy(problem, scorer, upper, lower, hinge, W, twists, bends_deg, **kwargs):
+        seen[model.joint_names[upper]] = tuple(bends_deg)
+        return real(problem, scorer, upper, lower, hinge, W, 1, bends_deg, **kwargs)
+
+    monkeypatch.setattr(limbs, "search_limb", spy)
+    limbs.limb_search(problem, 0, 0.015, 0.01, False, leg_bends_deg=(0, 60))
+    assert seen == {"left_shoulder": (0, 50, 100, 140), "right_shoulder": (0, 50, 100, 140),
+                    "left_hip": (0, 60), "right_hip": (0, 60)}
+    seen.clear()
+    limbs.limb_search(problem, 0, 0.015, 0.01, False, bends_deg=(0, 30))
+    assert set(seen.values()) == {(0, 30)}
+
+
 @pytest.mark.parametrize("scan_cap", [None, 0.03])
 def test_limb_scorer_matches_the_symmetric_score(model, scan_cap):
     from scipy.spatial import cKDTree
@@ -229,13 +252,14 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     import dressmeup.body.registration.optimizer as optimizer
     from dressmeup.body.registration import register
 
-    starts, aims, caps = [], [], []
+    starts, aims, caps, knees = [], [], [], []
     real = optimizer.limb_search
 
     def spy(problem, *args, **kwargs):
         starts.append(problem.posed_numpy().copy())
         aims.append(kwargs.get("aim", "none"))
         caps.append(kwargs.get("scan_cap"))
+        knees.append(kwargs.get("leg_bends_deg"))
         return real(problem, *args, **kwargs)
 
     monkeypatch.setattr(optimizer, "limb_search", spy)
@@ -257,9 +281,12 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     aims.clear()
     # ``limb_aim`` reaches the second searches only (the first starts from a rough body)
     caps.clear()
-    register(scan, model, return_result=True, limb_aim="arms", limb_scan_cap=0.05, **fast)
+    knees.clear()
+    register(scan, model, return_result=True, limb_aim="arms", limb_scan_cap=0.05,
+             limb_first_knee_bends=[0, 70], **fast)
     assert aims == ["none", "arms", "arms"]
     assert caps == [0.05, 0.05, 0.05]
+    assert knees == [(0, 70), None, None]  # the knee bends reach the first search only
     starts.clear()
     res = register(scan, model, return_result=True, limb_search_after_pose=False, **fast)
     assert len(starts) == 1 and "limbs_after_pose" not in res.info
@@ -391,6 +418,9 @@ def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):
     for bad in (0, "0.05", float("nan")):  # a string must not pass float() unnoticed
         with pytest.raises(InputError, match="limb_scan_cap: expected a distance in metres > 0"):
             OptimizationRegistrar(limb_scan_cap=bad).fit(np.zeros((100, 3)), model)
+    for bad in ((), "0,50", 100, (0, -10), (0, 180), (0, float("nan")), (True,), ("50",)):
+        with pytest.raises(InputError, match=r"limb_first_knee_bends: expected a non-empty list"):
+            OptimizationRegistrar(limb_first_knee_bends=bad).fit(np.zeros((100, 3)), model)
 
 
 def test_aimed_limb_search_finds_a_raised_knee(model, monkeypatch):

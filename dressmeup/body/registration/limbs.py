@@ -44,6 +44,12 @@ LIMBS: tuple[tuple[str, str, tuple[float, float, float]], ...] = (
     ("right_hip", "right_knee", (1.0, 0.0, 0.0)),
 )
 
+#: Knee bends (degrees) of the legs' grid in the first limb search (the one right after the
+#: hypotheses; ``OptimizationRegistrar.limb_first_knee_bends``). No 140: from the
+#: hypotheses' rough body a shin folded up into a skirt or dress explains cloth and
+#: outscores the hanging one; the second search, from a settled body, still tries 140.
+FIRST_KNEE_BENDS: tuple[float, ...] = (0.0, 50.0, 100.0)
+
 
 def cube_directions() -> np.ndarray:
     """(26, 3) unit vectors: the directions of a cube's 6 faces, 12 edges and 8 corners."""
@@ -324,7 +330,8 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
 
 def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_init: bool,
                 twists: int = 6, bends_deg=(0, 50, 100, 140), min_gain: float = 2e-4,
-                aim: str = "none", scan_cap: float = 0.1, verbose: bool = False) -> dict:
+                aim: str = "none", scan_cap: float = 0.1, leg_bends_deg=None,
+                verbose: bool = False) -> dict:
     """Try other directions for each arm and leg of the current fit (see module docstring);
     leaves the better of (start, start with moved limbs + ``n_pose`` pose steps) in
     ``problem``.
@@ -334,6 +341,7 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
     n_pose : pose steps after a limb moved (0: keep the moved limbs unsettled).
     twists, bends_deg : twists about each upper-limb direction (evenly spaced) and bends of
         the lower limb (degrees) of the grid; 26 x (1 + twists x bends > 0) candidates a limb.
+    leg_bends_deg : the knee bends (degrees) of the legs' grid; None: ``bends_deg``.
     min_gain : a limb moves only if the symmetric score drops by more than this (m).
     aim : which limbs (``"none"``, ``"arms"``, ``"all"``) also score the configurations
         that run their bones through the scan the body leaves unexplained
@@ -382,8 +390,10 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
             if groups and end_mask.any():
                 extra = aimed_candidates(W[upper], W[lower], J[upper], J[lower],
                                          V[end_mask].mean(0), hinge, groups)
+        leg = leg_bends_deg is not None and up_name.endswith("hip")
         base, best, rv_up, rv_lo = search_limb(problem, scorer, upper, lower, hinge, W, twists,
-                                               bends_deg, extra=extra)
+                                               leg_bends_deg if leg else bends_deg,
+                                               extra=extra)
         logger.info("limb %s: %.4f -> %.4f", up_name, base, best)
         if best < base - min_gain:
             with torch.no_grad():

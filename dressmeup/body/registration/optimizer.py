@@ -18,7 +18,7 @@ from dressmeup.body.registration.init import (
     symmetric_score,
     yaw_search,
 )
-from dressmeup.body.registration.limbs import limb_search
+from dressmeup.body.registration.limbs import FIRST_KNEE_BENDS, limb_search
 from dressmeup.body.registration.problem import FitProblem
 from dressmeup.body.registration.scan import keypoint_arrays, prepare_scan
 from dressmeup.body.registration.stages import run_adam, run_lbfgs
@@ -105,6 +105,13 @@ class OptimizationRegistrar:
     limb_search : after the hypothesis search, try other directions for each arm and leg
         (:mod:`.limbs`) and keep them if the settled body fits the scan better (the
         pose stage of that check has the hypotheses' pose-step count).
+    limb_first_knee_bends : the knee bends (degrees) the first limb search tries for each
+        leg direction (its arms, and every limb of the second search, try 0, 50, 100 and
+        140). Default 0, 50, 100 (since session 14; the pattern search around the best may
+        still bend a knee 30 degrees further): from the hypotheses' rough body a shin
+        folded up into a skirt explains cloth and outscored the hanging one (raised-knee
+        tuning fits 39.0 -> 23.2 mm, the other 74 tuning fits within 0.6 mm; docs/
+        body-models.md, "Session 14").
     limb_search_after_pose : with ``limb_search``, search the limbs once more after the
         pose stage (fits without ``init``): from the settled body a limb the first search
         placed roughly (a thigh raised, its shin folded the wrong way) is found again.
@@ -177,6 +184,7 @@ class OptimizationRegistrar:
     keep_opposite_yaw: bool = True
     limb_scan_cap: float = 0.1
     limb_search: bool = True
+    limb_first_knee_bends: tuple[float, ...] = FIRST_KNEE_BENDS
     limb_search_after_pose: bool = True
     limb_aim: str = "all"
     init_route: str = "hypotheses"
@@ -237,6 +245,7 @@ class OptimizationRegistrar:
         if self.limb_search:
             info.update(limb_search(problem, n_pose, self.lr_pose, self.lr_transl,
                                     self.size_init, scan_cap=self.limb_scan_cap,
+                                    leg_bends_deg=tuple(self.limb_first_knee_bends),
                                     verbose=self.verbose))
         return info
 
@@ -280,6 +289,14 @@ class OptimizationRegistrar:
         if isinstance(cap, bool) or not isinstance(cap, (int, float)) or not cap > 0:
             raise InputError(f"limb_scan_cap: expected a distance in metres > 0 (default 0.1), "
                              f"got {self.limb_scan_cap!r}")
+        bends = self.limb_first_knee_bends
+        numbers = not isinstance(bends, (str, bytes)) and hasattr(bends, "__len__") and all(
+            not isinstance(b, bool) and isinstance(b, (int, float)) and 0 <= b < 180
+            for b in bends)
+        if not (numbers and len(bends)):
+            raise InputError("limb_first_knee_bends: expected a non-empty list of knee bends in "
+                             f"degrees, each in [0, 180) (default {list(FIRST_KNEE_BENDS)}); "
+                             f"got {bends!r}")
         from dressmeup.body.registration.hypotheses import CANONICAL_POSES
 
         if any(p not in CANONICAL_POSES for p in self.hypotheses):  # a bare name fails too
