@@ -418,9 +418,12 @@ def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):
     for bad in (0, "0.05", float("nan")):  # a string must not pass float() unnoticed
         with pytest.raises(InputError, match="limb_scan_cap: expected a distance in metres > 0"):
             OptimizationRegistrar(limb_scan_cap=bad).fit(np.zeros((100, 3)), model)
-    for bad in ((), "0,50", 100, (0, -10), (0, 180), (0, float("nan")), (True,), ("50",)):
+    for bad in ((), "0,50", 100, (0, -10), (0, 180), (0, float("nan")), (True,), ("50",),
+                {0: 1}):
         with pytest.raises(InputError, match=r"limb_first_knee_bends: expected a non-empty list"):
             OptimizationRegistrar(limb_first_knee_bends=bad).fit(np.zeros((100, 3)), model)
+    for good in ([0, 50], np.array([0, 50, 100]), (0.0, 179.5)):  # numpy numbers are fine
+        OptimizationRegistrar(limb_first_knee_bends=good)._check_options()
 
 
 def test_aimed_limb_search_finds_a_raised_knee(model, monkeypatch):
