@@ -285,15 +285,17 @@ class OptimizationRegistrar:
             if getattr(self, name) not in allowed:
                 raise InputError(f"{name}: expected one of {', '.join(allowed)}, got "
                                  f"{getattr(self, name)!r}")
-        cap = self.limb_scan_cap
-        if isinstance(cap, bool) or not isinstance(cap, (int, float)) or not cap > 0:
-            raise InputError(f"limb_scan_cap: expected a distance in metres > 0 (default 0.1), "
-                             f"got {self.limb_scan_cap!r}")
         from numbers import Real
 
+        def real(x) -> bool:  # a number (numpy's too), not a bool or a string; NaN compares False
+            return isinstance(x, Real) and not isinstance(x, bool)
+
+        if not (real(self.limb_scan_cap) and self.limb_scan_cap > 0):
+            raise InputError(f"limb_scan_cap: expected a distance in metres > 0 (default 0.1), "
+                             f"got {self.limb_scan_cap!r}")
         bends = self.limb_first_knee_bends
         numbers = not isinstance(bends, (str, bytes, dict)) and hasattr(bends, "__len__") and all(
-            not isinstance(b, bool) and isinstance(b, Real) and 0 <= b < 180 for b in bends)
+            real(b) and 0 <= b < 180 for b in bends)
         if not (numbers and len(bends)):
             raise InputError("limb_first_knee_bends: expected a non-empty list of knee bends in "
                              f"degrees, each in [0, 180) (default {list(FIRST_KNEE_BENDS)}); "
