@@ -120,6 +120,22 @@ def test_limb_scorer_matches_the_symmetric_score(model, scan_cap):
     slow = (np.minimum(cKDTree(problem.P).query(V)[0], 0.1).mean()
             + np.minimum(cKDTree(V).query(problem.P)[0], cap_s).mean())
     assert scorer.score(turn, turn) == pytest.approx(slow, rel=1e-6)
+    # the score queries only the scan points the moved limb can come closer to; every scan
+    # point queried gives the same value, bit for bit, on turns near and far
+    from scipy.spatial.transform import Rotation
+
+    def every_point(M_up, M_lo):
+        X = scorer.points(M_up, M_lo)
+        b = np.minimum(problem.tree.query(X, distance_upper_bound=0.1)[0], 0.1).sum()
+        d = cKDTree(X).query(scorer.P_near, distance_upper_bound=scorer.scan_cap)[0]
+        s = np.minimum(scorer.d_near, d).sum()
+        return (scorer.const_body + b) / scorer.n_b + (scorer.const_scan + s) / scorer.n_p
+
+    rng = np.random.default_rng(0)
+    for k in range(40):
+        spread = 0.2 if k % 2 else np.pi
+        M_up, M_lo = Rotation.from_rotvec(rng.normal(0, spread, (2, 3))).as_matrix()
+        assert scorer.score(M_up, M_lo) == every_point(M_up, M_lo)
 
 
 def test_symmetric_score_caps_each_direction_on_its_own(model):

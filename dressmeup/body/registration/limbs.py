@@ -115,10 +115,18 @@ class LimbScorer:
 
         X = self.points(M_up, M_lo)
         b = float(capped_distances(self.tree, X, self.cap).sum())
-        d, _ = cKDTree(X).query(self.P_near, k=1, distance_upper_bound=self.scan_cap,
-                                workers=1)
-        s = float(np.minimum(self.d_near, d).sum())
-        return (self.const_body + b) / self.n_b + (self.const_scan + s) / self.n_p
+        # Only a scan point nearer the limb's bounding box than to the rest of the body can
+        # get closer (the margin keeps float rounding of the box distance on the safe side),
+        # so only those are queried: the same sum, term for term (benchmarks/perf/limb_scorer.py).
+        gap = np.linalg.norm(np.maximum(np.maximum(X.min(0) - self.P_near,
+                                                   self.P_near - X.max(0)), 0.0), axis=1)
+        near = gap < self.d_near + 1e-9
+        d = self.d_near.copy()
+        if near.any():
+            d_limb, _ = cKDTree(X).query(self.P_near[near], k=1,
+                                         distance_upper_bound=self.scan_cap, workers=1)
+            d[near] = np.minimum(d[near], d_limb)
+        return (self.const_body + b) / self.n_b + (self.const_scan + float(d.sum())) / self.n_p
 
 
 def fibonacci_directions(n: int) -> np.ndarray:
@@ -246,15 +254,23 @@ def _limb_candidates(c_up: np.ndarray, twists: int, bends_deg) -> list[tuple]:
     return out
 
 
-def _world(c_up, W_up, d, twist, bend, hinge):
+def _world(c_up, W_up, d, twist, bend, hinge, turns: dict | None = None):
     """World rotations (upper, lower) of a candidate: the upper bone turned from ``c_up``
-    onto ``d`` then twisted about it, the lower bone bent about its hinge."""
+    onto ``d`` then twisted about it, the lower bone bent about its hinge. ``W_up``: the
+    upper joint's world rotation (a matrix or a ``Rotation``); ``turns``: a dict kept across
+    the calls of one limb (same ``c_up``), caching the turn of each (direction, twist), the
+    same product in the same order, so the same floats."""
     from scipy.spatial.transform import Rotation
 
     from dressmeup.body.registration.hypotheses import align_directions
 
-    R_up = (Rotation.from_rotvec(d * twist) * Rotation.from_rotvec(align_directions(c_up, d))
-            * Rotation.from_matrix(W_up))
+    key = (np.asarray(d, np.float64).tobytes(), float(twist))
+    turn = None if turns is None else turns.get(key)
+    if turn is None:
+        turn = Rotation.from_rotvec(d * twist) * Rotation.from_rotvec(align_directions(c_up, d))
+        if turns is not None:
+            turns[key] = turn
+    R_up = turn * (W_up if isinstance(W_up, Rotation) else Rotation.from_matrix(W_up))
     R_lo = R_up * Rotation.from_rotvec(np.asarray(hinge) * bend)
     return R_up, R_lo
 
@@ -295,10 +311,11 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
     base = scorer.score(np.eye(3), np.eye(3))
     W_up_inv, W_lo_inv = W[upper].T, W[lower].T
     up_name, lo_name = names[upper], names[lower]
+    R_W_up, W_par_inv, turns = Rotation.from_matrix(W[upper]), W_par.inv(), {}
 
     def evaluate(d, twist, bend):
-        R_up, R_lo = _world(c_up, W[upper], d, twist, bend, hinge)
-        local = (W_par.inv() * R_up).as_rotvec()
+        R_up, R_lo = _world(c_up, R_W_up, d, twist, bend, hinge, turns)
+        local = (W_par_inv * R_up).as_rotvec()
         if not (_within_limits(up_name, local) and _within_limits(lo_name, np.asarray(hinge)
                                                                   * bend)):
             return math.inf
@@ -324,8 +341,8 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
         if cur[0] < best[0]:
             best = cur
     d, t, b = best[1]
-    R_up, _ = _world(c_up, W[upper], d, t, b, hinge)
-    return base, best[0], (W_par.inv() * R_up).as_rotvec(), np.asarray(hinge) * b
+    R_up, _ = _world(c_up, R_W_up, d, t, b, hinge, turns)
+    return base, best[0], (W_par_inv * R_up).as_rotvec(), np.asarray(hinge) * b
 
 
 def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_init: bool,
@@ -366,16 +383,19 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
     dom = problem.W_sub.cpu().numpy().argmax(1)
     start_score, start = symmetric_score(problem, scan_cap=scan_cap), problem.snapshot()
     moved: list[str] = []
+    posed = None
     for up_name, lo_name, hinge in LIMBS:
         if up_name not in names or lo_name not in names:
             continue
         upper, lower = names.index(up_name), names.index(lo_name)
-        with torch.no_grad():
-            out = model.forward(problem.shape_value()[None], problem.pose[None],
-                                problem.transl[None], torch.exp(problem.log_scale)[None])
-        V = out.vertices[0].cpu().numpy().astype(np.float64)[problem.body_ids]
-        J = out.joints[0].cpu().numpy().astype(np.float64)
-        W = out.transforms[0, :, :3, :3].cpu().numpy().astype(np.float64)
+        if posed is None:  # the body as it is now (again only after a limb moved)
+            with torch.no_grad():
+                out = model.forward(problem.shape_value()[None], problem.pose[None],
+                                    problem.transl[None], torch.exp(problem.log_scale)[None])
+            posed = (out.vertices[0].cpu().numpy().astype(np.float64)[problem.body_ids],
+                     out.joints[0].cpu().numpy().astype(np.float64),
+                     out.transforms[0, :, :3, :3].cpu().numpy().astype(np.float64))
+        V, J, W = posed
         up_mask = dom == upper
         lo_mask = np.isin(dom, _descendants(parents, lower))
         if up_mask.sum() + lo_mask.sum() < 10:
@@ -400,6 +420,7 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
                 problem.pose[upper] = torch.as_tensor(rv_up, dtype=problem.dt)
                 problem.pose[lower] = torch.as_tensor(rv_lo, dtype=problem.dt)
             moved.append(up_name)
+            posed = None
     info = {"limbs_moved": moved, "limb_score": (round(start_score, 5), round(start_score, 5)),
             "limb_kept": False}
     if not moved:
