@@ -306,9 +306,50 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     starts.clear()
     res = register(scan, model, return_result=True, limb_search_after_pose=False, **fast)
     assert len(starts) == 1 and "limbs_after_pose" not in res.info
+    assert "limbs_final" not in res.info
+    # ``limb_search_final``: a last search from the finished body, aimed like the second
+    starts.clear()
+    aims.clear()
+    res = register(scan, model, return_result=True, limb_search_final=True, **fast)
+    assert len(starts) == 4 and aims == ["none", "all", "all", "all"]
+    assert not np.allclose(starts[3], starts[1]) and not np.allclose(starts[3], starts[2])
+    assert set(res.info["limbs_final"]) >= {"limbs_moved", "limb_score", "limb_kept"}
     starts.clear()
     res = register(scan, model, init=truth, return_result=True, **fast)
     assert not starts and "limbs_after_pose" not in res.info
+
+
+@pytest.mark.parametrize("kept", [False, True])
+def test_final_limb_search_reruns_the_shape_stage_only_after_a_move(model, monkeypatch, kept):
+    """The last limb search (``limb_search_final``) runs after the far-cloth branches; the
+    shape stage runs once more exactly when it kept a move."""
+    import dressmeup.body.registration.optimizer as optimizer
+    from dressmeup.body.registration import register
+
+    calls = []
+    real_shape = optimizer.OptimizationRegistrar._shape_stage
+
+    def limbs(problem, *args, **kwargs):
+        calls.append("limbs")
+        return {"limbs_moved": ["left_hip"] if kept else [], "limb_score": (0.05, 0.04),
+                "limb_kept": kept and len(calls) > 3}
+
+    def shape(self, p, fit_size):
+        calls.append("shape")
+        return real_shape(self, p, fit_size)
+
+    monkeypatch.setattr(optimizer, "limb_search", limbs)
+    monkeypatch.setattr(optimizer.OptimizationRegistrar, "_shape_stage", shape)
+    scan = synthetic_scan(model, model.default_params(), n_points=2000, noise=0.002, seed=0)
+    res = register(scan, model, return_result=True, limb_search_final=True,
+                   iterations=(5, 5, 5), n_scan_points=800, n_body_points=600, verbose=False,
+                   hypotheses=("a-pose",), hypothesis_steps=(2, 2, 2), yaw_candidates=2,
+                   hypothesis_yaws=1)
+    # first search; per branch: second search, shape stage; the final search (+ shape)
+    assert calls == ["limbs", "limbs", "shape", "limbs", "shape", "limbs"] + \
+        (["shape"] if kept else [])
+    assert res.info["limbs_final"]["limb_kept"] is kept
+    assert any(k.startswith("final_") for k in res.losses) is kept
 
 
 def test_capped_distances_equal_the_capped_full_search():

@@ -123,6 +123,14 @@ class OptimizationRegistrar:
         39.0 mm, the other tuning sets within 1.7 mm). Not in the first search: from the
         hypotheses' rough body the unexplained scan is everywhere (aimed there, arms and
         legs moved on a clothed tuning set and a sitting skirt went 22 -> 37 mm).
+    limb_search_final : with ``limb_search`` (fits without ``init``), search the limbs a
+        last time from the finished body, before the L-BFGS rounds, and run the shape stage
+        again when a limb moved. The earlier searches start from rougher bodies, where a
+        raised shin folded up under the thigh into a skirt can outscore the hanging one;
+        from the finished body the rigid score sees the hanging shin explain the foot. Off
+        by default (session 15, tuning data, 90 fits): it fixed two folded legs (a marching
+        skirt 49.3 -> 18.8 mm, a trousers lunge 90.4 -> 56.4) and moved no other fit by 5
+        mm or more, for 8-15 CPU-s more a fit (docs/body-models.md, "Session 15").
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
         ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (with the extra both
@@ -187,6 +195,7 @@ class OptimizationRegistrar:
     limb_first_knee_bends: tuple[float, ...] = FIRST_KNEE_BENDS
     limb_search_after_pose: bool = True
     limb_aim: str = "all"
+    limb_search_final: bool = False
     init_route: str = "hypotheses"
     keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
@@ -429,6 +438,19 @@ class OptimizationRegistrar:
                   "kept": self.far_cloth if rule_on else "pull"}
         return losses, again, params, scores
 
+    def _final_limb_search(self, p: FitProblem, info: dict | None) -> dict[str, float]:
+        """``limb_search_final``: the limb search once more from the finished body (aimed as
+        ``limb_aim``); when it keeps a move, the shape stage again (no size handover: the
+        size is set). Its info into ``info["limbs_final"]``; returns the shape stage's loss
+        terms, prefixed ``final_`` (none when nothing moved)."""
+        last = limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl, False,
+                           aim=self.limb_aim, scan_cap=self.limb_scan_cap, verbose=self.verbose)
+        if info is not None:
+            info["limbs_final"] = last
+        if not last["limb_kept"]:
+            return {}
+        return {f"final_{k}": x for k, x in self._shape_stage(p, False)[0].items()}
+
     def _refine(self, problem: FitProblem, fit_size: bool, info: dict | None = None,
                 limbs_again: bool = False) -> dict[str, float]:
         """Global (rigid, core joints), pose, (``limbs_again`` and the options
@@ -436,7 +458,8 @@ class OptimizationRegistrar:
         ``info["limbs_after_pose"]``), size handover and shape stages (with
         ``far_cloth_branch`` all of them after the global stage twice, see
         :meth:`_far_cloth_branches`; the objectives into ``info["far_cloth_branches"]``),
-        then the optional L-BFGS rounds."""
+        (``limb_search_final``: :meth:`_final_limb_search`), then the optional L-BFGS
+        rounds."""
         n_global, n_pose, _ = self.iterations
         p = problem
         losses: dict[str, float] = {}
@@ -463,6 +486,8 @@ class OptimizationRegistrar:
         losses.update(stage_losses)
         if again is not None and info is not None:
             info["limbs_after_pose"] = again
+        if limbs_again and self.limb_search and self.limb_search_final:
+            losses.update(self._final_limb_search(p, info))
         losses.update({f"refine_{k}": x for k, x in run_lbfgs(
             p, self.refine_rounds, shape_params, self.lbfgs_steps, verbose=self.verbose).items()})
         return losses
