@@ -130,7 +130,8 @@ class OptimizationRegistrar:
         from the finished body the rigid score sees the hanging shin explain the foot. Off
         by default (session 15, tuning data, 90 fits): it fixed two folded legs (a marching
         skirt 49.3 -> 18.8 mm, a trousers lunge 90.4 -> 56.4) and moved no other fit by 5
-        mm or more, for 8-15 CPU-s more a fit (docs/body-models.md, "Session 15").
+        mm or more, for 8-15 CPU-s more a fit (measured before that session's faster limb
+        search; docs/body-models.md, "Session 15").
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
         ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (with the extra both
