@@ -130,8 +130,9 @@ class OptimizationRegistrar:
         from the finished body the rigid score sees the hanging shin explain the foot. Off
         by default (session 15, tuning data, 90 fits): it fixed two folded legs (a marching
         skirt 49.3 -> 18.8 mm, a trousers lunge 90.4 -> 56.4) and moved no other fit by 5
-        mm or more, for 8-15 CPU-s more a fit (measured before that session's faster limb
-        search; docs/body-models.md, "Session 15").
+        mm or more; with that session's faster limb search it costs 4.1 CPU-s more a fit
+        (55.0 -> 59.1 on the clothed tuning set, side by side), not yet chosen as a default
+        (docs/body-models.md, "Session 15").
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
         ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (with the extra both
