@@ -331,8 +331,9 @@ def test_final_limb_search_reruns_the_shape_stage_only_after_a_move(model, monke
 
     def limbs(problem, *args, **kwargs):
         calls.append("limbs")
-        return {"limbs_moved": ["left_hip"] if kept else [], "limb_score": (0.05, 0.04),
-                "limb_kept": kept and len(calls) > 3}
+        last = calls.count("limbs") == 4  # the first, one per branch, then the final search
+        return {"limbs_moved": ["left_hip"] if kept and last else [],
+                "limb_score": (0.05, 0.04), "limb_kept": kept and last}
 
     def shape(self, p, fit_size):
         calls.append("shape")
