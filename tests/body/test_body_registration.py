@@ -227,3 +227,48 @@ def test_scale_into_shape_keeps_the_body_and_drops_the_scale(model):
                                  pose=np.zeros((22, 3)))).vertices
     assert np.ptp(new[:, 1]) == pytest.approx(1.08 * np.ptp(old[:, 1]), rel=0.02)
     assert rms < 0.01  # metres: the phenotype can make this size
+
+
+def test_stages_that_hold_the_shape_give_the_same_loss_and_pose_gradients(model):
+    """A stage that does not move the shape feeds it to the body model without a gradient
+    (so a cached rest body is reused): the loss and the gradients of the parameters that
+    move are bit for bit those of the full graph; the stages set the flag and reset it."""
+    import torch
+
+    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    from dressmeup.body.registration.problem import FitProblem
+    from dressmeup.body.registration.stages import run_adam, run_lbfgs
+
+    truth = _truth(model, "standing", 8)
+    P = synthetic_scan(model, truth, n_points=2000, seed=8)
+    prob = FitProblem(OptimizationRegistrar(n_body_points=1500), model, P, None)
+    prob.set_params(shape=np.full(6, 0.4), pose=0.9 * truth.pose, transl=truth.transl + 0.01)
+
+    def loss_and_grads(moves: bool):
+        prob.reset_correspondences()
+        prob.shape_moves = moves
+        for t in (prob.shape_z, prob.pose, prob.transl):
+            t.grad = None
+        loss, _ = prob.loss("pose")
+        loss.backward()
+        return (loss.detach().clone(), prob.pose.grad.clone(), prob.transl.grad.clone(),
+                prob.shape_z.grad)
+
+    full, held = loss_and_grads(True), loss_and_grads(False)
+    assert full[3] is not None and torch.any(full[3] != 0) and held[3] is None
+    for a, b in zip(full[:3], held[:3], strict=True):
+        assert torch.equal(a, b)
+
+    seen = []
+    real = prob.loss
+
+    def spy(stage):
+        seen.append(prob.shape_moves)
+        return real(stage)
+
+    prob.loss = spy
+    prob.shape_moves = True
+    run_adam(prob, "pose", 3, [prob.pose, prob.transl], [0.01, 0.01])
+    run_adam(prob, "shape", 2, [prob.pose, prob.shape_z], [0.01, 0.01])
+    run_lbfgs(prob, 1, [prob.pose, prob.shape_z], max_iter=2)
+    assert seen[:3] == [False] * 3 and all(seen[3:]) and prob.shape_moves

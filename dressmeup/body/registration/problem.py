@@ -172,6 +172,11 @@ class FitProblem:
         self.nn_b2s = None
         self.freeze = False
         self.core_only = False
+        # False while the running stage does not move the shape (set by the stages): the
+        # shape then enters the body model without a gradient, so the model's cached rest
+        # body is reused instead of re-shaped every step (the same values, and the same
+        # gradients for the parameters that move)
+        self.shape_moves = True
 
     # ------------------------------------------------------------ parameters
     def set_params(self, shape: np.ndarray | None = None, pose: np.ndarray | None = None,
@@ -321,7 +326,8 @@ class FitProblem:
         from scipy.spatial import cKDTree
 
         o = self.opts
-        out = self.model.forward(self.shape_value()[None], self.pose[None], self.transl[None],
+        shape = self.shape_value() if self.shape_moves else self.shape_value().detach()
+        out = self.model.forward(shape[None], self.pose[None], self.transl[None],
                                  torch.exp(self.log_scale)[None], vertex_ids=self.body_ids_t)
         Vb = out.vertices[0]
         if self.rest_normals is None or (stage == "shape" and self.step % 10 == 0):

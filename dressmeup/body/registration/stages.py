@@ -31,18 +31,27 @@ def run_adam(problem, stage: str, n: int, params: list, lrs: list[float],
     problem.stage_steps = n
     pose = problem.pose
     bar = progress(range(n), desc=f"register: {label or stage}", disable=None if verbose else True)
-    for it in bar:
-        opt.zero_grad()
-        loss, terms = problem.loss(stage)
-        loss.backward()
-        if pose.grad is not None:
-            if stage == "global":  # only the root rotation moves in this stage
-                pose.grad[1:] = 0
-            elif stage == "pose" and it < n // 3 and distal:
-                pose.grad[distal] = 0
-        opt.step()
-        sched.step()
+    problem.shape_moves = _moves_shape(problem, params)
+    try:
+        for it in bar:
+            opt.zero_grad()
+            loss, terms = problem.loss(stage)
+            loss.backward()
+            if pose.grad is not None:
+                if stage == "global":  # only the root rotation moves in this stage
+                    pose.grad[1:] = 0
+                elif stage == "pose" and it < n // 3 and distal:
+                    pose.grad[distal] = 0
+            opt.step()
+            sched.step()
+    finally:
+        problem.shape_moves = True
     return terms
+
+
+def _moves_shape(problem, params: list) -> bool:
+    """Whether ``params`` (the tensors a stage optimises) include the problem's shape."""
+    return any(p is problem.shape_z for p in params)
 
 
 def run_lbfgs(problem, n_outer: int, params: list, max_iter: int = 10,
@@ -51,13 +60,27 @@ def run_lbfgs(problem, n_outer: int, params: list, max_iter: int = 10,
     correspondences then ``max_iter`` L-BFGS steps with them frozen."""
     import torch
 
-    from dressmeup.progress import progress
-
     terms: dict = {}
     if n_outer <= 0:
         return terms
     opt = torch.optim.LBFGS(params, lr=1.0, max_iter=max_iter, history_size=20,
                             line_search_fn="strong_wolfe")
+    problem.shape_moves = _moves_shape(problem, params)
+    try:
+        _lbfgs_rounds(problem, opt, n_outer, terms, verbose)
+    finally:
+        problem.shape_moves = True
+        problem.freeze = False
+    return terms
+
+
+def _lbfgs_rounds(problem, opt, n_outer: int, terms: dict, verbose: bool) -> None:
+    """The ``n_outer`` rounds of :func:`run_lbfgs` (fresh correspondences, then ``opt``'s
+    steps with them frozen); the last step's loss terms into ``terms``."""
+    import torch
+
+    from dressmeup.progress import progress
+
     for _ in progress(range(n_outer), desc="register: refine", disable=None if verbose else True):
         problem.freeze = False
         problem.rest_normals, problem.nn_s2b, problem.nn_b2s = None, None, None
@@ -73,5 +96,3 @@ def run_lbfgs(problem, n_outer: int, params: list, max_iter: int = 10,
             return loss
 
         opt.step(closure)
-    problem.freeze = False
-    return terms
