@@ -216,6 +216,24 @@ def test_kept_yaws_always_keep_the_opposite_of_the_best():
     assert [s["k"] for _, s, _ in kept_yaws(ranked, 3, keep_opposite=True)] == [1, 5, 2]
 
 
+def test_refined_hypotheses_add_the_best_one_facing_away_only_when_missing():
+    """``refine_opposite``: when the kept best all face within 90 degrees of the best, the
+    best rigid hypothesis facing further away is refined too (last); yaws wrap at 360."""
+    from dressmeup.body.registration.init import refined_hypotheses
+
+    rigid = [(0.10, "sitting", 175.0, 1), (0.11, "arms-down", 175.0, 2),
+             (0.12, "bending", 250.0, 3), (0.13, "arms-down", 5.0, 4),
+             (0.14, "bending", -4.0, 5)]
+    names = [h[3] for h in refined_hypotheses(rigid, 3, opposite=True)]
+    assert names == [1, 2, 3, 4]  # 250 is 75 degrees from 175: not "away"
+    assert [h[3] for h in refined_hypotheses(rigid, 3, opposite=False)] == [1, 2, 3]
+    rigid[2] = (0.12, "bending", 270.0, 3)  # 95 degrees away: already among the kept
+    assert [h[3] for h in refined_hypotheses(rigid, 3, opposite=True)] == [1, 2, 3]
+    wrapped = [(0.1, "a", 350.0, 1), (0.2, "b", -10.0, 2), (0.3, "c", 200.0, 3)]
+    assert [h[3] for h in refined_hypotheses(wrapped, 2, opposite=True)] == [1, 2, 3]
+    assert [h[3] for h in refined_hypotheses(wrapped[:2], 1, opposite=True)] == [1]
+
+
 def test_deep_bend_tilts_the_root_and_the_search_keeps_its_heading():
     """``deep-bend``: the whole body tilted 60 degrees forward (row 0 of the pose), the
     thighs near vertical and the torso about horizontal in the world, arms hanging; the

@@ -139,7 +139,7 @@ def compose_root(heading: np.ndarray, tilt: np.ndarray) -> np.ndarray:
 def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, keep: int,
                       yaws_kept: int, lr_pose: float, lr_transl: float, size_init: bool,
                       verbose: bool = False, yaw_candidates: int = 4,
-                      keep_opposite: bool = True) -> dict:
+                      keep_opposite: bool = True, refine_opposite: bool = False) -> dict:
     """Multi-hypothesis start (see module docstring); leaves the best in ``problem``.
 
     Parameters
@@ -152,6 +152,8 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
     size_init : match each hypothesis' vertical extent to the scan with a uniform scale.
     keep_opposite : the yaw facing opposite the best is always among the kept yaws
         (:func:`kept_yaws`).
+    refine_opposite : also refine the best rigid hypothesis facing away from the best one
+        when none of the ``keep`` best does (:func:`refined_hypotheses`).
 
     Returns
     -------
@@ -185,7 +187,7 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
             rigid.append((symmetric_score(problem), name, yaw, problem.snapshot()))
     rigid.sort(key=lambda t: t[0])
     refined: list[tuple[float, str, float, dict]] = []
-    for _, name, yaw, snap in rigid[:max(keep, 1)]:
+    for _, name, yaw, snap in refined_hypotheses(rigid, keep, refine_opposite):
         problem.restore(snap)
         params = [problem.pose, problem.transl]
         lrs = [lr_pose, lr_transl]
@@ -202,6 +204,30 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
             "hypotheses_rigid": [(n, round(y), round(c, 4)) for c, n, y, _ in rigid],
             "hypotheses_refined": [(n, round(y), round(c, 4)) for c, n, y, _ in refined],
             "init_steps": len(yaws) * n_yaw + len(rigid) * n_rigid + len(refined) * n_pose}
+
+
+def refined_hypotheses(rigid: list[tuple], keep: int, opposite: bool) -> list[tuple]:
+    """The rigid hypotheses that get the short pose stage: the ``keep`` best and
+    (``opposite``), when all of them face within 90 degrees of the best, also the best one
+    facing further away, refined last (so it changes the fit only when it wins). A rigid
+    stage ranks a bent torso and an upright body facing the other way alike (a torso bent
+    over its legs with the arms hanging looks, from its back, like a body sitting with its
+    thighs forward); the pose stage is what tells them apart.
+
+    Parameters
+    ----------
+    rigid : ``(score, name, yaw degrees, snapshot)`` best first.
+    """
+    out = list(rigid[:max(int(keep), 1)])
+    if opposite and rigid:
+        best = rigid[0][2]
+
+        def away(h) -> bool:
+            return abs(math.remainder(h[2] - best, 360.0)) > 90.0
+
+        if not any(away(h) for h in out):
+            out += [h for h in rigid[len(out):] if away(h)][:1]
+    return out
 
 
 def _rigid_similarity(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, float, np.ndarray, float]:

@@ -95,6 +95,10 @@ class OptimizationRegistrar:
     keep_opposite_yaw : besides the ``hypothesis_yaws`` best, the yaw facing opposite the
         best always goes on (a torso alone hardly tells front from back; see
         :func:`~dressmeup.body.registration.init.kept_yaws`).
+    refine_opposite : when the ``hypothesis_keep`` best rigid hypotheses all face within 90
+        degrees of the best, also refine the best one facing further away
+        (:func:`~dressmeup.body.registration.init.refined_hypotheses`; one short pose stage
+        more). Off by default.
     limb_scan_cap : cap (m) of the scan -> body distances in the symmetric score that
         decides both limb searches (:func:`~dressmeup.body.registration.init.symmetric_score`;
         its body -> scan cap, and both caps of the score that ranks the hypotheses, are 0.1).
@@ -192,6 +196,7 @@ class OptimizationRegistrar:
     hypothesis_yaws: int = 3
     yaw_candidates: int = 8
     keep_opposite_yaw: bool = True
+    refine_opposite: bool = False
     limb_scan_cap: float = 0.1
     limb_search: bool = True
     limb_first_knee_bends: tuple[float, ...] = FIRST_KNEE_BENDS
@@ -252,7 +257,8 @@ class OptimizationRegistrar:
                                  self.hypothesis_keep, self.hypothesis_yaws, self.lr_pose,
                                  self.lr_transl, self.size_init, verbose=self.verbose,
                                  yaw_candidates=self.yaw_candidates,
-                                 keep_opposite=self.keep_opposite_yaw)
+                                 keep_opposite=self.keep_opposite_yaw,
+                                 refine_opposite=self.refine_opposite)
         if self.limb_search:
             info.update(limb_search(problem, n_pose, self.lr_pose, self.lr_transl,
                                     self.size_init, scan_cap=self.limb_scan_cap,
