@@ -285,6 +285,7 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     ``limb_scan_cap`` reaches every search."""
     import dressmeup.body.registration.optimizer as optimizer
     from dressmeup.body.registration import register
+    from dressmeup.body.registration.optimizer import OptimizationRegistrar
 
     starts, aims, caps, knees = [], [], [], []
     real = optimizer.limb_search
@@ -302,7 +303,7 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     scan = synthetic_scan(model, truth, n_points=4000, noise=0.002, seed=1)
     fast = dict(iterations=(10, 30, 10), n_scan_points=1500, n_body_points=1000, verbose=False,
                 hypotheses=("a-pose",), hypothesis_steps=(5, 5, 10), yaw_candidates=2,
-                hypothesis_yaws=1)
+                hypothesis_yaws=1, limb_search_final=False)  # the final search: below
     res = register(scan, model, return_result=True, far_cloth_branch=False, **fast)
     assert len(starts) == 2 and not np.allclose(starts[0], starts[1])
     assert set(res.info["limbs_after_pose"]) >= {"limbs_moved", "limb_score", "limb_kept"}
@@ -328,7 +329,8 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
     # ``limb_search_final``: a last search from the finished body, aimed like the second
     starts.clear()
     aims.clear()
-    res = register(scan, model, return_result=True, limb_search_final=True, **fast)
+    assert OptimizationRegistrar().limb_search_final  # on by default since session 16
+    res = register(scan, model, return_result=True, **{**fast, "limb_search_final": True})
     assert len(starts) == 4 and aims == ["none", "all", "all", "all"]
     assert not np.allclose(starts[3], starts[1]) and not np.allclose(starts[3], starts[2])
     assert set(res.info["limbs_final"]) >= {"limbs_moved", "limb_score", "limb_kept"}

@@ -98,7 +98,8 @@ class OptimizationRegistrar:
     refine_opposite : when the ``hypothesis_keep`` best rigid hypotheses all face within 90
         degrees of the best, also refine the best one facing further away
         (:func:`~dressmeup.body.registration.init.refined_hypotheses`; one short pose stage
-        more). Off by default.
+        more). Off by default: on 90 tuning fits (session 16) it was refined on 68 and won
+        on none (docs/body-models.md, "Session 16").
     limb_scan_cap : cap (m) of the scan -> body distances in the symmetric score that
         decides both limb searches (:func:`~dressmeup.body.registration.init.symmetric_score`;
         its body -> scan cap, and both caps of the score that ranks the hypotheses, are 0.1).
@@ -131,12 +132,14 @@ class OptimizationRegistrar:
         last time from the finished body, before the L-BFGS rounds, and run the shape stage
         again when a limb moved. The earlier searches start from rougher bodies, where a
         raised shin folded up under the thigh into a skirt can outscore the hanging one;
-        from the finished body the rigid score sees the hanging shin explain the foot. Off
-        by default (session 15, tuning data, 90 fits): it fixed two folded legs (a marching
-        skirt 49.3 -> 18.8 mm, a trousers lunge 90.4 -> 56.4) and moved no other fit by 5
-        mm or more; with that session's faster limb search it costs 4.1 CPU-s more a fit
-        (55.0 -> 59.1 on the clothed tuning set, side by side), not yet chosen as a default
-        (docs/body-models.md, "Session 15").
+        from the finished body the rigid score sees the hanging shin explain the foot. On
+        by default since session 16: on tuning data (session 15's 90 fits of the clothed
+        tuning sets and session 16's 32 fits of the perf suite's tuning scenarios) it fixed
+        three fits (a marching skirt 49.3 -> 18.8 mm, a trousers lunge 90.4 -> 56.4, a
+        clothed picking-up fit 223.8 -> 28.7) and moved no other by 5 mm or more (none of
+        the perf suite's 31 others at all); it costs about 4 CPU-s a fit (55.0 -> 59.1 on
+        the clothed tuning set, side by side; docs/body-models.md, "Session 15" and
+        "Session 16").
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
         ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (with the extra both
@@ -202,7 +205,7 @@ class OptimizationRegistrar:
     limb_first_knee_bends: tuple[float, ...] = FIRST_KNEE_BENDS
     limb_search_after_pose: bool = True
     limb_aim: str = "all"
-    limb_search_final: bool = False
+    limb_search_final: bool = True
     init_route: str = "hypotheses"
     keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
