@@ -138,7 +138,9 @@ class OptimizationRegistrar:
         three fits (a marching skirt 49.3 -> 18.8 mm, a trousers lunge 90.4 -> 56.4, a
         clothed picking-up fit 223.8 -> 28.7) and moved no other by 5 mm or more (none of
         the perf suite's 31 others at all); it costs about 4 CPU-s a fit (55.0 -> 59.1 on
-        the clothed tuning set, side by side; docs/body-models.md, "Session 15" and
+        the clothed tuning set, side by side) and cost 10.4 a scan on synth-registration-v3
+        (51.0 -> 61.4; a kept move re-runs the shape stage), which the held-shape steps of
+        the same session paid back (52.5, same fits; docs/body-models.md, "Session 15" and
         "Session 16").
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the

@@ -5,6 +5,11 @@
   first third, so the trunk and proximal joints settle first; ``shape``: everything given).
 - :func:`run_lbfgs`: optional ICP-like refinement (fixed correspondences, a few L-BFGS
   steps, repeat).
+
+Both tell the problem whether the tensors they optimise include the shape
+(``FitProblem.shape_moves``): when not, the loss feeds the shape without a gradient and
+the body model reuses its cached rest body (the same values and the same gradients for
+what moves, in less time).
 """
 
 from __future__ import annotations
