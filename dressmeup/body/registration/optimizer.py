@@ -423,9 +423,7 @@ class OptimizationRegistrar:
             p, "pose", n_pose, pose_params, pose_lrs, verbose=self.verbose).items()}
         again = None
         if limbs_again and self.limb_search and self.limb_search_after_pose:
-            again = limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl,
-                                fit_size, aim=self.limb_aim, scan_cap=self.limb_scan_cap,
-                                verbose=self.verbose)
+            again = self._aimed_limb_search(p, fit_size)
         shape_losses, shape_params = self._shape_stage(p, fit_size)
         losses.update(shape_losses)
         return losses, again, shape_params
@@ -451,13 +449,18 @@ class OptimizationRegistrar:
                   "kept": self.far_cloth if rule_on else "pull"}
         return losses, again, params, scores
 
+    def _aimed_limb_search(self, p: FitProblem, fit_size: bool) -> dict:
+        """The limb search after the first (after the pose stage, and the final one): aimed
+        as ``limb_aim``, every knee bend; its info."""
+        return limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl, fit_size,
+                           aim=self.limb_aim, scan_cap=self.limb_scan_cap, verbose=self.verbose)
+
     def _final_limb_search(self, p: FitProblem, info: dict | None) -> dict[str, float]:
         """``limb_search_final``: the limb search once more from the finished body (aimed as
         ``limb_aim``); when it keeps a move, the shape stage again (no size handover: the
         size is set). Its info into ``info["limbs_final"]``; returns the shape stage's loss
         terms, prefixed ``final_`` (none when nothing moved)."""
-        last = limb_search(p, self.hypothesis_steps[2], self.lr_pose, self.lr_transl, False,
-                           aim=self.limb_aim, scan_cap=self.limb_scan_cap, verbose=self.verbose)
+        last = self._aimed_limb_search(p, False)
         if info is not None:
             info["limbs_final"] = last
         if not last["limb_kept"]:

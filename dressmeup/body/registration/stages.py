@@ -14,6 +14,8 @@ what moves, in less time).
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 from dressmeup.body.registration.terms import DISTAL_JOINTS
 
 
@@ -36,8 +38,7 @@ def run_adam(problem, stage: str, n: int, params: list, lrs: list[float],
     problem.stage_steps = n
     pose = problem.pose
     bar = progress(range(n), desc=f"register: {label or stage}", disable=None if verbose else True)
-    problem.shape_moves = _moves_shape(problem, params)
-    try:
+    with _shape_moves_if_optimised(problem, params):
         for it in bar:
             opt.zero_grad()
             loss, terms = problem.loss(stage)
@@ -49,14 +50,18 @@ def run_adam(problem, stage: str, n: int, params: list, lrs: list[float],
                     pose.grad[distal] = 0
             opt.step()
             sched.step()
-    finally:
-        problem.shape_moves = True
     return terms
 
 
-def _moves_shape(problem, params: list) -> bool:
-    """Whether ``params`` (the tensors a stage optimises) include the problem's shape."""
-    return any(p is problem.shape_z for p in params)
+@contextmanager
+def _shape_moves_if_optimised(problem, params: list):
+    """Within the block ``problem.shape_moves`` says whether ``params`` (the tensors a stage
+    optimises) include the shape; afterwards it is True again."""
+    problem.shape_moves = any(p is problem.shape_z for p in params)
+    try:
+        yield
+    finally:
+        problem.shape_moves = True
 
 
 def run_lbfgs(problem, n_outer: int, params: list, max_iter: int = 10,
@@ -65,39 +70,29 @@ def run_lbfgs(problem, n_outer: int, params: list, max_iter: int = 10,
     correspondences then ``max_iter`` L-BFGS steps with them frozen."""
     import torch
 
+    from dressmeup.progress import progress
+
     terms: dict = {}
     if n_outer <= 0:
         return terms
     opt = torch.optim.LBFGS(params, lr=1.0, max_iter=max_iter, history_size=20,
                             line_search_fn="strong_wolfe")
-    problem.shape_moves = _moves_shape(problem, params)
-    try:
-        _lbfgs_rounds(problem, opt, n_outer, terms, verbose)
-    finally:
-        problem.shape_moves = True
-        problem.freeze = False
+    with _shape_moves_if_optimised(problem, params):
+        for _ in progress(range(n_outer), desc="register: refine",
+                          disable=None if verbose else True):
+            problem.freeze = False
+            problem.rest_normals, problem.nn_s2b, problem.nn_b2s = None, None, None
+            with torch.no_grad():
+                problem.loss("shape")  # refresh correspondences and normals
+            problem.freeze = True
+
+            def closure():
+                opt.zero_grad()
+                loss, t = problem.loss("shape")
+                loss.backward()
+                terms.update(t)
+                return loss
+
+            opt.step(closure)
+    problem.freeze = False
     return terms
-
-
-def _lbfgs_rounds(problem, opt, n_outer: int, terms: dict, verbose: bool) -> None:
-    """The ``n_outer`` rounds of :func:`run_lbfgs` (fresh correspondences, then ``opt``'s
-    steps with them frozen); the last step's loss terms into ``terms``."""
-    import torch
-
-    from dressmeup.progress import progress
-
-    for _ in progress(range(n_outer), desc="register: refine", disable=None if verbose else True):
-        problem.freeze = False
-        problem.rest_normals, problem.nn_s2b, problem.nn_b2s = None, None, None
-        with torch.no_grad():
-            problem.loss("shape")  # refresh correspondences and normals
-        problem.freeze = True
-
-        def closure():
-            opt.zero_grad()
-            loss, t = problem.loss("shape")
-            loss.backward()
-            terms.update(t)
-            return loss
-
-        opt.step(closure)
