@@ -132,8 +132,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--pose-set", default="generator",
                     help="generator (sitting, arms-raised, walking) or registration-tuning "
-                    "(bowing, picking-up, stepping-up, lunge, marching, leaning-over, in this "
-                    "order: --poses N takes the first N)")
+                    "(bowing, picking-up, stepping-up, lunge, marching, leaning-over, "
+                    "half-squat-reach, in this order: --poses N takes the first N)")
     ap.add_argument("--fit", help="register every scan and write rows to this JSON file")
     ap.add_argument("--options", default="", help="registrar options as JSON")
     ap.add_argument("--only", default="", help="comma list of sample-id parts to fit")

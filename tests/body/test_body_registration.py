@@ -184,7 +184,8 @@ def test_registration_poses_and_scan_variants(model):
     assert {"t-pose", "wide-stance", "sitting-box", "arms-crossed", "one-knee-up",
             "bending-forward"} <= set(hard) and not set(hard) & set(generator)
     tuning = pose_names("registration-tuning")
-    assert tuning == ["bowing", "picking-up", "stepping-up", "lunge", "marching", "leaning-over"]
+    assert tuning == ["bowing", "picking-up", "stepping-up", "lunge", "marching", "leaning-over",
+                      "half-squat-reach"]
     assert pose_names("all") == generator + hard + tuning
 
     class Frame:
