@@ -234,6 +234,46 @@ def test_refined_hypotheses_add_the_best_one_facing_away_only_when_missing():
     assert [h[3] for h in refined_hypotheses(wrapped[:2], 1, opposite=True)] == [1]
 
 
+def test_best_per_start_yaw_keeps_each_start_yaws_lowest_cost():
+    """``yaw_postures``: the yaw search runs from every posture; each start yaw keeps the
+    candidate (and its snapshot) with the lowest core cost, best first; one ranking as is."""
+    from dressmeup.body.registration.init import best_per_start_yaw
+
+    upright = [(1.0, "u0", 0.0), (2.0, "u1", 1.0), (3.0, "u2", 2.0)]
+    bent = [(0.5, "b2", 2.0), (2.5, "b1", 1.0), (4.0, "b0", 0.0)]
+    merged = best_per_start_yaw([upright, bent])
+    assert [(c, s, y) for c, s, y in merged] == [(0.5, "b2", 2.0), (1.0, "u0", 0.0),
+                                                 (2.0, "u1", 1.0)]
+    assert best_per_start_yaw([upright]) is upright
+
+
+def test_yaw_postures_run_the_yaw_search_from_each_posture(model, monkeypatch):
+    from dressmeup.body.registration import init as init_mod
+    from dressmeup.body.registration.hypotheses import canonical_pose
+
+    truth = BodyParams("procedural", shape=np.full(6, 0.5),
+                       pose=canonical_pose("bending", list(model.joint_names),
+                                           model.posed(model.default_params()).joints))
+    scan = synthetic_scan(model, truth, n_points=3000, noise=0.0, seed=3)
+    problem = _problem(model, scan)
+    spine = list(model.joint_names).index("spine1")
+    starts, real = [], init_mod.yaw_search
+
+    def spy(problem, *args, **kwargs):
+        starts.append(problem.pose.detach().numpy()[spine].copy())
+        return real(problem, *args, **kwargs)
+
+    monkeypatch.setattr(init_mod, "yaw_search", spy)
+    info = init_mod.hypothesis_search(problem, ("a-pose", "bending"), 2, 2, 2, 1, 1, 0.015,
+                                      0.01, True, yaw_candidates=4,
+                                      yaw_postures=("a-pose", "bending"))
+    assert len(starts) == 2 and not starts[0].any() and starts[1].any()
+    assert info["init_steps"] == 2 * 4 * 2 + len(info["hypotheses_rigid"]) * 2 + 1 * 2
+    with pytest.raises(ValueError, match="tilts the root"):
+        init_mod.hypothesis_search(problem, ("a-pose",), 2, 2, 2, 1, 1, 0.015, 0.01, True,
+                                   yaw_candidates=4, yaw_postures=("deep-bend",))
+
+
 def test_deep_bend_tilts_the_root_and_the_search_keeps_its_heading():
     """``deep-bend``: the whole body tilted 60 degrees forward (row 0 of the pose), the
     thighs near vertical and the torso about horizontal in the world, arms hanging; the
@@ -276,6 +316,9 @@ def test_unknown_hypotheses_fail_before_the_fit(model):
     for bad in (("a-pose", "moonwalk"), "a-pose"):
         with pytest.raises(InputError, match="hypotheses: expected a list of"):
             OptimizationRegistrar(hypotheses=bad).fit(np.zeros((10, 3)), model)
+    for bad in (("a-pose", "deep-bend"), "a-pose", (), ("moonwalk",)):
+        with pytest.raises(InputError, match="yaw_postures: expected"):
+            OptimizationRegistrar(yaw_postures=bad).fit(np.zeros((10, 3)), model)
 
 
 def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, monkeypatch):

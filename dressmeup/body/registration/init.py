@@ -8,8 +8,9 @@
 - :func:`hypothesis_search`: the multi-hypothesis start without keypoints. The best yaws of
   the yaw search x the canonical poses of :mod:`.hypotheses` each get a short rigid stage
   on the whole body; the best few get a short pose stage; the best of those goes on.
-  Cost: ``yaw_candidates * n_yaw + len(poses) * (yaws_kept + 1) * n_rigid + keep * n_pose``
-  steps at most (the + 1: the yaw opposite the best, :func:`kept_yaws`).
+  Cost: ``len(yaw_postures) * yaw_candidates * n_yaw + len(poses) * (yaws_kept + 1) *
+  n_rigid + (keep + 1) * n_pose`` steps at most (the yaw opposite the best,
+  :func:`kept_yaws`; the hypothesis facing away, :func:`refined_hypotheses`).
 """
 
 from __future__ import annotations
@@ -139,7 +140,8 @@ def compose_root(heading: np.ndarray, tilt: np.ndarray) -> np.ndarray:
 def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, keep: int,
                       yaws_kept: int, lr_pose: float, lr_transl: float, size_init: bool,
                       verbose: bool = False, yaw_candidates: int = 4,
-                      keep_opposite: bool = True, refine_opposite: bool = False) -> dict:
+                      keep_opposite: bool = True, refine_opposite: bool = False,
+                      yaw_postures: tuple[str, ...] = ("a-pose",)) -> dict:
     """Multi-hypothesis start (see module docstring); leaves the best in ``problem``.
 
     Parameters
@@ -154,6 +156,10 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
         (:func:`kept_yaws`).
     refine_opposite : also refine the best rigid hypothesis facing away from the best one
         when none of the ``keep`` best does (:func:`refined_hypotheses`).
+    yaw_postures : canonical poses (untilted roots) the yaw search runs from, each over the
+        ``yaw_candidates`` yaws; every start yaw keeps its best core cost over the postures
+        (:func:`best_per_start_yaw`). An upright torso ranks a deeply bent scan's headings
+        almost at random; a bent one ranks them.
 
     Returns
     -------
@@ -165,10 +171,18 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
 
     model = problem.model
     rest = model.posed(model.default_params()).joints
-    problem.set_params(pose=canonical_pose("a-pose", model.joint_names, rest))
-    place_on_scan(problem, size_init)
     yaws = tuple(2 * math.pi * k / max(yaw_candidates, 1) for k in range(max(yaw_candidates, 1)))
-    ranked_yaws = yaw_search(problem, n_yaw, lr_pose, lr_transl, yaws=yaws, verbose=verbose)
+    rankings = []
+    for posture in yaw_postures:
+        start = canonical_pose(posture, model.joint_names, rest)
+        if start[0].any():
+            raise ValueError(f"yaw_postures: {posture!r} tilts the root; a yaw search "
+                             "posture must not (its root is the heading)")
+        problem.set_params(pose=start)
+        place_on_scan(problem, size_init)
+        rankings.append(yaw_search(problem, n_yaw, lr_pose, lr_transl, yaws=yaws,
+                                   verbose=verbose))
+    ranked_yaws = best_per_start_yaw(rankings)
     roots = [snap["pose"][0].clone()
              for _, snap, _ in kept_yaws(ranked_yaws, yaws_kept, keep_opposite)]
     rigid: list[tuple[float, str, float, dict]] = []
@@ -203,7 +217,23 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
     return {"init": f"hypothesis {refined[0][1]} (yaw {refined[0][2]:.0f} deg)",
             "hypotheses_rigid": [(n, round(y), round(c, 4)) for c, n, y, _ in rigid],
             "hypotheses_refined": [(n, round(y), round(c, 4)) for c, n, y, _ in refined],
-            "init_steps": len(yaws) * n_yaw + len(rigid) * n_rigid + len(refined) * n_pose}
+            "init_steps": len(yaw_postures) * len(yaws) * n_yaw + len(rigid) * n_rigid
+            + len(refined) * n_pose}
+
+
+def best_per_start_yaw(rankings: list[list[tuple[float, dict, float]]]
+                       ) -> list[tuple[float, dict, float]]:
+    """Merge :func:`yaw_search` results from several postures: for each start yaw the
+    candidate with the lowest core cost (the costs compare: same scan, same core skin),
+    best first. One ranking is returned as is."""
+    if len(rankings) == 1:
+        return rankings[0]
+    best: dict[float, tuple[float, dict, float]] = {}
+    for ranked in rankings:
+        for cand in ranked:
+            if cand[2] not in best or cand[0] < best[cand[2]][0]:
+                best[cand[2]] = cand
+    return sorted(best.values(), key=lambda t: t[0])
 
 
 def refined_hypotheses(rigid: list[tuple], keep: int, opposite: bool) -> list[tuple]:

@@ -98,8 +98,17 @@ class OptimizationRegistrar:
     refine_opposite : when the ``hypothesis_keep`` best rigid hypotheses all face within 90
         degrees of the best, also refine the best one facing further away
         (:func:`~dressmeup.body.registration.init.refined_hypotheses`; one short pose stage
-        more). Off by default: on 90 tuning fits (session 16) it was refined on 68 and won
-        on none (docs/body-models.md, "Session 16").
+        more). On by default since session 17: on the `half-squat-reach` tuning skirt it
+        turned a fit facing backwards (327.4 mm) into one facing forward (15.1 mm); on the
+        181 other tuning fits screened (sessions 16 and 17) it changed none
+        (docs/body-models.md, "Session 17").
+    yaw_postures : canonical poses with an untilted root (e.g. ``"a-pose"``, ``"bending"``)
+        the hypothesis search's yaw stage runs from, each over all ``yaw_candidates``;
+        each start yaw keeps its best core cost
+        (:func:`~dressmeup.body.registration.init.best_per_start_yaw`). An upright torso
+        ranks the headings of a deeply bent scan almost at random. Default: the A-pose
+        alone; adding ``"bending"`` found the heading of two bent dresses on tuning data and
+        lost it on a bent top (docs/body-models.md, "Session 17").
     limb_scan_cap : cap (m) of the scan -> body distances in the symmetric score that
         decides both limb searches (:func:`~dressmeup.body.registration.init.symmetric_score`;
         its body -> scan cap, and both caps of the score that ranks the hypotheses, are 0.1).
@@ -201,7 +210,8 @@ class OptimizationRegistrar:
     hypothesis_yaws: int = 3
     yaw_candidates: int = 8
     keep_opposite_yaw: bool = True
-    refine_opposite: bool = False
+    refine_opposite: bool = True
+    yaw_postures: tuple[str, ...] = ("a-pose",)
     limb_scan_cap: float = 0.1
     limb_search: bool = True
     limb_first_knee_bends: tuple[float, ...] = FIRST_KNEE_BENDS
@@ -263,7 +273,8 @@ class OptimizationRegistrar:
                                  self.lr_transl, self.size_init, verbose=self.verbose,
                                  yaw_candidates=self.yaw_candidates,
                                  keep_opposite=self.keep_opposite_yaw,
-                                 refine_opposite=self.refine_opposite)
+                                 refine_opposite=self.refine_opposite,
+                                 yaw_postures=tuple(self.yaw_postures))
         if self.limb_search:
             info.update(limb_search(problem, n_pose, self.lr_pose, self.lr_transl,
                                     self.size_init, scan_cap=self.limb_scan_cap,
@@ -327,6 +338,12 @@ class OptimizationRegistrar:
         if any(p not in CANONICAL_POSES for p in self.hypotheses):  # a bare name fails too
             raise InputError(f"hypotheses: expected a list of {', '.join(CANONICAL_POSES)}; "
                              f"got {self.hypotheses!r}")
+        upright = [n for n, d in CANONICAL_POSES.items() if "pelvis" not in d]
+        postures = self.yaw_postures
+        if isinstance(postures, (str, bytes)) or not postures or any(
+                p not in upright for p in postures):
+            raise InputError(f"yaw_postures: expected a non-empty list of {', '.join(upright)} "
+                             f"(canonical poses with an untilted root); got {postures!r}")
 
     def _use_keypoints(self) -> bool:
         """Whether this fit detects keypoints on the scan (see ``init_route``, checked by
