@@ -265,16 +265,23 @@ class OptimizationRegistrar:
                        verbose=self.verbose)
         return {"init": "rest pose + yaw search" if self.yaw_search else "rest pose"}
 
-    def _hypothesis_start(self, problem: FitProblem) -> dict:
-        """The multi-hypothesis search, then (``limb_search``) the limb-wise search."""
+    def search_hypotheses(self, problem: FitProblem) -> dict:
+        """The multi-hypothesis search alone with this registrar's options
+        (:func:`~dressmeup.body.registration.init.hypothesis_search`); leaves the best start
+        in ``problem`` and returns its info."""
         n_yaw, n_rigid, n_pose = self.hypothesis_steps
-        info = hypothesis_search(problem, self.hypotheses, n_yaw, n_rigid, n_pose,
+        return hypothesis_search(problem, self.hypotheses, n_yaw, n_rigid, n_pose,
                                  self.hypothesis_keep, self.hypothesis_yaws, self.lr_pose,
                                  self.lr_transl, self.size_init, verbose=self.verbose,
                                  yaw_candidates=self.yaw_candidates,
                                  keep_opposite=self.keep_opposite_yaw,
                                  refine_opposite=self.refine_opposite,
                                  yaw_postures=tuple(self.yaw_postures))
+
+    def _hypothesis_start(self, problem: FitProblem) -> dict:
+        """The multi-hypothesis search, then (``limb_search``) the limb-wise search."""
+        n_pose = self.hypothesis_steps[2]
+        info = self.search_hypotheses(problem)
         if self.limb_search:
             info.update(limb_search(problem, n_pose, self.lr_pose, self.lr_transl,
                                     self.size_init, scan_cap=self.limb_scan_cap,
