@@ -319,6 +319,8 @@ def test_unknown_hypotheses_fail_before_the_fit(model):
     for bad in (("a-pose", "deep-bend"), "a-pose", (), ("moonwalk",)):
         with pytest.raises(InputError, match="yaw_postures: expected"):
             OptimizationRegistrar(yaw_postures=bad).fit(np.zeros((10, 3)), model)
+        with pytest.raises(InputError, match="yaw_postures: expected"):  # the search alone
+            OptimizationRegistrar(yaw_postures=bad).search_hypotheses(None)
 
 
 def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, monkeypatch):

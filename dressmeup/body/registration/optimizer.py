@@ -268,7 +268,9 @@ class OptimizationRegistrar:
     def search_hypotheses(self, problem: FitProblem) -> dict:
         """The multi-hypothesis search alone with this registrar's options
         (:func:`~dressmeup.body.registration.init.hypothesis_search`); leaves the best start
-        in ``problem`` and returns its info."""
+        in ``problem`` and returns its info. Bad options raise
+        :class:`~dressmeup.errors.InputError` first, as :meth:`fit` does."""
+        self._check_options()
         n_yaw, n_rigid, n_pose = self.hypothesis_steps
         return hypothesis_search(problem, self.hypotheses, n_yaw, n_rigid, n_pose,
                                  self.hypothesis_keep, self.hypothesis_yaws, self.lr_pose,
