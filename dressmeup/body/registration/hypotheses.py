@@ -49,6 +49,10 @@ OPT_IN_HYPOTHESES: tuple[str, ...] = ("stride-left", "stride-right")
 #: The hypotheses tried by default: all of :data:`CANONICAL_POSES` but the opt-in ones.
 DEFAULT_HYPOTHESES: tuple[str, ...] = tuple(n for n in CANONICAL_POSES
                                             if n not in OPT_IN_HYPOTHESES)
+#: The hypotheses whose root is untilted (no ``pelvis``): the ones a yaw search can start
+#: from, since their root is the heading alone (``yaw_postures``).
+UPRIGHT_HYPOTHESES: tuple[str, ...] = tuple(n for n, d in CANONICAL_POSES.items()
+                                            if not d.get("pelvis"))
 
 
 def align_directions(a: np.ndarray, b: np.ndarray) -> np.ndarray:

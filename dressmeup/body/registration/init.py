@@ -167,18 +167,17 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
     """
     import torch
 
-    from dressmeup.body.registration.hypotheses import canonical_pose
+    from dressmeup.body.registration.hypotheses import UPRIGHT_HYPOTHESES, canonical_pose
 
     model = problem.model
     rest = model.posed(model.default_params()).joints
     yaws = tuple(2 * math.pi * k / max(yaw_candidates, 1) for k in range(max(yaw_candidates, 1)))
     rankings = []
     for posture in yaw_postures:
-        start = canonical_pose(posture, model.joint_names, rest)
-        if start[0].any():
+        if posture not in UPRIGHT_HYPOTHESES:
             raise ValueError(f"yaw_postures: {posture!r} tilts the root; a yaw search "
                              "posture must not (its root is the heading)")
-        problem.set_params(pose=start)
+        problem.set_params(pose=canonical_pose(posture, model.joint_names, rest))
         place_on_scan(problem, size_init)
         rankings.append(yaw_search(problem, n_yaw, lr_pose, lr_transl, yaws=yaws,
                                    verbose=verbose))

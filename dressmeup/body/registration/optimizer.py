@@ -271,6 +271,10 @@ class OptimizationRegistrar:
         in ``problem`` and returns its info. Bad options raise
         :class:`~dressmeup.errors.InputError` first, as :meth:`fit` does."""
         self._check_options()
+        return self._search_hypotheses(problem)
+
+    def _search_hypotheses(self, problem: FitProblem) -> dict:
+        """:meth:`search_hypotheses` without the option check (a fit checked them once)."""
         n_yaw, n_rigid, n_pose = self.hypothesis_steps
         return hypothesis_search(problem, self.hypotheses, n_yaw, n_rigid, n_pose,
                                  self.hypothesis_keep, self.hypothesis_yaws, self.lr_pose,
@@ -283,7 +287,7 @@ class OptimizationRegistrar:
     def _hypothesis_start(self, problem: FitProblem) -> dict:
         """The multi-hypothesis search, then (``limb_search``) the limb-wise search."""
         n_pose = self.hypothesis_steps[2]
-        info = self.search_hypotheses(problem)
+        info = self._search_hypotheses(problem)
         if self.limb_search:
             info.update(limb_search(problem, n_pose, self.lr_pose, self.lr_transl,
                                     self.size_init, scan_cap=self.limb_scan_cap,
@@ -342,17 +346,17 @@ class OptimizationRegistrar:
             raise InputError("limb_first_knee_bends: expected a non-empty list of knee bends in "
                              f"degrees, each in [0, 180) (default {list(FIRST_KNEE_BENDS)}); "
                              f"got {bends!r}")
-        from dressmeup.body.registration.hypotheses import CANONICAL_POSES
+        from dressmeup.body.registration.hypotheses import CANONICAL_POSES, UPRIGHT_HYPOTHESES
 
         if any(p not in CANONICAL_POSES for p in self.hypotheses):  # a bare name fails too
             raise InputError(f"hypotheses: expected a list of {', '.join(CANONICAL_POSES)}; "
                              f"got {self.hypotheses!r}")
-        upright = [n for n, d in CANONICAL_POSES.items() if "pelvis" not in d]
         postures = self.yaw_postures
         if isinstance(postures, (str, bytes)) or not postures or any(
-                p not in upright for p in postures):
-            raise InputError(f"yaw_postures: expected a non-empty list of {', '.join(upright)} "
-                             f"(canonical poses with an untilted root); got {postures!r}")
+                p not in UPRIGHT_HYPOTHESES for p in postures):
+            raise InputError(f"yaw_postures: expected a non-empty list of "
+                             f"{', '.join(UPRIGHT_HYPOTHESES)} (canonical poses with an "
+                             f"untilted root); got {postures!r}")
 
     def _use_keypoints(self) -> bool:
         """Whether this fit detects keypoints on the scan (see ``init_route``, checked by
