@@ -7,6 +7,7 @@ import pytest
 
 from dressmeup.body import BodyParams, get_body_model
 from dressmeup.body.synthetic import synthetic_scan
+from dressmeup.geometry import neighbors
 
 
 @pytest.fixture(scope="module")
@@ -136,6 +137,31 @@ def test_limb_scorer_matches_the_symmetric_score(model, scan_cap):
         spread = 0.2 if k % 2 else np.pi
         M_up, M_lo = Rotation.from_rotvec(rng.normal(0, spread, (2, 3))).as_matrix()
         assert scorer.score(M_up, M_lo) == every_point(M_up, M_lo)
+
+
+@pytest.mark.skipif(neighbors._pykdtree_class() is None, reason="pykdtree not installed")
+def test_fit_objective_is_the_same_on_both_nearest_point_backends(model, monkeypatch):
+    """The data term's correspondences come from NearestTree: pykdtree and scipy find the
+    same neighbours, so the loss, its gradient and the symmetric score agree."""
+    from dressmeup.body.registration.init import symmetric_score
+
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=_arm_across_chest(model))
+    scan = synthetic_scan(model, truth, n_points=6000, noise=0.003, seed=2)
+    out = {}
+    for backend in ("scipy", "pykdtree"):
+        monkeypatch.setattr(neighbors, "BACKEND", backend)
+        problem = _problem(model, scan)
+        problem.set_params(shape=np.full(6, 0.45), pose=truth.pose * 0.8)
+        loss, _ = problem.loss("pose")
+        loss.backward()
+        out[backend] = (float(loss.detach()), problem.pose.grad.numpy().copy(),
+                        problem.nn_b2s.numpy(), problem.nn_s2b.numpy(),
+                        symmetric_score(problem, scan_cap=0.03))
+    a, b = out["scipy"], out["pykdtree"]
+    assert a[0] == b[0] and a[4] == b[4]
+    np.testing.assert_array_equal(a[1], b[1])
+    np.testing.assert_array_equal(a[2], b[2])
+    np.testing.assert_array_equal(a[3], b[3])
 
 
 def test_symmetric_score_caps_each_direction_on_its_own(model):

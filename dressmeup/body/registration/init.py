@@ -21,6 +21,7 @@ import math
 import numpy as np
 
 from dressmeup.body.registration.stages import run_adam
+from dressmeup.geometry.neighbors import NearestTree
 
 logger = logging.getLogger(__name__)
 
@@ -103,7 +104,7 @@ def kept_yaws(ranked: list[tuple[float, dict, float]], n_kept: int,
 
 def capped_distances(tree, X: np.ndarray, cap: float) -> np.ndarray:
     """(k,) distance (m) from each of ``X`` (k, 3) to its nearest point in ``tree`` (a
-    ``cKDTree``), capped at ``cap``: the same values as ``minimum(tree.query(X)[0], cap)``,
+    :class:`~dressmeup.geometry.neighbors.NearestTree` or a ``cKDTree``), capped at ``cap``: the same values as ``minimum(tree.query(X)[0], cap)``,
     but the search stops at ``cap`` (a far limb's points cost a fraction of a full search)."""
     d, _ = tree.query(X, k=1, distance_upper_bound=cap, workers=1)
     return np.minimum(d, cap)
@@ -120,12 +121,10 @@ def symmetric_score(problem, cap: float = 0.1, scan_cap: float | None = None) ->
     skirt or dress explains cloth points and can outscore the right limb, whose bare shin it
     leaves unexplained (the limb search's option ``limb_scan_cap``).
     """
-    from scipy.spatial import cKDTree
-
     scan_cap = cap if scan_cap is None else scan_cap
     V = problem.posed_numpy()[problem.body_ids]
     d1 = capped_distances(problem.tree, V, cap)
-    d2 = capped_distances(cKDTree(V), problem.P, scan_cap)
+    d2 = capped_distances(NearestTree(V), problem.P, scan_cap)
     return float(d1.mean() + d2.mean())
 
 

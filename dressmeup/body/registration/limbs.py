@@ -33,6 +33,7 @@ import math
 import numpy as np
 
 from dressmeup.body.registration.init import capped_distances
+from dressmeup.geometry.neighbors import NearestTree
 
 logger = logging.getLogger(__name__)
 
@@ -75,7 +76,7 @@ class LimbScorer:
 
     Parameters
     ----------
-    P : (p, 3) scan points; tree : their k-d tree.
+    P : (p, 3) scan points; tree : their nearest-point index (``NearestTree`` or ``cKDTree``).
     Vb : (b, 3) the body points scored (the problem's ``body_ids`` subset), current pose.
     limb_up, limb_lo : (b,) bool, points moving with the upper / lower limb bone.
     J_up, J_lo : (3,) current positions of the upper and lower joint.
@@ -85,14 +86,12 @@ class LimbScorer:
 
     def __init__(self, P, tree, Vb, limb_up, limb_lo, J_up, J_lo, cap: float = 0.1,
                  scan_cap: float | None = None):
-        from scipy.spatial import cKDTree
-
         scan_cap = cap if scan_cap is None else scan_cap
         self.tree, self.cap, self.scan_cap = tree, cap, scan_cap
         rest = ~(limb_up | limb_lo)
         self.n_b, self.n_p = len(Vb), len(P)
         self.const_body = float(capped_distances(tree, Vb[rest], cap).sum())
-        d_rest = capped_distances(cKDTree(Vb[rest]), P, scan_cap)
+        d_rest = capped_distances(NearestTree(Vb[rest]), P, scan_cap)
         self.J_up, self.J_lo = np.asarray(J_up, np.float64), np.asarray(J_lo, np.float64)
         self.X_up = Vb[limb_up] - self.J_up
         self.X_lo = Vb[limb_lo] - self.J_lo
@@ -111,8 +110,6 @@ class LimbScorer:
     def score(self, M_up: np.ndarray, M_lo: np.ndarray) -> float:
         """Symmetric capped distance (m) with the limb moved (same value as
         ``symmetric_score`` for the identity, up to the skinning blend near the joints)."""
-        from scipy.spatial import cKDTree
-
         X = self.points(M_up, M_lo)
         b = float(capped_distances(self.tree, X, self.cap).sum())
         # Only a scan point nearer the limb's bounding box than to the rest of the body can
@@ -123,8 +120,8 @@ class LimbScorer:
         near = gap < self.d_near + 1e-9
         d = self.d_near.copy()
         if near.any():
-            d_limb, _ = cKDTree(X).query(self.P_near[near], k=1,
-                                         distance_upper_bound=self.scan_cap, workers=1)
+            d_limb, _ = NearestTree(X).query(self.P_near[near],
+                                             distance_upper_bound=self.scan_cap)
             d[near] = np.minimum(d[near], d_limb)
         return (self.const_body + b) / self.n_b + (self.const_scan + float(d.sum())) / self.n_p
 
@@ -157,7 +154,7 @@ def unexplained_groups(P: np.ndarray, V: np.ndarray, gap: float = 0.05, link: fl
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    d = capped_distances(cKDTree(V), P, gap)
+    d = capped_distances(NearestTree(V), P, gap)
     far = P[d >= gap]
     if len(far) < min_points:
         return []

@@ -24,6 +24,7 @@ from dressmeup.body.registration.terms import (
     pose_prior,
 )
 from dressmeup.body.skeleton import PHENOTYPE_NAMES
+from dressmeup.geometry.neighbors import NearestTree
 
 
 def joint_skin_mask(model, joints, threshold: float = 0.5) -> np.ndarray:
@@ -74,7 +75,8 @@ def loose_cloth_mask(P: np.ndarray, B: np.ndarray, outside: np.ndarray, cloth_ma
     P : (p, 3) scan points (m); B : (p, 3) the nearest body point of each.
     outside : (p,) bool, the scan point lies outside the body (signed residual < 0).
     cloth_max : gap (m) up to which every scan point pulls.
-    tree : k-d tree of ``P`` (``scipy.spatial.cKDTree``).
+    tree : nearest-point index of ``P`` (:class:`~dressmeup.geometry.neighbors.NearestTree`
+        or a ``scipy.spatial.cKDTree``).
     """
     t = LOOSE_CLOTH_TEST
     D = B - P
@@ -110,13 +112,12 @@ class FitProblem:
 
     def __init__(self, opts, model, P: np.ndarray, kp):
         import torch
-        from scipy.spatial import cKDTree
 
         self.opts, self.model, self.P, self.kp = opts, model, P, kp
         self.dev = torch.device(opts.device)
         self.dt = torch.float32
         dev, dt = self.dev, self.dt
-        self.tree = cKDTree(P)
+        self.tree = NearestTree(P)
         self.P_t = torch.as_tensor(P, dtype=dt, device=dev)
         self.loose = None  # (p,) weights of the scan points, 0 for loose cloth
         self.far_cloth_on = opts.far_cloth_from == "start"  # the optimizer switches it on
@@ -323,7 +324,6 @@ class FitProblem:
         pull of the temporary size scale back to 1 (unless the scale is fitted).
         """
         import torch
-        from scipy.spatial import cKDTree
 
         o = self.opts
         shape = self.shape_value() if self.shape_moves else self.shape_value().detach()
@@ -338,10 +338,10 @@ class FitProblem:
             Nb = Nb / (Nb.norm(dim=-1, keepdim=True) + 1e-12)
             Vb_np = Vb.detach().cpu().numpy()
             if not self.freeze or self.nn_b2s is None:
-                _, nn_b2s = self.tree.query(Vb_np, k=1, workers=1)
+                _, nn_b2s = self.tree.query(Vb_np)
                 self.nn_b2s = torch.as_tensor(nn_b2s, device=self.dev)
             if self.nn_s2b is None or (not self.freeze and self.step % o.correspondence_every == 0):
-                _, nn = cKDTree(Vb_np).query(self.P, k=1, workers=1)
+                _, nn = NearestTree(Vb_np).query(self.P)
                 self.nn_s2b = torch.as_tensor(nn, device=self.dev)
         self.step += 1
         # body -> scan, signed along the body normal (> 0: body outside the scan)
