@@ -142,7 +142,7 @@ class NearestTree:
 
     The subset of ``scipy.spatial.cKDTree.query`` that registration's inner loops call every
     step (k = 1, an optional distance bound, one thread), answered by pykdtree when it is
-    installed (about twice as fast on registration's sizes, the same neighbours:
+    installed (about 1.6 times as fast per query on registration's sizes, the same neighbours:
     ``benchmarks/perf/nearest_tree.py``) and by scipy's cKDTree otherwise.
 
     Parameters

@@ -104,8 +104,9 @@ def kept_yaws(ranked: list[tuple[float, dict, float]], n_kept: int,
 
 def capped_distances(tree, X: np.ndarray, cap: float) -> np.ndarray:
     """(k,) distance (m) from each of ``X`` (k, 3) to its nearest point in ``tree`` (a
-    :class:`~dressmeup.geometry.neighbors.NearestTree` or a ``cKDTree``), capped at ``cap``: the same values as ``minimum(tree.query(X)[0], cap)``,
-    but the search stops at ``cap`` (a far limb's points cost a fraction of a full search)."""
+    :class:`~dressmeup.geometry.neighbors.NearestTree` or a ``cKDTree``), capped at ``cap``:
+    the same values as ``minimum(tree.query(X)[0], cap)``, but the search stops at ``cap``
+    (a far limb's points cost a fraction of a full search)."""
     d, _ = tree.query(X, k=1, distance_upper_bound=cap, workers=1)
     return np.minimum(d, cap)
 
