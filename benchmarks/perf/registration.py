@@ -15,7 +15,8 @@ floor in the scan: sitting + box, sitting + box + floor, a-pose + floor), ``tuni
 (the library's ``registration-tuning`` poses bowing and picking-up: bent torsos, legs
 upright, not the hard set's bending-forward), ``tuning-knee`` (the ``registration-tuning``
 poses stepping-up and lunge: one thigh raised, the shin hanging; not the hard set's
-one-knee-up), ``hard`` (the
+one-knee-up), ``tuning-partial`` (one side missing, naked and clothed, on tuning poses the
+``partial`` suite does not use: arms-raised, sitting, bowing, stepping-up), ``hard`` (the
 registration poses t-pose, wide-stance, sitting-box, arms-crossed, one-knee-up,
 bending-forward, never used for tuning), ``partial`` and ``legacy`` (the v2 scenarios). Reported per fit: mean vertex error, joint error, vertex
 error without the hands and on the hands (mm), worst per-part outside distance against the
@@ -38,6 +39,8 @@ import numpy as np
 TUNING_POSES = ("a-pose", "walking", "arms-raised", "sitting")
 BEND_TUNING_POSES = ("bowing", "picking-up")
 KNEE_TUNING_POSES = ("stepping-up", "lunge")
+#: partial tuning scans (one side missing): tuning poses the ``partial`` test suite does not use
+PARTIAL_TUNING_POSES = ("arms-raised", "sitting", "bowing", "stepping-up")
 HARD_POSES = ("t-pose", "wide-stance", "sitting-box", "arms-crossed", "one-knee-up",
               "bending-forward")
 LEGACY = ("standing", "walking", "sitting", "arms_raised")
@@ -61,6 +64,8 @@ def scenarios(suite: str) -> list[tuple[str, str, str]]:
             out += [(k, p, "") for p in BEND_TUNING_POSES for k in ("naked", "clothed")]
         elif s == "tuning-knee":
             out += [(k, p, "") for p in KNEE_TUNING_POSES for k in ("naked", "clothed")]
+        elif s == "tuning-partial":
+            out += [(k, p, "partial") for p in PARTIAL_TUNING_POSES for k in ("naked", "clothed")]
         elif s == "partial":
             out += [("naked", p, "partial") for p in ("a-pose", "t-pose", "walking")]
             out += [("clothed", "wide-stance", "partial")]
@@ -68,7 +73,7 @@ def scenarios(suite: str) -> list[tuple[str, str, str]]:
             out += [(k, p, "legacy") for p in LEGACY for k in ("naked", "clothed")]
         elif s:
             raise SystemExit(f"--suite: unknown {s!r} (tuning, tuning-support, tuning-bend, "
-                             "tuning-knee, hard, partial, legacy)")
+                             "tuning-knee, tuning-partial, hard, partial, legacy)")
     return out
 
 
@@ -76,7 +81,7 @@ def scenarios(suite: str) -> list[tuple[str, str, str]]:
 #: (seed) whatever ``--suite`` list it is run in; these offsets reproduce the bodies of the
 #: first published runs (hard and tuning were run alone, partial after tuning).
 SEED_OFFSET = {"tuning": 0, "hard": 0, "partial": 8, "legacy": 0, "tuning-support": 100,
-               "tuning-bend": 200, "tuning-knee": 300}
+               "tuning-bend": 200, "tuning-knee": 300, "tuning-partial": 400}
 
 
 def scenario_seed(kind: str, pose: str, variant: str, subject: int) -> int:
@@ -129,7 +134,7 @@ def main() -> None:
     parser.add_argument("--model", default="anny")
     parser.add_argument("--suite", default="tuning,hard,partial",
                         help="comma list of tuning, tuning-support, tuning-bend, "
-                        "tuning-knee, hard, partial, legacy")
+                        "tuning-knee, tuning-partial, hard, partial, legacy")
     parser.add_argument("--subjects", type=int, default=2, help="random bodies per scenario")
     parser.add_argument("--first-subject", type=int, default=0,
                         help="index of the first body (subjects first..first+subjects-1), e.g. "

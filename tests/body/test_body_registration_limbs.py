@@ -199,6 +199,75 @@ def test_unseen_body_points_carry_no_body_to_scan_cost():
     assert unseen_free_weights(normals, nn_b2s, nn_s2b).tolist() == [1.0, 1.0, 0.0, 0.0]
 
 
+def test_unseen_body_points_need_a_scan_point_nearby_with_the_hit_test():
+    import torch
+
+    from dressmeup.body.registration.problem import body_neighbourhoods, unseen_free_weights
+
+    # five body points in a row, 1 cm apart, all facing +z; the scan's two points both map
+    # to body point 0: with a 1.5 cm neighbourhood, points 0 and 1 are seen, 2-4 are not
+    rest = np.c_[np.arange(5) * 0.01, np.zeros(5), np.zeros(5)]
+    nbrs = body_neighbourhoods(rest, 0.015, most=4)
+    assert nbrs.shape == (5, 4)
+    for i in range(5):  # brute force: itself and the points within 1.5 cm, padded with 5
+        near = set(np.flatnonzero(np.abs(rest[:, 0] - rest[i, 0]) <= 0.015))
+        assert set(nbrs[i]) - {5} == near
+    normals = torch.tensor([[0, 0, 1.0]] * 5)
+    nn_b2s, nn_s2b = torch.zeros(5, dtype=torch.long), torch.tensor([0, 0])
+    assert unseen_free_weights(normals, nn_b2s, nn_s2b).tolist() == [1.0] * 5
+    assert unseen_free_weights(normals, nn_b2s, nn_s2b, torch.as_tensor(nbrs)).tolist() == [
+        1.0, 1.0, 0.0, 0.0, 0.0]
+
+
+def test_hit_test_acts_in_the_shape_stage_only(model):
+    """On a scan without its front, the pose stage's data term is the same with and without
+    the hit test (bit for bit: the start's searches and the pose stage need the pull of far
+    body points), the shape stage's is lower with it (the freed points carry no cost)."""
+    import torch
+
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=np.zeros((model.n_joints, 3)))
+    scan = synthetic_scan(model, truth, n_points=8000, noise=0.0, seed=3, missing_side=(0, 0, 1))
+    terms = {}
+    for radius in (None, 0.03):
+        problem = _problem(model, scan, unseen_hit_radius=radius)
+        problem.set_params(shape=truth.shape, transl=(0.0, 0.0, 0.02))
+        for stage in ("pose", "shape"):
+            problem.reset_correspondences()
+            problem.stage_steps, problem.step = 1, 0
+            with torch.no_grad():
+                terms[radius, stage] = problem.loss(stage)[1]["data"]
+    assert terms[0.03, "pose"] == terms[None, "pose"]
+    assert terms[0.03, "shape"] < 0.9 * terms[None, "shape"]
+
+
+def test_hit_test_frees_the_missing_side_near_the_cut_edge(model):
+    """A scan without its front (the surface facing +z), the body at the truth: the facing
+    test keeps body points of the missing front pulling (their nearest scan points lie on
+    the cut edge, whose normals agree), the hit test frees them and keeps the seen back."""
+    import torch
+
+    from dressmeup.body.registration.problem import unseen_free_weights
+
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=np.zeros((model.n_joints, 3)))
+    scan = synthetic_scan(model, truth, n_points=8000, noise=0.0, seed=3, missing_side=(0, 0, 1))
+    weights = {}
+    for radius in (None, 0.03):
+        problem = _problem(model, scan, unseen_hit_radius=radius)
+        problem.set_params(shape=truth.shape)
+        with torch.no_grad():
+            problem.loss("pose")
+            out = model.forward(problem.shape_value()[None], problem.pose[None],
+                                problem.transl[None], vertex_ids=problem.body_ids_t)
+            Rb = torch.einsum("kj,jab->kab", problem.W_sub, out.transforms[0, :, :3, :3])
+            Nb = (Rb @ problem.rest_normals[..., None])[..., 0].numpy()
+            weights[radius] = unseen_free_weights(torch.as_tensor(Nb), problem.nn_b2s,
+                                                  problem.nn_s2b, problem.neighbourhoods).numpy()
+    front, back = Nb[:, 2] > 0.6, Nb[:, 2] < -0.2  # missing (well inside), seen
+    assert weights[None][front].mean() > 0.05  # the facing test alone keeps some pulling
+    assert weights[0.03][front].mean() < 0.5 * weights[None][front].mean()
+    assert weights[0.03][back].mean() > 0.95 * weights[None][back].mean()
+
+
 def test_auto_route_lets_the_better_start_win(model, monkeypatch):
     # detected keypoints compete with the hypothesis search: right ones may win, keypoints
     # a metre off must lose (detection is replaced so the test needs no mediapipe)
@@ -573,6 +642,10 @@ def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):
             OptimizationRegistrar(limb_first_knee_bends=bad).fit(np.zeros((100, 3)), model)
     for good in ([0, 50], np.array([0, 50, 100]), (0.0, 179.5)):  # numpy numbers are fine
         OptimizationRegistrar(limb_first_knee_bends=good)._check_options()
+    for bad in (0, 1.5, "0.03", float("nan"), True):
+        with pytest.raises(InputError, match="unseen_hit_radius: expected None or a distance"):
+            OptimizationRegistrar(unseen_hit_radius=bad).fit(np.zeros((100, 3)), model)
+    OptimizationRegistrar(unseen_hit_radius=np.float64(0.03))._check_options()
 
 
 def test_aimed_limb_search_finds_a_raised_knee(model, monkeypatch):

@@ -80,6 +80,14 @@ class OptimizationRegistrar:
     skip_unseen : leave out body -> scan pairs whose scan point lies on a surface of the body
         facing the other way (the scan did not see that part: a missing side, a hole);
         without it such points are pulled through the body onto the far side's scan.
+    unseen_hit_radius : a distance (m; default 0.03, about 1.5 times the spacing of the 5,000
+        body points, set a priori) or None (off): with ``skip_unseen``, a body point
+        also carries no body -> scan cost unless some scan point's nearest body point lies
+        within this distance of it (on the rest body), in the shape stage only (once the
+        pose has settled: earlier, the pull of far body points is what brings a misplaced
+        limb or torso to its scan). The facing test alone keeps the body
+        points of a missing side near the scan's cut edge pulling towards that edge (their
+        normals still agree with the edge's), which flattens the body on partial scans.
     pose_prior_weight, limit_weight, shape_weight, keypoint_weight : prior weights.
     n_scan_points, n_body_points : points used by the data term.
     correspondence_every : recompute scan-to-body nearest neighbours every this many steps.
@@ -190,6 +198,7 @@ class OptimizationRegistrar:
     far_cloth_branch: bool = True
     hand_weight: float = 1.0
     skip_unseen: bool = True
+    unseen_hit_radius: float | None = 0.03
     pose_prior_weight: float = 1e-2
     limit_weight: float = 1e-2
     shape_weight: float = 1e-4
@@ -336,6 +345,10 @@ class OptimizationRegistrar:
         def real(x) -> bool:  # a number (numpy's too), not a bool or a string; NaN compares False
             return isinstance(x, Real) and not isinstance(x, bool)
 
+        radius = self.unseen_hit_radius
+        if radius is not None and not (real(radius) and 0 < radius < 1):
+            raise InputError(f"unseen_hit_radius: expected None or a distance in metres in "
+                             f"(0, 1), got {radius!r}")
         if not (real(self.limb_scan_cap) and self.limb_scan_cap > 0):
             raise InputError(f"limb_scan_cap: expected a distance in metres > 0 (default 0.1), "
                              f"got {self.limb_scan_cap!r}")

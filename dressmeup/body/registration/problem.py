@@ -35,19 +35,49 @@ def joint_skin_mask(model, joints, threshold: float = 0.5) -> np.ndarray:
     return np.asarray(model.skinning_weights)[:, ids].sum(1) > threshold
 
 
-def unseen_free_weights(normals, nn_b2s, nn_s2b):
+def body_neighbourhoods(rest_points: np.ndarray, radius: float, most: int = 16) -> np.ndarray:
+    """(b, most) int64: for each body point, the indices of the body points within ``radius``
+    (m) of it on the rest body (itself included), padded with ``b`` (see
+    :func:`unseen_free_weights`).
+
+    Parameters
+    ----------
+    rest_points : (b, 3) the fit's body points on the rest body (m).
+    radius : neighbourhood radius (m); most : at most this many neighbours (the nearest).
+    """
+    from scipy.spatial import cKDTree
+
+    _, idx = cKDTree(rest_points).query(rest_points, k=min(most, len(rest_points)),
+                                        distance_upper_bound=radius, workers=1)
+    return np.asarray(idx, dtype=np.int64).reshape(len(rest_points), -1)
+
+
+def unseen_free_weights(normals, nn_b2s, nn_s2b, neighbourhoods=None):
     """(b,) float weights of the body -> scan pairs: 0 where the body point's nearest scan
     point belongs to a surface of the body facing the other way (its own nearest body
     point's normal opposes this point's), i.e. where the scan did not see this part of the
     body (a side the capture missed, a hole), else 1.
 
+    With ``neighbourhoods`` (:func:`body_neighbourhoods`), also 0 where no scan point has its
+    nearest body point in the body point's neighbourhood: no scan surface lies over it. This
+    frees the body points of a missing side near the scan's cut edge, whose normals agree with
+    the edge's and which the facing test keeps pulling towards it.
+
     Parameters
     ----------
     normals : (b, 3) body normals (torch); nn_b2s : (b,) scan index of each body point;
-    nn_s2b : (p,) body index of each scan point.
+    nn_s2b : (p,) body index of each scan point; neighbourhoods : None or (b, m) int64
+        torch indices into the body points, padded with b.
     """
-    facing = (normals * normals[nn_s2b[nn_b2s]]).sum(-1)
-    return (facing > 0).to(normals.dtype)
+    import torch
+
+    seen = (normals * normals[nn_s2b[nn_b2s]]).sum(-1) > 0
+    if neighbourhoods is not None:
+        hit = torch.zeros(len(normals) + 1, dtype=torch.bool, device=normals.device)
+        hit[nn_s2b] = True
+        hit[-1] = False
+        seen = seen & hit[neighbourhoods].any(1)
+    return seen.to(normals.dtype)
 
 
 #: Loose-cloth test (:func:`loose_cloth_mask`): samples every ``step`` m along the segment
@@ -159,6 +189,12 @@ class FitProblem:
         hand = joint_skin_mask(model, HAND_JOINTS)[self.body_ids]
         w = np.where(hand, float(opts.hand_weight), 1.0)
         self.point_weight = None if np.all(w == 1.0) else torch.as_tensor(w, dtype=dt, device=dev)
+        self.neighbourhoods = None  # (b, m) for the hit test of unseen body points
+        radius = opts.unseen_hit_radius
+        if radius is not None:
+            rest = np.asarray(model.posed(model.default_params()).vertices)[self.body_ids]
+            self.neighbourhoods = torch.as_tensor(body_neighbourhoods(rest, float(radius)),
+                                                  device=dev)
         self.distal: list[int] = []
 
         self.shape_z = torch.zeros(len(self.default_shape), dtype=dt, device=dev, requires_grad=True)
@@ -353,7 +389,8 @@ class FitProblem:
         w = self.point_weight
         wb = w
         if o.skip_unseen:  # body points the scan did not see carry no body -> scan cost
-            seen = unseen_free_weights(Nb.detach(), self.nn_b2s, self.nn_s2b)
+            seen = unseen_free_weights(Nb.detach(), self.nn_b2s, self.nn_s2b,
+                                       self.neighbourhoods if stage == "shape" else None)
             wb = seen if w is None else w * seen
         if self.core_only:  # rigid stage: torso, hips and head against the scan only
             pairs = ((r[self.core_t], d[self.core_t], None if wb is None else wb[self.core_t],
