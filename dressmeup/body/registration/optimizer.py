@@ -81,13 +81,13 @@ class OptimizationRegistrar:
         facing the other way (the scan did not see that part: a missing side, a hole);
         without it such points are pulled through the body onto the far side's scan.
     unseen_hit_radius : a distance (m; default 0.03, about 1.5 times the spacing of the 5,000
-        body points, set a priori) or None (off): with ``skip_unseen``, a body point
-        also carries no body -> scan cost unless some scan point's nearest body point lies
-        within this distance of it (on the rest body), in the shape stage only (once the
-        pose has settled: earlier, the pull of far body points is what brings a misplaced
-        limb or torso to its scan). The facing test alone keeps the body
-        points of a missing side near the scan's cut edge pulling towards that edge (their
-        normals still agree with the edge's), which flattens the body on partial scans.
+        body points, set a priori) or None (off): with ``skip_unseen``, a body point also
+        carries no body -> scan cost unless some scan point's nearest body point lies within
+        this distance of it (on the rest body), in the shape stage only (once the pose has
+        settled: earlier, the pull of far body points is what brings a misplaced limb or
+        torso to its scan). The facing test alone keeps the body points of a missing side
+        near the scan's cut edge pulling towards that edge (their normals still agree with
+        the edge's), which flattens the body on partial scans.
     pose_prior_weight, limit_weight, shape_weight, keypoint_weight : prior weights.
     n_scan_points, n_body_points : points used by the data term.
     correspondence_every : recompute scan-to-body nearest neighbours every this many steps.

@@ -74,8 +74,7 @@ def unseen_free_weights(normals, nn_b2s, nn_s2b, neighbourhoods=None):
     seen = (normals * normals[nn_s2b[nn_b2s]]).sum(-1) > 0
     if neighbourhoods is not None:
         hit = torch.zeros(len(normals) + 1, dtype=torch.bool, device=normals.device)
-        hit[nn_s2b] = True
-        hit[-1] = False
+        hit[nn_s2b] = True  # hit[b], the padding, stays False
         seen = seen & hit[neighbourhoods].any(1)
     return seen.to(normals.dtype)
 
@@ -389,6 +388,7 @@ class FitProblem:
         w = self.point_weight
         wb = w
         if o.skip_unseen:  # body points the scan did not see carry no body -> scan cost
+            # (the hit test only in the shape stage: see OptimizationRegistrar.unseen_hit_radius)
             seen = unseen_free_weights(Nb.detach(), self.nn_b2s, self.nn_s2b,
                                        self.neighbourhoods if stage == "shape" else None)
             wb = seen if w is None else w * seen
