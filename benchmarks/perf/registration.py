@@ -16,7 +16,9 @@ floor in the scan: sitting + box, sitting + box + floor, a-pose + floor), ``tuni
 upright, not the hard set's bending-forward), ``tuning-knee`` (the ``registration-tuning``
 poses stepping-up and lunge: one thigh raised, the shin hanging; not the hard set's
 one-knee-up), ``tuning-partial`` (one side missing, naked and clothed, on tuning poses the
-``partial`` suite does not use: arms-raised, sitting, bowing, stepping-up), ``hard`` (the
+``partial`` suite does not use: arms-raised, sitting, bowing, stepping-up), ``tuning-shape``
+(the tuning poses on adults at the ends of the phenotype: muscle, weight and height each
+near 0 or 1; the other suites draw every parameter from 0.2-0.8), ``hard`` (the
 registration poses t-pose, wide-stance, sitting-box, arms-crossed, one-knee-up,
 bending-forward, never used for tuning), ``partial`` and ``legacy`` (the v2 scenarios). Reported per fit: mean vertex error, joint error, vertex
 error without the hands and on the hands (mm), worst per-part outside distance against the
@@ -66,6 +68,8 @@ def scenarios(suite: str) -> list[tuple[str, str, str]]:
             out += [(k, p, "") for p in KNEE_TUNING_POSES for k in ("naked", "clothed")]
         elif s == "tuning-partial":
             out += [(k, p, "partial") for p in PARTIAL_TUNING_POSES for k in ("naked", "clothed")]
+        elif s == "tuning-shape":
+            out += [(k, p, "extreme") for p in TUNING_POSES for k in ("naked", "clothed")]
         elif s == "partial":
             out += [("naked", p, "partial") for p in ("a-pose", "t-pose", "walking")]
             out += [("clothed", "wide-stance", "partial")]
@@ -73,7 +77,7 @@ def scenarios(suite: str) -> list[tuple[str, str, str]]:
             out += [(k, p, "legacy") for p in LEGACY for k in ("naked", "clothed")]
         elif s:
             raise SystemExit(f"--suite: unknown {s!r} (tuning, tuning-support, tuning-bend, "
-                             "tuning-knee, tuning-partial, hard, partial, legacy)")
+                             "tuning-knee, tuning-partial, tuning-shape, hard, partial, legacy)")
     return out
 
 
@@ -81,7 +85,8 @@ def scenarios(suite: str) -> list[tuple[str, str, str]]:
 #: (seed) whatever ``--suite`` list it is run in; these offsets reproduce the bodies of the
 #: first published runs (hard and tuning were run alone, partial after tuning).
 SEED_OFFSET = {"tuning": 0, "hard": 0, "partial": 8, "legacy": 0, "tuning-support": 100,
-               "tuning-bend": 200, "tuning-knee": 300, "tuning-partial": 400}
+               "tuning-bend": 200, "tuning-knee": 300, "tuning-partial": 400,
+               "tuning-shape": 500}
 
 
 def scenario_seed(kind: str, pose: str, variant: str, subject: int) -> int:
@@ -94,8 +99,9 @@ def scenario_seed(kind: str, pose: str, variant: str, subject: int) -> int:
 
 
 def _search_label(info: dict) -> str:
-    """What the limb searches moved (after the start; ``again``: after the pose stage), and
-    which far-cloth branch went on when it was not the pulling one."""
+    """What the limb searches moved (after the start; ``again``: after the pose stage),
+    which far-cloth branch went on when it was not the pulling one, and which start of the
+    shape search when not the fitted body (with the shape objectives, fitted -> kept)."""
     out = ""
     for key, label in ((None, " + limbs "), ("limbs_after_pose", " + limbs again ")):
         search = info if key is None else info.get(key) or {}
@@ -104,6 +110,10 @@ def _search_label(info: dict) -> str:
     kept = (info.get("far_cloth_branches") or {}).get("kept", "pull")
     if kept != "pull":
         out += f" + far cloth {kept} branch"
+    shapes = info.get("shape_search") or {}
+    if shapes.get("kept", "fitted") != "fitted":
+        out += (f" + shape {shapes['kept']} ({shapes['fitted']:.3f} -> "
+                f"{shapes[shapes['kept']]:.3f})")
     return out
 
 
@@ -116,6 +126,11 @@ def make_truth(model, pose_name: str, variant: str, rng):
 
     shape = rng.uniform(0.2, 0.8, model.shape_dim) if model.shape_dim == 6 else \
         rng.normal(0, 1, model.shape_dim)
+    if variant == "extreme" and model.shape_dim == 6:  # an adult at the ends of muscle,
+        # weight and height (each near 0 or 1), any gender, age 0.45-0.95
+        ends = rng.choice((0.04, 0.96), 3) + rng.uniform(-0.04, 0.04, 3)
+        shape = np.array([rng.uniform(0, 1), rng.uniform(0.45, 0.95), *ends,
+                          rng.uniform(0.4, 0.6)])
     yaw = rng.uniform(-np.pi, np.pi)
     if variant == "legacy":
         pose = named_pose(pose_name, yaw=rng.uniform(-0.4, 0.4))
@@ -134,7 +149,7 @@ def main() -> None:
     parser.add_argument("--model", default="anny")
     parser.add_argument("--suite", default="tuning,hard,partial",
                         help="comma list of tuning, tuning-support, tuning-bend, "
-                        "tuning-knee, tuning-partial, hard, partial, legacy")
+                        "tuning-knee, tuning-partial, tuning-shape, hard, partial, legacy")
     parser.add_argument("--subjects", type=int, default=2, help="random bodies per scenario")
     parser.add_argument("--first-subject", type=int, default=0,
                         help="index of the first body (subjects first..first+subjects-1), e.g. "

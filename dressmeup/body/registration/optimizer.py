@@ -159,6 +159,14 @@ class OptimizationRegistrar:
         (51.0 -> 61.4; a kept move re-runs the shape stage), which the held-shape steps of
         the same session paid back (52.5, same fits; docs/body-models.md, "Session 15" and
         "Session 16").
+    shape_search : fits without ``init``: after the final limb search, restart the shape
+        from phenotype starts as tall as the fitted body (:mod:`.shapes`; one per gender,
+        the height parameter solved for the stature), each followed by half a pose stage and
+        the shape stage, and keep the body whose shape objective is lowest (the fitted one
+        included). The size handover can reach a tall or short scan's size by the wrong
+        parameters (age, muscle), and the shape stage does not leave that basin (session
+        20: a 2.08 m woman 26.7 -> 11.5 mm). Phenotype models only; about two pose-and-
+        shape stages more CPU (docs/body-models.md, "Session 20").
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
         ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (with the extra both
@@ -227,6 +235,7 @@ class OptimizationRegistrar:
     limb_search_after_pose: bool = True
     limb_aim: str = "all"
     limb_search_final: bool = True
+    shape_search: bool = True
     init_route: str = "hypotheses"
     keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
@@ -510,6 +519,44 @@ class OptimizationRegistrar:
             return {}
         return {f"final_{k}": x for k, x in self._shape_stage(p, False)[0].items()}
 
+    def _shape_search(self, p: FitProblem, info: dict | None) -> dict[str, float]:
+        """``shape_search``: from the finished body, each stature-matched shape
+        (:func:`~dressmeup.body.registration.shapes.stature_matched_shapes`) with the body's
+        centroid kept, half a pose stage and the shape stage; the body with the lowest
+        shape objective stays in ``p``. ``info["shape_search"]``: the objective of each start
+        (``"fitted"`` and ``"gender <g> height <h>"``) and the one kept; returns the kept
+        start's loss terms, prefixed ``search_`` (none when the fitted body stays)."""
+        import torch
+
+        from dressmeup.body.registration.shapes import I_GENDER, I_HEIGHT, stature_matched_shapes
+
+        starts = stature_matched_shapes(p.model, p.body_params(False).shape)
+        if not starts:
+            return {}
+        fitted = p.snapshot()
+        best = (p.objective("shape"), "fitted", fitted, {})
+        scores = {"fitted": round(best[0], 4)}
+        for shape in starts:
+            p.restore(fitted)
+            centroid = p.posed_numpy()[p.body_ids].mean(0)
+            p.set_params(shape=shape)
+            with torch.no_grad():
+                moved = p.posed_numpy()[p.body_ids].mean(0)
+                p.transl.add_(torch.as_tensor(centroid - moved, dtype=p.dt, device=p.dev))
+            losses = {f"pose_{k}": x for k, x in run_adam(
+                p, "pose", self.iterations[1] // 2, [p.pose, p.transl],
+                [self.lr_pose, self.lr_transl], verbose=self.verbose).items()}
+            losses.update(self._shape_stage(p, False)[0])
+            name = f"gender {shape[I_GENDER]:.0f} height {shape[I_HEIGHT]:.2f}"
+            scores[name] = round(p.objective("shape"), 4)
+            if scores[name] < best[0]:
+                best = (scores[name], name, p.snapshot(), losses)
+        p.restore(best[2])
+        scores["kept"] = best[1]
+        if info is not None:
+            info["shape_search"] = scores
+        return {f"search_{k}": x for k, x in best[3].items()}
+
     def _refine(self, problem: FitProblem, fit_size: bool, info: dict | None = None,
                 limbs_again: bool = False) -> dict[str, float]:
         """Global (rigid, core joints), pose, (``limbs_again`` and the options
@@ -517,8 +564,8 @@ class OptimizationRegistrar:
         ``info["limbs_after_pose"]``), size handover and shape stages (with
         ``far_cloth_branch`` all of them after the global stage twice, see
         :meth:`_far_cloth_branches`; the objectives into ``info["far_cloth_branches"]``),
-        (``limb_search_final``: :meth:`_final_limb_search`), then the optional L-BFGS
-        rounds."""
+        (``limb_search_final``: :meth:`_final_limb_search`), (``shape_search``:
+        :meth:`_shape_search`, fits without ``init``), then the optional L-BFGS rounds."""
         n_global, n_pose, _ = self.iterations
         p = problem
         losses: dict[str, float] = {}
@@ -547,6 +594,8 @@ class OptimizationRegistrar:
             info["limbs_after_pose"] = again
         if limbs_again and self.limb_search and self.limb_search_final:
             losses.update(self._final_limb_search(p, info))
+        if limbs_again and self.shape_search:
+            losses.update(self._shape_search(p, info))
         losses.update({f"refine_{k}": x for k, x in run_lbfgs(
             p, self.refine_rounds, shape_params, self.lbfgs_steps, verbose=self.verbose).items()})
         return losses

@@ -1,0 +1,64 @@
+"""Shape hypotheses: phenotype starts of the same stature, for the final shape search.
+
+The size handover (:meth:`~dressmeup.body.registration.problem.FitProblem.scale_into_shape`)
+turns the start's uniform scale into a shape by matching a uniformly scaled average body.
+A phenotype model's tall or short bodies are not scaled average bodies (a tall body's legs
+are longer for its size), so the handover can reach a tall scan's size by age and muscle
+instead of height, and the shape stage then stays there, the legs too short for the scan
+and the ankles stretched to make up for it (session 20: a 2.08 m woman fitted 26.7 mm
+off). The search (``OptimizationRegistrar.shape_search``) restarts the shape from the
+shapes below and keeps the one whose settled body fits the scan best.
+
+Only for phenotype models (shape names :data:`~dressmeup.body.skeleton.PHENOTYPE_NAMES`:
+gender, age, muscle, weight, height, proportions, each in [0, 1]); other models get no
+hypotheses. Stature is the rest body's extent along the model's up axis (y).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dressmeup.body.skeleton import PHENOTYPE_NAMES
+
+#: the two sexes of a phenotype model's gender parameter, one start each
+GENDERS = (0.0, 1.0)
+#: where gender and height sit in a phenotype shape vector
+I_GENDER, I_HEIGHT = PHENOTYPE_NAMES.index("gender"), PHENOTYPE_NAMES.index("height")
+#: the height parameter is solved within these bounds (the fit's sigmoid never reaches 0 or 1)
+HEIGHT_RANGE = (0.02, 0.98)
+
+
+def stature(model, shape: np.ndarray) -> float:
+    """Extent (m) of ``model``'s rest body with ``shape`` (k,) along y."""
+    import torch
+
+    with torch.no_grad():
+        rest, _ = model.rest(torch.as_tensor(np.asarray(shape, np.float64))[None])
+    y = rest[0, :, 1]
+    return float(y.max() - y.min())
+
+
+def stature_matched_shapes(model, shape: np.ndarray, steps: int = 24) -> list[np.ndarray]:
+    """Phenotype starts as tall as the body with ``shape``: one per gender in
+    :data:`GENDERS`, each the model's default shape with that gender and the height
+    parameter solved by bisection (``steps`` halvings of :data:`HEIGHT_RANGE`; stature
+    grows with height) so the rest stature matches; clipped to the range when the stature
+    is out of reach. Returns a list of (k,) arrays; empty for a model without the
+    phenotype parameters."""
+    if tuple(getattr(model, "shape_names", ())) != PHENOTYPE_NAMES:
+        return []
+    target = stature(model, shape)
+    out = []
+    for gender in GENDERS:
+        start = np.asarray(model.default_shape, dtype=np.float64).copy()
+        start[I_GENDER] = gender
+        lo, hi = HEIGHT_RANGE
+        for _ in range(steps):
+            start[I_HEIGHT] = 0.5 * (lo + hi)
+            if stature(model, start) < target:
+                lo = start[I_HEIGHT]
+            else:
+                hi = start[I_HEIGHT]
+        start[I_HEIGHT] = 0.5 * (lo + hi)
+        out.append(start)
+    return out

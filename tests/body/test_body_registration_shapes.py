@@ -1,0 +1,103 @@
+"""Shape hypotheses (stature-matched phenotype starts) and the final shape search."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dressmeup.body import BodyParams, get_body_model
+from dressmeup.body.synthetic import synthetic_scan
+
+
+@pytest.fixture(scope="module")
+def model():
+    return get_body_model("procedural")
+
+
+def test_stature_grows_with_the_height_parameter(model):
+    """The bisection's premise, on the test body."""
+    from dressmeup.body.registration.shapes import I_HEIGHT, stature
+
+    statures = []
+    for h in np.linspace(0.02, 0.98, 7):
+        shape = np.full(6, 0.5)
+        shape[I_HEIGHT] = h
+        statures.append(stature(model, shape))
+    assert np.all(np.diff(statures) > 0)
+    # the procedural body's rest pose stands along y: its stature is its y extent
+    rest = model.posed(model.default_params()).vertices
+    assert stature(model, np.full(6, 0.5)) == pytest.approx(np.ptp(rest[:, 1]), abs=1e-9)
+
+
+def test_stature_matched_shapes_match_the_stature_per_gender(model):
+    from dressmeup.body.registration.shapes import (
+        GENDERS,
+        I_GENDER,
+        I_HEIGHT,
+        stature,
+        stature_matched_shapes,
+    )
+
+    body = np.array([0.9, 0.8, 0.9, 0.2, 0.6, 0.5])  # height reached partly by age and muscle
+    starts = stature_matched_shapes(model, body)
+    assert [s[I_GENDER] for s in starts] == list(GENDERS)
+    for s in starts:
+        assert stature(model, s) == pytest.approx(stature(model, body), abs=1e-4)
+        others = [i for i in range(6) if i not in (I_GENDER, I_HEIGHT)]
+        assert np.allclose(s[others], np.asarray(model.default_shape)[others])
+    # out of reach (taller than either gender gets at height 0.98): clipped, not extrapolated
+    tall = stature_matched_shapes(model, np.array([0.5, 1.0, 1.0, 1.0, 1.0, 1.0]))
+    assert [s[I_HEIGHT] for s in tall] == pytest.approx([0.98, 0.98], abs=1e-6)
+
+
+def test_no_shape_hypotheses_without_phenotype_parameters():
+    from dressmeup.body.registration.shapes import stature_matched_shapes
+
+    class Pca:  # a SMPL-like model: PCA betas, no phenotype names
+        shape_names = ()
+        default_shape = np.zeros(10)
+
+    assert stature_matched_shapes(Pca(), np.zeros(10)) == []
+
+
+def test_shape_search_keeps_the_lowest_objective(model):
+    """From a body with the wrong phenotype (the truth's stature reached by age and muscle
+    instead of height, the other gender), the search's starts run, the kept body has the
+    lowest shape objective of all starts, and it is not worse than the start."""
+    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    from dressmeup.body.registration.problem import FitProblem
+    from dressmeup.body.registration.scan import prepare_scan
+
+    truth = BodyParams("procedural", shape=np.array([1.0, 0.5, 0.3, 0.1, 0.95, 0.5]),
+                       pose=np.zeros((model.n_joints, 3)))
+    scan = synthetic_scan(model, truth, n_points=8000, noise=0.002, seed=1)
+    opts = OptimizationRegistrar(n_scan_points=3000, n_body_points=2000, verbose=False,
+                                 iterations=(20, 40, 40))
+    problem = FitProblem(opts, model, prepare_scan(scan, opts.n_scan_points, 0), None)
+    problem.set_params(shape=np.array([0.0, 0.9, 0.9, 0.5, 0.75, 0.5]))
+    before = problem.objective("shape")
+    info: dict = {}
+    opts._shape_search(problem, info)
+    scores = info["shape_search"]
+    assert len(scores) == 4 and "fitted" in scores
+    assert sorted(k.split(" height")[0] for k in scores if k.startswith("gender")) == [
+        "gender 0", "gender 1"]
+    assert scores["kept"] != "fitted"  # the wrong phenotype's basin is left
+    kept = scores["kept"]
+    assert scores[kept] == min(v for k, v in scores.items() if k != "kept")
+    assert problem.objective("shape") <= before + 1e-9
+    assert problem.objective("shape") == pytest.approx(scores[kept], rel=1e-3)
+
+
+def test_shape_search_option_off_leaves_no_trace(model):
+    """``shape_search=False``: the fit reports no search (and the option is a plain bool)."""
+    from dressmeup.body.registration import register
+
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=np.zeros((model.n_joints, 3)))
+    scan = synthetic_scan(model, truth, n_points=4000, noise=0.002, seed=2)
+    fast = dict(iterations=(10, 10, 10), hypotheses=("a-pose",), yaw_search=False,
+                limb_search=False, n_scan_points=2000, n_body_points=1000, verbose=False)
+    off = register(scan, model, return_result=True, shape_search=False, **fast)
+    on = register(scan, model, return_result=True, **fast)
+    assert "shape_search" not in off.info
+    assert on.info["shape_search"]["kept"] in on.info["shape_search"]
