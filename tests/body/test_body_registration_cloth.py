@@ -174,7 +174,7 @@ def test_far_cloth_branches_keep_the_lower_final_objective(skirt_scan, monkeypat
     monkeypatch.setattr(FitProblem, "objective", objective)
     fast = dict(iterations=(3, 8, 3), n_scan_points=1000, n_body_points=500, verbose=False,
                 hypotheses=("a-pose",), hypothesis_steps=(3, 3, 3), yaw_candidates=2,
-                hypothesis_yaws=1, limb_search=False, return_result=True)
+                hypothesis_yaws=1, limb_search=False, shape_search=False, return_result=True)
     res = register(scan, model, **fast)
     assert calls[1:] == [("pose", False), ("shape", True), ("pose", True), ("shape", True)]
     assert np.allclose(starts[0], starts[1])  # both branches start from the same body

@@ -482,7 +482,7 @@ def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, m
 @pytest.mark.parametrize("kept", [False, True])
 def test_final_limb_search_reruns_the_shape_stage_only_after_a_move(model, monkeypatch, kept):
     """The last limb search (``limb_search_final``) runs after the far-cloth branches; the
-    shape stage runs once more exactly when it kept a move."""
+    shape stage runs once more exactly when it kept a move; the shape search comes last."""
     import dressmeup.body.registration.optimizer as optimizer
     from dressmeup.body.registration import register
 
@@ -506,9 +506,10 @@ def test_final_limb_search_reruns_the_shape_stage_only_after_a_move(model, monke
                    iterations=(5, 5, 5), n_scan_points=800, n_body_points=600, verbose=False,
                    hypotheses=("a-pose",), hypothesis_steps=(2, 2, 2), yaw_candidates=2,
                    hypothesis_yaws=1)
-    # first search; per branch: second search, shape stage; the final search (+ shape)
+    # first search; per branch: second search, shape stage; the final search (+ shape); then
+    # the shape search (shape_search): one shape stage per stature-matched start
     assert calls == ["limbs", "limbs", "shape", "limbs", "shape", "limbs"] + \
-        (["shape"] if kept else [])
+        (["shape"] if kept else []) + ["shape", "shape"]
     assert res.info["limbs_final"]["limb_kept"] is kept
     assert any(k.startswith("final_") for k in res.losses) is kept
 
