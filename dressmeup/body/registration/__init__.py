@@ -12,7 +12,9 @@ axis-angle pose, translation and shape (``scale`` stays fixed, 1 by default):
 2. **pose**: all joint rotations and translation, shape at half rate; then (fits without
    ``init``) the limb-wise search once more from the settled body;
 3. **shape**: the temporary size scale handed over to the shape, then shape, pose and
-   translation together.
+   translation together;
+4. (fits without ``init``) the limb search from the finished body, then the **shape
+   search** (:mod:`.shapes`): stature-matched phenotype starts, the lowest objective kept.
 
 Before all this, flat support surfaces (floor, seat) are left out of the scan
 (:mod:`.support`).
@@ -27,7 +29,8 @@ joints. Registrars are looked up by name (:func:`get_registrar`): ``optimization
 Modules: :mod:`.scan` (inputs), :mod:`.support` (floor and seat surfaces left out of the
 scan), :mod:`.terms` (cost functions and constants),
 :mod:`.problem` (parameters + objective), :mod:`.stages` (optimiser loops), :mod:`.init`
-and :mod:`.hypotheses` (starting poses), :mod:`.limbs` (limb-wise search after the start),
+and :mod:`.hypotheses` (starting poses), :mod:`.limbs` (limb-wise search after the start), :mod:`.shapes` (shape starts of the
+final shape search),
 :mod:`.keypoints` (3D keypoints from a scan,
 optional ``[keypoints]`` extra), :mod:`.metrics` (fit quality without ground truth),
 :mod:`.optimizer` (the registrar).
