@@ -151,6 +151,9 @@ def _run_register(args: argparse.Namespace) -> int:
     start = result.info.get("init")
     sys.stdout.write(f"wrote {path} (model {model.name}, {result.seconds:.1f} s"
                      + (f"; start: {start}" if start else "") + ")\n")
+    restart = shape_restart_line(result.info)
+    if restart:
+        sys.stdout.write(restart + "\n")
     support = result.info.get("support") or {}
     if support.get("points_removed"):
         kinds = ", ".join(p["kind"] for p in support["planes"])
@@ -161,6 +164,19 @@ def _run_register(args: argparse.Namespace) -> int:
         _report_fit(model, result.params, scan, Path(path), picture=not args.no_picture,
                     seed=args.seed, supports=getattr(result, "supports", ()))
     return 0
+
+
+def shape_restart_line(info: dict) -> str:
+    """One line saying which start of the shape search replaced the fitted body's shape
+    (``info["shape_search"]`` of a fit), with the shape objectives; empty when the fitted
+    body stayed or no search ran."""
+    scores = info.get("shape_search") or {}
+    kept = scores.get("kept", "fitted")
+    if kept == "fitted" or kept not in scores:
+        return ""
+    return (f"shape search: restarted the shape as {kept} of the same stature (shape "
+            f"objective {scores['fitted']:.4g} -> {scores[kept]:.4g}; shape_search=False "
+            f"keeps the first fit's)")
 
 
 def _report_fit(model, params, scan, out: Path, picture: bool, seed: int,

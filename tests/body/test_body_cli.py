@@ -55,3 +55,15 @@ def test_register_command_errors(tmp_path, capsys):
     assert main(["register", str(tmp_path / "p.npy"), "--model", "procedural", "--naked",
                  "--clothed", "--out", str(tmp_path / "b.npz")]) == 2
     assert "exclude each other" in capsys.readouterr().err
+
+
+def test_shape_restart_line_names_the_kept_start():
+    from dressmeup.cli.body import shape_restart_line
+
+    info = {"shape_search": {"fitted": 2.3577, "gender 0 height 0.79": 2.3289,
+                             "gender 1 height 0.91": 1.9555, "kept": "gender 1 height 0.91"}}
+    line = shape_restart_line(info)
+    assert "gender 1 height 0.91" in line and "2.358 -> 1.956" in line
+    info["shape_search"]["kept"] = "fitted"
+    assert shape_restart_line(info) == ""
+    assert shape_restart_line({}) == ""
