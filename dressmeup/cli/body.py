@@ -175,8 +175,7 @@ def shape_restart_line(info: dict) -> str:
     if kept == "fitted" or kept not in scores:
         return ""
     return (f"shape search: restarted the shape as {kept} of the same stature (shape "
-            f"objective {scores['fitted']:.4g} -> {scores[kept]:.4g}; shape_search=False "
-            f"keeps the first fit's)")
+            f"objective {scores['fitted']:.4g} -> {scores[kept]:.4g})")
 
 
 def _report_fit(model, params, scan, out: Path, picture: bool, seed: int,

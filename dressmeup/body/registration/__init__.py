@@ -29,10 +29,9 @@ joints. Registrars are looked up by name (:func:`get_registrar`): ``optimization
 Modules: :mod:`.scan` (inputs), :mod:`.support` (floor and seat surfaces left out of the
 scan), :mod:`.terms` (cost functions and constants),
 :mod:`.problem` (parameters + objective), :mod:`.stages` (optimiser loops), :mod:`.init`
-and :mod:`.hypotheses` (starting poses), :mod:`.limbs` (limb-wise search after the start), :mod:`.shapes` (shape starts of the
-final shape search),
-:mod:`.keypoints` (3D keypoints from a scan,
-optional ``[keypoints]`` extra), :mod:`.metrics` (fit quality without ground truth),
+and :mod:`.hypotheses` (starting poses), :mod:`.limbs` (limb-wise search after the start),
+:mod:`.shapes` (starts of the final shape search), :mod:`.keypoints` (3D keypoints from a
+scan, optional ``[keypoints]`` extra), :mod:`.metrics` (fit quality without ground truth),
 :mod:`.optimizer` (the registrar).
 """
 

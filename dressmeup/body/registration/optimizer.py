@@ -165,8 +165,9 @@ class OptimizationRegistrar:
         the shape stage, and keep the body whose shape objective is lowest (the fitted one
         included). The size handover can reach a tall or short scan's size by the wrong
         parameters (age, muscle), and the shape stage does not leave that basin (session
-        20: a 2.08 m woman 26.7 -> 11.5 mm). Phenotype models only; about two pose-and-
-        shape stages more CPU (docs/body-models.md, "Session 20").
+        20: a 2.08 m woman 26.7 -> 12.8 mm; 16 tuning fits 9.21 -> 8.73 mm). Phenotype
+        models only; two pose-and-shape stages more, about 9 CPU-s a fit
+        (docs/body-models.md, "Session 20").
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
         ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (with the extra both
