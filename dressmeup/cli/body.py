@@ -51,6 +51,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="fit to the whole scan: by default large flat surfaces (the floor, a "
                    "seat's top and sides, a wall; at least 30 x 30 cm flat within 8 mm) are left "
                    "out before the fit and from the fit's distances")
+    p.add_argument("--up", choices=("x", "-x", "y", "-y", "z", "-z"),
+                   help="the scan's up axis (default y; a scan that does not look upright "
+                   "with y up is refused, naming this option; write a downward axis as "
+                   "--up=-z). The parameters are written in the scan's frame")
     p.add_argument("--no-picture", action="store_true",
                    help="do not write the picture of the fit (<out>.fit.png)")
     p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
@@ -129,6 +133,7 @@ def _run_register(args: argparse.Namespace) -> int:
         options["seed"] = args.seed
         options["init_route"] = args.init_route
         options["remove_support"] = not args.keep_support
+        options["up"] = args.up
         if args.iterations:
             try:
                 its = tuple(int(x) for x in args.iterations.split(","))
@@ -161,8 +166,13 @@ def _run_register(args: argparse.Namespace) -> int:
                          f"scan points on {len(support['planes'])} flat support surfaces "
                          f"({kinds}; --keep-support keeps them)\n")
     if scan is not None:
-        _report_fit(model, result.params, scan, Path(path), picture=not args.no_picture,
-                    seed=args.seed, supports=getattr(result, "supports", ()))
+        from dressmeup.body.registration.scan import rotate_scan, up_rotation
+        from dressmeup.body.rigid import rotate_params
+
+        R = up_rotation(args.up or "y")  # measured and pictured upright
+        _report_fit(model, rotate_params(result.params, model, R), rotate_scan(scan, R),
+                    Path(path), picture=not args.no_picture, seed=args.seed,
+                    supports=[s.rotated(R) for s in getattr(result, "supports", ())])
     return 0
 
 

@@ -8,19 +8,27 @@ import numpy as np
 import trimesh
 
 from dressmeup.body import BodyParams, get_body_model
+from dressmeup.body.registration.scan import up_rotation
+from dressmeup.body.rigid import rotate_params
 from dressmeup.body.synthetic import named_pose
 from dressmeup.cli import main
 
 
 def test_register_command(tmp_path, capsys):
+    """A z-up scan: refused without --up (the message names it), fitted with --up z in
+    the scan's frame."""
     model = get_body_model("procedural")
-    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=named_pose("standing"),
-                       transl=[0.0, 0.1, 0.0])
+    upright = BodyParams("procedural", shape=np.full(6, 0.5), pose=named_pose("standing"),
+                         transl=[0.0, 0.1, 0.0])
+    truth = rotate_params(upright, model, up_rotation("z").T)  # its up (+y) on +z
     scan = tmp_path / "scan.ply"
     trimesh.Trimesh(model.posed(truth).vertices, model.faces, process=False).export(scan)
     out = tmp_path / "body.npz"
-    assert main(["register", str(scan), "--model", "procedural", "--out", str(out),
-                 "--iterations", "10,40,20"]) == 0
+    args = ["register", str(scan), "--model", "procedural", "--out", str(out),
+            "--iterations", "10,40,20"]
+    assert main(args) == 2
+    assert "--up z" in capsys.readouterr().err and not out.exists()
+    assert main(args + ["--up", "z"]) == 0
     fit = BodyParams.load(out)
     assert fit.model == "procedural" and fit.pose.shape == (22, 3)
     err = np.linalg.norm(model.posed(fit).joints - model.posed(truth).joints, axis=1).mean()

@@ -20,8 +20,16 @@ from dressmeup.body.registration.init import (
 )
 from dressmeup.body.registration.limbs import FIRST_KNEE_BENDS, limb_search
 from dressmeup.body.registration.problem import FitProblem
-from dressmeup.body.registration.scan import keypoint_arrays, prepare_scan
+from dressmeup.body.registration.scan import (
+    check_upright,
+    keypoint_arrays,
+    prepare_scan,
+    rotate_keypoints,
+    rotate_scan,
+    up_rotation,
+)
 from dressmeup.body.registration.stages import run_adam, run_lbfgs
+from dressmeup.body.rigid import rotate_params
 
 logger = logging.getLogger(__name__)
 
@@ -189,6 +197,12 @@ class OptimizationRegistrar:
         floor, a seat's top and sides, a wall; :mod:`.support`), found on
         ``support_sample`` times ``n_scan_points`` samples; the fit then uses
         ``n_scan_points`` of the points left. A scan without such surfaces is unchanged.
+    up : the scan's up axis (``x``, ``-x``, ``y``, ``-y``, ``z``, ``-z``). Fits work with y
+        up: another axis turns the scan (and ``init``, keypoints) to y up for the fit and
+        the result back into the scan's frame (:func:`~dressmeup.body.rigid.rotate_params`).
+        ``None`` (default) means y, and refuses a scan (after support removal) whose y
+        extent is under half its largest, such as a standing person scanned z-up
+        (:func:`~dressmeup.body.registration.scan.check_upright`); ``"y"`` skips that check.
     """
 
     #: Options of earlier releases and what replaced them (named in the error for an
@@ -247,19 +261,30 @@ class OptimizationRegistrar:
     num_threads: int | None = 1
     remove_support: bool = True
     support_sample: int = 4
+    up: str | None = None
     verbose: bool = True
 
     def fit(self, scan, model, init: BodyParams | None = None, keypoints=None) -> RegistrationResult:
         """Fit ``model`` to ``scan``; see :func:`~dressmeup.body.registration.register`."""
         import torch
 
+        R = up_rotation(self.up or "y")  # a bad axis fails before any work
+        turned = self.up not in (None, "y")
+        if turned:
+            scan, keypoints = rotate_scan(scan, R), rotate_keypoints(keypoints, R)
+            init = None if init is None else rotate_params(init, model, R)
         previous = torch.get_num_threads()
         if self.num_threads:
             torch.set_num_threads(int(self.num_threads))
         try:
-            return self._fit(scan, model, init, keypoints)
+            result = self._fit(scan, model, init, keypoints)
         finally:
             torch.set_num_threads(previous)
+        if turned:  # back into the scan's frame
+            result.params = rotate_params(result.params, model, R.T)
+            result.supports = [plane.rotated(R.T) for plane in result.supports]
+            result.info["up"] = self.up
+        return result
 
     # ---------------------------------------------------------------- stages
     def _initialise(self, problem: FitProblem, init: BodyParams | None) -> dict:
@@ -405,6 +430,8 @@ class OptimizationRegistrar:
         supports, support_info = [], None
         if self.remove_support:
             P, supports, support_info = self._without_support(scan, P)
+        if self.up is None:
+            check_upright(P)
         detected = None
         if keypoints is None and init is None and self._use_keypoints():
             from dressmeup.body.registration.keypoints import detect_keypoints

@@ -74,6 +74,12 @@ class SupportPlane:
         out[np.flatnonzero(near)[hit]] = True
         return out
 
+    def rotated(self, R: np.ndarray) -> SupportPlane:
+        """This support in a frame rotated by ``R`` (3, 3): it holds ``points @ R.T`` of
+        the points it holds (the grid coordinates ``x . u`` are unchanged)."""
+        R = np.asarray(R, dtype=np.float64)
+        return replace(self, normal=R @ self.normal, basis=self.basis @ R.T)
+
     def summary(self, up=(0.0, 1.0, 0.0)) -> dict:
         """JSON-friendly description: orientation against ``up`` (horizontal: floor or seat
         top; vertical: a side or a wall), normal, offset (m), area (m^2), points."""
