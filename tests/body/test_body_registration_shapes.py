@@ -14,6 +14,22 @@ def model():
     return get_body_model("procedural")
 
 
+def _wrong_shape_problem(model, truth, start, seed):
+    """(registrar, FitProblem) on a scan of the rest body with shape ``truth``, the
+    problem's shape set to ``start``."""
+    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    from dressmeup.body.registration.problem import FitProblem
+    from dressmeup.body.registration.scan import prepare_scan
+
+    body = BodyParams("procedural", shape=np.array(truth), pose=np.zeros((model.n_joints, 3)))
+    scan = synthetic_scan(model, body, n_points=8000, noise=0.002, seed=seed)
+    opts = OptimizationRegistrar(n_scan_points=3000, n_body_points=2000, verbose=False,
+                                 iterations=(20, 40, 40))
+    problem = FitProblem(opts, model, prepare_scan(scan, opts.n_scan_points, 0), None)
+    problem.set_params(shape=np.array(start))
+    return opts, problem
+
+
 def test_stature_grows_with_the_height_parameter(model):
     """The bisection's premise, on the test body."""
     from dressmeup.body.registration.shapes import I_HEIGHT, stature
@@ -64,17 +80,8 @@ def test_shape_search_keeps_the_lowest_objective(model):
     """From a body with the wrong phenotype (the truth's stature reached by age and muscle
     instead of height, the other gender), the search's starts run, the kept body has the
     lowest shape objective of all starts, and it is not worse than the start."""
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
-    from dressmeup.body.registration.problem import FitProblem
-    from dressmeup.body.registration.scan import prepare_scan
-
-    truth = BodyParams("procedural", shape=np.array([1.0, 0.5, 0.3, 0.1, 0.95, 0.5]),
-                       pose=np.zeros((model.n_joints, 3)))
-    scan = synthetic_scan(model, truth, n_points=8000, noise=0.002, seed=1)
-    opts = OptimizationRegistrar(n_scan_points=3000, n_body_points=2000, verbose=False,
-                                 iterations=(20, 40, 40))
-    problem = FitProblem(opts, model, prepare_scan(scan, opts.n_scan_points, 0), None)
-    problem.set_params(shape=np.array([0.0, 0.9, 0.9, 0.5, 0.75, 0.5]))
+    opts, problem = _wrong_shape_problem(model, truth=[1.0, 0.5, 0.3, 0.1, 0.95, 0.5],
+                                         start=[0.0, 0.9, 0.9, 0.5, 0.75, 0.5], seed=1)
     before = problem.objective("shape")
     info: dict = {}
     opts._shape_search(problem, info)
@@ -101,3 +108,37 @@ def test_shape_search_option_off_leaves_no_trace(model):
     on = register(scan, model, return_result=True, **fast)
     assert "shape_search" not in off.info
     assert on.info["shape_search"]["kept"] in on.info["shape_search"]
+
+
+def test_build_grid_starts_match_the_stature_with_each_build(model):
+    from dressmeup.body.registration.shapes import (
+        BUILD_GRID,
+        GENDERS,
+        I_BUILD,
+        I_GENDER,
+        stature,
+        stature_matched_shapes,
+    )
+
+    body = np.array([0.3, 0.5, 0.7, 0.4, 0.5, 0.5])
+    starts = stature_matched_shapes(model, body, BUILD_GRID)
+    assert len(starts) == len(GENDERS) * len(BUILD_GRID) == 54
+    for i, s in enumerate(starts):  # gender first, then the builds in order
+        assert s[I_GENDER] == GENDERS[i // len(BUILD_GRID)]
+        assert tuple(s[I_BUILD]) == BUILD_GRID[i % len(BUILD_GRID)]
+        assert stature(model, s) == pytest.approx(stature(model, body), abs=1e-4)
+
+
+def test_shape_search_ranks_the_builds_and_starts_from_the_scan_s(model):
+    """A thin, unmuscular body fitted with the opposite build: each gender's start is the
+    build whose placed body fits the scan best, which for the truth's gender has the
+    truth's muscle and weight (proportions trade off with height); the search leaves the
+    wrong build."""
+    opts, problem = _wrong_shape_problem(model, truth=[1.0, 0.5, 0.0, 0.0, 0.5, 0.5],
+                                         start=[1.0, 0.5, 1.0, 1.0, 0.3, 0.5], seed=3)
+    info: dict = {}
+    opts._shape_search(problem, info)
+    scores = info["shape_search"]
+    names = [k for k in scores if k.startswith("gender 1")]
+    assert len(names) == 1 and " build 0.0 0.0 " in names[0], scores
+    assert scores["kept"] != "fitted"

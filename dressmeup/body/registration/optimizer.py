@@ -176,6 +176,10 @@ class OptimizationRegistrar:
         20: a 2.08 m woman 26.7 -> 12.8 mm; 16 tuning fits 9.21 -> 8.73 mm). Phenotype
         models only; two pose-and-shape stages more, about 9 CPU-s a fit
         (docs/body-models.md, "Session 20").
+    shape_search_builds : each gender's start of the shape search is the build (muscle,
+        weight, proportions each 0, 0.5 or 1: :data:`~.shapes.BUILD_GRID`), stature
+        matched, whose body fits the scan best placed in the fitted pose (shape objective,
+        no optimisation: 54 evaluations); ``False``: the average build (session 20).
     init_route : how a fit without ``init`` starts: ``"hypotheses"`` (the multi-hypothesis
         search), ``"keypoints"`` (3D keypoints detected on renders of the scan, needs the
         ``[keypoints]`` extra; see :mod:`.keypoints`), ``"auto"`` (with the extra both
@@ -251,6 +255,7 @@ class OptimizationRegistrar:
     limb_aim: str = "all"
     limb_search_final: bool = True
     shape_search: bool = True
+    shape_search_builds: bool = True
     init_route: str = "hypotheses"
     keypoint_refine_weight: float = 0.1
     optimize_scale: bool = False
@@ -556,26 +561,48 @@ class OptimizationRegistrar:
         start's loss terms, prefixed ``search_`` (none when the fitted body stays)."""
         import torch
 
-        from dressmeup.body.registration.shapes import I_GENDER, I_HEIGHT, stature_matched_shapes
+        from dressmeup.body.registration.shapes import (
+            BUILD_GRID,
+            DEFAULT_BUILD,
+            GENDERS,
+            I_BUILD,
+            I_GENDER,
+            I_HEIGHT,
+            stature_matched_shapes,
+        )
 
-        starts = stature_matched_shapes(p.model, p.body_params(False).shape)
-        if not starts:
+        builds = BUILD_GRID if self.shape_search_builds else (DEFAULT_BUILD,)
+        shapes = stature_matched_shapes(p.model, p.body_params(False).shape, builds)
+        if not shapes:
             return {}
         fitted = p.snapshot()
-        best = (p.objective("shape"), "fitted", fitted, {})
-        scores = {"fitted": round(best[0], 4)}
-        for shape in starts:
+        centroid = p.posed_numpy()[p.body_ids].mean(0)
+
+        def place(shape: np.ndarray) -> None:  # the fitted pose, the centroid kept
             p.restore(fitted)
-            centroid = p.posed_numpy()[p.body_ids].mean(0)
             p.set_params(shape=shape)
             with torch.no_grad():
                 moved = p.posed_numpy()[p.body_ids].mean(0)
                 p.transl.add_(torch.as_tensor(centroid - moved, dtype=p.dt, device=p.dev))
+
+        starts = []
+        for g in range(len(GENDERS)):  # each gender's build that fits the scan best as placed
+            ranked = []
+            for shape in shapes[g * len(builds):(g + 1) * len(builds)]:
+                place(shape)
+                ranked.append((p.objective("shape") if len(builds) > 1 else 0.0, shape))
+            starts.append(min(ranked, key=lambda r: r[0])[1])
+        p.restore(fitted)
+        best = (p.objective("shape"), "fitted", fitted, {})
+        scores = {"fitted": round(best[0], 4)}
+        for shape in starts:
+            place(shape)
             losses = {f"pose_{k}": x for k, x in run_adam(
                 p, "pose", self.iterations[1] // 2, [p.pose, p.transl],
                 [self.lr_pose, self.lr_transl], verbose=self.verbose).items()}
             losses.update(self._shape_stage(p, False)[0])
-            name = f"gender {shape[I_GENDER]:.0f} height {shape[I_HEIGHT]:.2f}"
+            name = f"gender {shape[I_GENDER]:.0f} height {shape[I_HEIGHT]:.2f}" + (
+                " build {:.1f} {:.1f} {:.1f}".format(*shape[I_BUILD]) if len(builds) > 1 else "")
             scores[name] = round(p.objective("shape"), 4)
             if scores[name] < best[0]:
                 best = (scores[name], name, p.snapshot(), losses)

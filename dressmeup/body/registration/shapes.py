@@ -7,7 +7,10 @@ are longer for its size), so the handover can reach a tall scan's size by age an
 instead of height, and the shape stage then stays there, the legs too short for the scan
 and the ankles stretched to make up for it (session 20: a 2.08 m woman fitted 26.7 mm
 off). The search (``OptimizationRegistrar.shape_search``) restarts the shape from the
-shapes below and keeps the one whose settled body fits the scan best.
+shapes below and keeps the one whose settled body fits the scan best; each gender's start
+is the build of :data:`BUILD_GRID` whose stature-matched body, placed in the fitted pose,
+fits best (``shape_search_builds``: a thin unmuscular adult had been fitted muscle 0.98,
+and the average build's start did not leave that basin either; session 21).
 
 Only for phenotype models (shape names :data:`~dressmeup.body.skeleton.PHENOTYPE_NAMES`:
 gender, age, muscle, weight, height, proportions, each in [0, 1]); other models get no
@@ -26,6 +29,14 @@ GENDERS = (0.0, 1.0)
 I_GENDER, I_HEIGHT = PHENOTYPE_NAMES.index("gender"), PHENOTYPE_NAMES.index("height")
 #: the height parameter is solved within these bounds (the fit's sigmoid never reaches 0 or 1)
 HEIGHT_RANGE = (0.02, 0.98)
+#: where muscle, weight and proportions (a body's build) sit in a phenotype shape vector
+I_BUILD = [PHENOTYPE_NAMES.index(n) for n in ("muscle", "weight", "proportions")]
+#: the model's average build
+DEFAULT_BUILD = (0.5, 0.5, 0.5)
+#: builds ranked for each gender by the shape search: muscle, weight and proportions each
+#: at an end or the middle of its range (27)
+BUILD_GRID = tuple((m, w, p) for m in (0.0, 0.5, 1.0) for w in (0.0, 0.5, 1.0)
+                   for p in (0.0, 0.5, 1.0))
 
 
 def stature(model, shape: np.ndarray) -> float:
@@ -38,27 +49,34 @@ def stature(model, shape: np.ndarray) -> float:
     return float(y.max() - y.min())
 
 
-def stature_matched_shapes(model, shape: np.ndarray, steps: int = 24) -> list[np.ndarray]:
-    """Phenotype starts as tall as the body with ``shape``: one per gender in
-    :data:`GENDERS`, each the model's default shape with that gender and the height
+def stature_matched_shapes(model, shape: np.ndarray, builds=(DEFAULT_BUILD,),
+                           steps: int = 24) -> list[np.ndarray]:
+    """Phenotype starts as tall as the body with ``shape``: for each gender in
+    :data:`GENDERS` and each build ``(muscle, weight, proportions)`` in ``builds`` (in
+    that order, gender first), the model's default shape with those values and the height
     parameter solved by bisection (``steps`` halvings of :data:`HEIGHT_RANGE`; stature
     grows with height) so the rest stature matches; clipped to the range when the stature
     is out of reach. Returns a list of (k,) arrays; empty for a model without the
     phenotype parameters."""
     if tuple(getattr(model, "shape_names", ())) != PHENOTYPE_NAMES:
         return []
+    import torch
+
     target = stature(model, shape)
-    out = []
-    for gender in GENDERS:
-        start = np.asarray(model.default_shape, dtype=np.float64).copy()
-        start[I_GENDER] = gender
-        lo, hi = HEIGHT_RANGE
-        for _ in range(steps):
-            start[I_HEIGHT] = 0.5 * (lo + hi)
-            if stature(model, start) < target:
-                lo = start[I_HEIGHT]
-            else:
-                hi = start[I_HEIGHT]
-        start[I_HEIGHT] = 0.5 * (lo + hi)
-        out.append(start)
-    return out
+    starts = np.repeat(np.asarray(model.default_shape, dtype=np.float64)[None],
+                       len(GENDERS) * len(builds), axis=0)
+    for i, (gender, build) in enumerate((g, b) for g in GENDERS for b in builds):
+        starts[i, I_GENDER] = gender
+        starts[i, I_BUILD] = build
+    lo = np.full(len(starts), HEIGHT_RANGE[0])
+    hi = np.full(len(starts), HEIGHT_RANGE[1])
+    for _ in range(steps):  # all starts at once: one batched rest body a step
+        starts[:, I_HEIGHT] = 0.5 * (lo + hi)
+        with torch.no_grad():
+            rest, _ = model.rest(torch.as_tensor(starts))
+        y = rest[:, :, 1]
+        short = (y.max(1).values - y.min(1).values).numpy() < target
+        lo = np.where(short, starts[:, I_HEIGHT], lo)
+        hi = np.where(short, hi, starts[:, I_HEIGHT])
+    starts[:, I_HEIGHT] = 0.5 * (lo + hi)
+    return list(starts)
