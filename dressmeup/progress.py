@@ -1,8 +1,17 @@
-"""Progress bars for long work (tqdm), silent when ``DRESSMEUP_NO_PROGRESS`` is set."""
+"""Progress for long work: a tqdm bar on a terminal (or in a notebook), a plain line now and
+then in a log; silent when ``DRESSMEUP_NO_PROGRESS`` is set.
+
+A bar redraws itself with carriage returns up to ten times a second. Written to a file or a
+pipe (``dressmeup demo > log 2>&1``, CI) every redraw stays in the log, so there the same
+work prints one complete line at most every :data:`LINE_INTERVAL_S` seconds and a closing
+line, and work that ends sooner prints nothing.
+"""
 
 from __future__ import annotations
 
 import os
+import sys
+import time
 from collections.abc import Iterable, Iterator
 from typing import TypeVar
 
@@ -10,19 +19,75 @@ from tqdm.auto import tqdm
 
 T = TypeVar("T")
 
+LINE_INTERVAL_S = 30.0
+"""Least time (s) between two progress lines when stderr is not a terminal."""
+
 
 def progress(iterable: Iterable[T], desc: str = "", total: int | None = None,
              disable: bool | None = None) -> Iterator[T]:
-    """Wrap ``iterable`` in a progress bar on stderr.
+    """Wrap ``iterable`` in progress reporting on stderr.
 
     Parameters
     ----------
     iterable : iterable to wrap.
-    desc : short label shown before the bar.
+    desc : short label shown before the bar or at the start of each line.
     total : number of items when ``iterable`` has no ``len``.
-    disable : force the bar off (default: off when ``DRESSMEUP_NO_PROGRESS`` is set).
+    disable : force reporting off (default: off when ``DRESSMEUP_NO_PROGRESS`` is set).
+
+    Returns
+    -------
+    An iterator over the same items: a tqdm bar when stderr is a terminal or in a notebook,
+    otherwise the timed lines of :func:`_log_lines`.
     """
     if disable is None:
         disable = bool(os.environ.get("DRESSMEUP_NO_PROGRESS"))
-    return iter(tqdm(iterable, desc=desc, total=total, disable=disable, leave=False,
-                     dynamic_ncols=True))
+    if disable:
+        return iter(iterable)
+    if _bar_wanted():
+        return iter(tqdm(iterable, desc=desc, total=total, leave=False, dynamic_ncols=True))
+    if total is None:
+        total = len(iterable) if hasattr(iterable, "__len__") else None
+    return _log_lines(iterable, desc, total)
+
+
+def _bar_wanted() -> bool:
+    """True when a redrawn bar reads well: stderr is a terminal, or tqdm found a notebook."""
+    if any(c.__module__ == "tqdm.notebook" for c in tqdm.__mro__):
+        return True
+    isatty = getattr(sys.stderr, "isatty", None)
+    return bool(isatty and isatty())
+
+
+def _log_lines(iterable: Iterable[T], desc: str, total: int | None) -> Iterator[T]:
+    """Yield the items of ``iterable``; after an item, print ``desc: k/total (p %), mm:ss
+    elapsed, ~mm:ss left`` when :data:`LINE_INTERVAL_S` has passed since the start or the
+    last line; at the end print ``desc: done, k items in mm:ss`` if any line was printed."""
+    t0 = last = time.monotonic()
+    printed = False
+    k = 0
+    for item in iterable:
+        yield item
+        k += 1
+        now = time.monotonic()
+        if now - last >= LINE_INTERVAL_S:
+            _write(_line(desc, k, total, now - t0))
+            printed, last = True, now
+    if printed:
+        _write(f"{desc}: done, {k} items in {tqdm.format_interval(time.monotonic() - t0)}")
+
+
+def _line(desc: str, k: int, total: int | None, elapsed: float) -> str:
+    """One progress line: items done (of ``total`` with a share and an estimate of the time
+    left when it is known) and the elapsed time (s, printed mm:ss)."""
+    spent = tqdm.format_interval(elapsed)
+    if not total:
+        return f"{desc}: {k} done, {spent} elapsed"
+    left = tqdm.format_interval(elapsed * max(total - k, 0) / k)
+    return f"{desc}: {k}/{total} ({100 * k / total:.0f} %), {spent} elapsed, ~{left} left"
+
+
+def _write(line: str) -> None:
+    """Print ``line`` on stderr at once (a log being followed shows it)."""
+    stream = sys.stderr
+    stream.write(line + "\n")
+    stream.flush()
