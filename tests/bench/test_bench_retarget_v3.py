@@ -67,8 +67,11 @@ def test_ground_truth_scores_zero(tiny, tmp_path):
     assert (table["status"] == "ok").all()
     assert set(table["track"]) == {"re-pose", "re-shape", "cross"}
     assert table[["chamfer", "ed"]].abs().max().max() == 0.0
-    # point-to-triangle distances of points on the triangle: float round-off (~1e-17 m)
-    assert table["p2s"].abs().max() < 1e-12
+    # point-to-triangle distances of points on the triangle: float round-off (~1e-17 m),
+    # except where open3d's float32 BVH picks a face other than the sample's (exact in
+    # float64 for the face picked): on an Intel Xeon's tiny data 1 sample of 20,000 was
+    # measured to a face 2.5e-8 m away, a mean of 1.3e-12 m (float32 rounding at 1 m: 6e-8)
+    assert table["p2s"].abs().max() < 1e-9
     assert np.allclose(table["nc"], 1.0, atol=1e-12)
     summary = json.loads((tmp_path / "res-gt" / "summary.json").read_text())
     assert summary.get("comparable", True) is not _other(ed, data)

@@ -34,7 +34,10 @@ open3d's float32 pick (``closest_points(..., exact_faces=True)``, new in 2.1.0: 
 the float32 pick decide, and another CPU's rounding changed the drapes); and every stored
 garment, body and scan vertex is rounded to 1e-6 m (one micrometre), so the data and their
 manifest do not depend on the thread count, the CPU's vector extensions or its float32
-rounding (see docs/synthetic-data.md, "Reproducibility").
+rounding (see docs/synthetic-data.md, "Reproducibility"). They still depend on the CPU's
+maker: two AMD EPYC machines write the pinned data, an Intel Xeon other data, and there
+MKL's code branch (which torch calls for float64 matmuls and elementwise functions even
+with its portable kernels) changes them; not fixed in 2.1.0.
 """
 
 from __future__ import annotations
