@@ -41,6 +41,10 @@ _INTEL_XEON = "an Intel Xeon with AVX-512 FP16 and AMX (generator 2.1.0, session
 KNOWN_OTHER_MANIFESTS: dict[str, dict[str, str]] = {
     "synth-retarget-tiny-v3": {
         "34c0776f17ea5daa548fa98851729f54812ffce801169470b6f376f3023bda6f": _INTEL_XEON},
+    "synth-retarget-mini-v3": {
+        "fd1e3a58e96c56847fe010efc5d4b3cbeedaa2b1f3de41c736be97332e0e0a9a": _INTEL_XEON},
+    "synth-registration-v3": {
+        "fd69a601935295ea4513489f8092f5c3777df23d512369b28837ad877006fe72": _INTEL_XEON},
 }
 
 

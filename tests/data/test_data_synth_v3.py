@@ -128,11 +128,15 @@ def test_tiny_does_not_depend_on_the_float32_rounding_of_closest_faces(tiny, tmp
 
 
 @pytest.mark.slow
-def test_mini_regenerates_identically(tmp_path):
+def test_mini_regenerates_identically(tmp_path, other_data):
     """The demo's edition (anny body): about 8 CPU minutes."""
     ed = "synth-retarget-mini-v3"
     expected = load_edition(ed).dataset.expected_manifest_sha256
-    assert _regenerate(ed, tmp_path / "mini", OTHER_MACHINE) == expected
+    got = _regenerate(ed, tmp_path / "mini", OTHER_MACHINE)
+    known = other_data(ed, tmp_path / "mini")  # an unknown manifest fails here
+    if known:  # a known reproducibility bug, reported as such (docs/synthetic-data.md)
+        pytest.xfail(f"this machine generates other data: {known}")
+    assert got == expected
 
 
 def test_generator_2_0_0_is_refused_with_the_reason(tmp_path):
