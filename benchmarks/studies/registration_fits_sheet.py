@@ -1,0 +1,105 @@
+"""Draw a registration run's fits on synth-registration-v3: one cell a scan, rows the poses,
+columns the subjects.
+
+    python benchmarks/studies/registration_fits_sheet.py --submission SUB --result RES \
+        --data DATA --out docs/images/registration/edition-fits-s22.png
+
+SUB is the submission folder of the run (``<sample_id>.npz`` body parameters), RES the
+folder ``dressmeup score`` wrote for it (``per_sample.parquet``: the captions' V2V), DATA
+the edition's data. Each cell shows the fitted body (grey; red where more than 15 mm
+outside the scan, as ``dressmeup register`` draws it) over the scan's surface samples
+(blue), seen from the front and the left side of the **true** body, so a fit facing
+backwards, with its arms down in a T-pose or standing in a sitting scan is plain to see.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+
+def _cell(sample, pred_path: Path, n_points: int = 12000) -> dict:
+    """What one cell draws: the fitted body (vertices (n, 3) m, faces), its per-vertex
+    distance outside the scan (mm), the scan samples (p, 3) m, and the true body's
+    facing (3,)."""
+    from scipy.spatial.transform import Rotation
+
+    from dressmeup.body import BodyParams, get_body_model
+    from dressmeup.body.registration.metrics import outside_distances_mm
+    from dressmeup.geometry.sampling import sample_surface
+
+    pred = BodyParams.load(pred_path)
+    model = get_body_model(pred.model)
+    V = np.asarray(model.posed(pred).vertices, np.float64)
+    F = np.asarray(model.faces, np.int64)
+    SV, SF = sample.scan()[:2]
+    P = sample_surface(np.asarray(SV, np.float64), np.asarray(SF, np.int64), n_points, seed=0)[0]
+    truth = sample.body()
+    forward = Rotation.from_rotvec(np.asarray(truth.pose)[0]).apply([0.0, 0.0, 1.0])
+    return {"V": V, "F": F, "outside": outside_distances_mm(V, F, P), "P": P,
+            "forward": forward}
+
+
+def draw(submission: str, result: str, data: str, out: str) -> Path:
+    """Write the sheet; returns its path."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from dressmeup.bench.results import load_result
+    from dressmeup.data import Dataset
+    from dressmeup.viz.contact_sheet import MeshLayer, draw_cell
+    from dressmeup.viz.figure import save_png
+    from dressmeup.viz.registration import BODY_RGB, OUTSIDE_RGB, SCAN_RGB
+
+    ds = Dataset(data)
+    man = ds.manifest.set_index("sample_id")
+    table = load_result(result).table.set_index("sample_id")
+    poses = sorted(man["pose_id"].unique())
+    subjects = sorted(man["subject_id"].unique())
+    fig, axes = plt.subplots(len(poses), 2 * len(subjects),
+                             figsize=(1.6 * 2 * len(subjects), 2.4 * len(poses)), squeeze=False)
+    up = np.array([0.0, 1.0, 0.0])
+    for sid in table.index:
+        r, c = poses.index(man.loc[sid, "pose_id"]), subjects.index(man.loc[sid, "subject_id"])
+        cell = _cell(ds[sid], Path(submission) / f"{sid}.npz")
+        colors = np.tile(np.asarray(BODY_RGB), (len(cell["F"]), 1))
+        colors[(cell["outside"][cell["F"]] > 15.0).all(1)] = OUTSIDE_RGB
+        fwd = cell["forward"] - (cell["forward"] @ up) * up
+        left = np.cross(up, fwd / max(np.linalg.norm(fwd), 1e-12))
+        pts = np.vstack([cell["V"], cell["P"]])
+        title = (f"{sid} {ds.info['poses'][man.loc[sid, 'pose_id']]}, "
+                 f"{man.loc[sid, 'garment_type']}: V2V {1000 * table.loc[sid, 'v2v']:.1f} mm")
+        for k, right in enumerate((left, np.cross(up, left))):  # front, then left side
+            xy = np.stack([pts @ right, pts @ up], 1)
+            lo, hi = xy.min(0), xy.max(0)
+            mid, half = (lo + hi) / 2, (hi - lo).max() / 2 * 1.05
+            ax = axes[r, 2 * c + k]
+            draw_cell(ax, [MeshLayer(cell["V"], cell["F"], face_colors=colors)], right, up,
+                      "", bounds=(mid[0] - half, mid[0] + half, mid[1] - half, mid[1] + half))
+            ax.scatter(cell["P"] @ right, cell["P"] @ up, s=0.2, c=[SCAN_RGB], alpha=0.2,
+                       linewidths=0)
+        axes[r, 2 * c].set_title(title, fontsize=6.5, loc="left")
+    fig.suptitle("fitted body (grey; red: > 15 mm outside the scan) over the scan (blue), "
+                 "front and left side of the true body", fontsize=8)
+    fig.tight_layout()
+    return save_png(fig, out, dpi=90)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--submission", required=True, help="the run's submission folder")
+    ap.add_argument("--result", required=True, help="its scored result folder")
+    ap.add_argument("--data", required=True, help="the edition's data folder")
+    ap.add_argument("--out", required=True, help="PNG to write")
+    args = ap.parse_args(argv)
+    sys.stdout.write(f"wrote {draw(args.submission, args.result, args.data, args.out)}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
