@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import os
 import sys
-import time
 from collections.abc import Iterable, Iterator
+from time import monotonic
 from typing import TypeVar
 
 from tqdm.auto import tqdm
@@ -62,18 +62,18 @@ def _log_lines(iterable: Iterable[T], desc: str, total: int | None) -> Iterator[
     """Yield the items of ``iterable``; after an item, print ``desc: k/total (p %), mm:ss
     elapsed, ~mm:ss left`` when :data:`LINE_INTERVAL_S` has passed since the start or the
     last line; at the end print ``desc: done, k items in mm:ss`` if any line was printed."""
-    t0 = last = time.monotonic()
+    t0 = last = monotonic()
     printed = False
     k = 0
     for item in iterable:
         yield item
         k += 1
-        now = time.monotonic()
+        now = monotonic()
         if now - last >= LINE_INTERVAL_S:
             _write(_line(desc, k, total, now - t0))
             printed, last = True, now
     if printed:
-        _write(f"{desc}: done, {k} items in {tqdm.format_interval(time.monotonic() - t0)}")
+        _write(f"{desc}: done, {k} items in {tqdm.format_interval(monotonic() - t0)}")
 
 
 def _line(desc: str, k: int, total: int | None, elapsed: float) -> str:

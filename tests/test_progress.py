@@ -29,7 +29,7 @@ def log(monkeypatch):
     """Returns a function giving a file-like log (not a terminal) as stderr; the clock
     advances 10 s at each reading."""
     clock = itertools.count(0.0, 10.0)
-    monkeypatch.setattr(progress_mod.time, "monotonic", lambda: next(clock))
+    monkeypatch.setattr(progress_mod, "monotonic", lambda: next(clock))
     return lambda: _stderr(monkeypatch, io.StringIO())
 
 
