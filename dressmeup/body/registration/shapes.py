@@ -39,14 +39,20 @@ BUILD_GRID = tuple((m, w, p) for m in (0.0, 0.5, 1.0) for w in (0.0, 0.5, 1.0)
                    for p in (0.0, 0.5, 1.0))
 
 
-def stature(model, shape: np.ndarray) -> float:
-    """Extent (m) of ``model``'s rest body with ``shape`` (k,) along y."""
+def statures(model, shapes: np.ndarray) -> np.ndarray:
+    """(b,) extents (m) along y of ``model``'s rest bodies with ``shapes`` (b, k): one
+    batched rest body."""
     import torch
 
     with torch.no_grad():
-        rest, _ = model.rest(torch.as_tensor(np.asarray(shape, np.float64))[None])
-    y = rest[0, :, 1]
-    return float(y.max() - y.min())
+        rest, _ = model.rest(torch.as_tensor(np.asarray(shapes, np.float64)))
+    y = rest[:, :, 1]
+    return (y.max(1).values - y.min(1).values).numpy()
+
+
+def stature(model, shape: np.ndarray) -> float:
+    """Extent (m) of ``model``'s rest body with ``shape`` (k,) along y."""
+    return float(statures(model, np.asarray(shape, np.float64)[None])[0])
 
 
 def stature_matched_shapes(model, shape: np.ndarray, builds=(DEFAULT_BUILD,),
@@ -60,8 +66,6 @@ def stature_matched_shapes(model, shape: np.ndarray, builds=(DEFAULT_BUILD,),
     phenotype parameters."""
     if tuple(getattr(model, "shape_names", ())) != PHENOTYPE_NAMES:
         return []
-    import torch
-
     target = stature(model, shape)
     starts = np.repeat(np.asarray(model.default_shape, dtype=np.float64)[None],
                        len(GENDERS) * len(builds), axis=0)
@@ -72,10 +76,7 @@ def stature_matched_shapes(model, shape: np.ndarray, builds=(DEFAULT_BUILD,),
     hi = np.full(len(starts), HEIGHT_RANGE[1])
     for _ in range(steps):  # all starts at once: one batched rest body a step
         starts[:, I_HEIGHT] = 0.5 * (lo + hi)
-        with torch.no_grad():
-            rest, _ = model.rest(torch.as_tensor(starts))
-        y = rest[:, :, 1]
-        short = (y.max(1).values - y.min(1).values).numpy() < target
+        short = statures(model, starts) < target
         lo = np.where(short, starts[:, I_HEIGHT], lo)
         hi = np.where(short, hi, starts[:, I_HEIGHT])
     starts[:, I_HEIGHT] = 0.5 * (lo + hi)
