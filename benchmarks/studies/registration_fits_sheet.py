@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 
-def _cell(sample, pred_path: Path, n_points: int = 12000) -> dict:
+def _cell(sample, pred_path: Path, n_points: int = 6000) -> dict:
     """What one cell draws: the fitted body (vertices (n, 3) m, faces), its per-vertex
     distance outside the scan (mm), the scan samples (p, 3) m, and the true body's
     facing (3,)."""
@@ -52,9 +52,8 @@ def draw(submission: str, result: str, data: str, out: str) -> Path:
 
     from dressmeup.bench.results import load_result
     from dressmeup.data import Dataset
-    from dressmeup.viz.contact_sheet import MeshLayer, draw_cell
     from dressmeup.viz.figure import save_png
-    from dressmeup.viz.registration import BODY_RGB, OUTSIDE_RGB, SCAN_RGB
+    from dressmeup.viz.registration import draw_registration_views
 
     ds = Dataset(data)
     man = ds.manifest.set_index("sample_id")
@@ -63,27 +62,15 @@ def draw(submission: str, result: str, data: str, out: str) -> Path:
     subjects = sorted(man["subject_id"].unique())
     fig, axes = plt.subplots(len(poses), 2 * len(subjects),
                              figsize=(1.6 * 2 * len(subjects), 2.4 * len(poses)), squeeze=False)
-    up = np.array([0.0, 1.0, 0.0])
     for sid in table.index:
         r, c = poses.index(man.loc[sid, "pose_id"]), subjects.index(man.loc[sid, "subject_id"])
         cell = _cell(ds[sid], Path(submission) / f"{sid}.npz")
-        colors = np.tile(np.asarray(BODY_RGB), (len(cell["F"]), 1))
-        colors[(cell["outside"][cell["F"]] > 15.0).all(1)] = OUTSIDE_RGB
-        fwd = cell["forward"] - (cell["forward"] @ up) * up
-        left = np.cross(up, fwd / max(np.linalg.norm(fwd), 1e-12))
-        pts = np.vstack([cell["V"], cell["P"]])
-        title = (f"{sid} {ds.info['poses'][man.loc[sid, 'pose_id']]}, "
-                 f"{man.loc[sid, 'garment_type']}: V2V {1000 * table.loc[sid, 'v2v']:.1f} mm")
-        for k, right in enumerate((left, np.cross(up, left))):  # front, then left side
-            xy = np.stack([pts @ right, pts @ up], 1)
-            lo, hi = xy.min(0), xy.max(0)
-            mid, half = (lo + hi) / 2, (hi - lo).max() / 2 * 1.05
-            ax = axes[r, 2 * c + k]
-            draw_cell(ax, [MeshLayer(cell["V"], cell["F"], face_colors=colors)], right, up,
-                      "", bounds=(mid[0] - half, mid[0] + half, mid[1] - half, mid[1] + half))
-            ax.scatter(cell["P"] @ right, cell["P"] @ up, s=0.2, c=[SCAN_RGB], alpha=0.2,
-                       linewidths=0)
-        axes[r, 2 * c].set_title(title, fontsize=6.5, loc="left")
+        draw_registration_views(axes[r, 2 * c:2 * c + 2], cell["V"], cell["F"], cell["P"],
+                                forward=cell["forward"], outside_mm=cell["outside"])
+        axes[r, 2 * c].set_title(
+            f"{sid} {ds.info['poses'][man.loc[sid, 'pose_id']]}, "
+            f"{man.loc[sid, 'garment_type']}: V2V {1000 * table.loc[sid, 'v2v']:.1f} mm",
+            fontsize=6.5, loc="left")
     fig.suptitle("fitted body (grey; red: > 15 mm outside the scan) over the scan (blue), "
                  "front and left side of the true body", fontsize=8)
     fig.tight_layout()

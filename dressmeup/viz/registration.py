@@ -50,11 +50,40 @@ def render_registration(body_vertices: np.ndarray, body_faces: np.ndarray,
 
     from dressmeup.viz.figure import save_png
 
-    V = np.asarray(body_vertices, dtype=np.float64)
-    F = np.asarray(body_faces, dtype=np.int64)
     P = np.asarray(scan_points, dtype=np.float64)
     if len(P) > max_points:
         P = P[np.random.default_rng(seed).choice(len(P), max_points, replace=False)]
+    fig, axes = plt.subplots(1, 2, figsize=(6.4, 4.6))
+    draw_registration_views(axes, body_vertices, body_faces, P, forward=forward, up=up,
+                            outside_mm=outside_mm, threshold_mm=threshold_mm,
+                            titles=("front", "left side"))
+    fig.suptitle("\n".join(textwrap.wrap(title, 90)) if title else
+                 "body (grey; red: > 15 mm outside the scan) over the scan (blue)", fontsize=7)
+    fig.tight_layout()
+    return save_png(fig, path, dpi=110)
+
+
+def draw_registration_views(axes, body_vertices: np.ndarray, body_faces: np.ndarray,
+                            scan_points: np.ndarray, forward: np.ndarray = (0.0, 0.0, 1.0),
+                            up: np.ndarray = (0.0, 1.0, 0.0),
+                            outside_mm: np.ndarray | None = None, threshold_mm: float = 15.0,
+                            titles: tuple[str, str] = ("", "")) -> None:
+    """Draw the body over the scan into two matplotlib axes: from the front along
+    ``forward`` and from the left side (the views of :func:`render_registration`).
+
+    Parameters
+    ----------
+    axes : two matplotlib axes (front, left side).
+    body_vertices : (n, 3) float64 (m); body_faces : (m, 3) int64.
+    scan_points : (p, 3) float64 (m), all drawn.
+    forward, up : (3,) the facing direction and up axis (world).
+    outside_mm : optional (n,) per-vertex distance outside the scan (mm); faces whose
+        vertices all exceed ``threshold_mm`` are drawn red.
+    titles : the two axes' captions.
+    """
+    V = np.asarray(body_vertices, dtype=np.float64)
+    F = np.asarray(body_faces, dtype=np.int64)
+    P = np.asarray(scan_points, dtype=np.float64)
     up = np.asarray(up, float) / np.linalg.norm(up)
     fwd = np.asarray(forward, float)
     fwd = fwd - (fwd @ up) * up
@@ -65,17 +94,10 @@ def render_registration(body_vertices: np.ndarray, body_faces: np.ndarray,
         bad = (np.asarray(outside_mm)[F] > threshold_mm).all(1)
         colors[bad] = OUTSIDE_RGB
     layer = MeshLayer(V, F, face_colors=colors)
-    views = (("front", left), ("left side", np.cross(up, left)))
-    fig, axes = plt.subplots(1, 2, figsize=(6.4, 4.6))
     allpts = np.vstack([V, P])
-    for ax, (name, right) in zip(axes, views, strict=True):
+    for ax, right, name in zip(axes, (left, np.cross(up, left)), titles, strict=True):
         xy = np.stack([allpts @ right, allpts @ up], 1)
         lo, hi = xy.min(0), xy.max(0)
         c, r = (lo + hi) / 2, (hi - lo).max() / 2 * 1.05
-        bounds = (c[0] - r, c[0] + r, c[1] - r, c[1] + r)
-        draw_cell(ax, [layer], right, up, name, bounds=bounds)
+        draw_cell(ax, [layer], right, up, name, bounds=(c[0] - r, c[0] + r, c[1] - r, c[1] + r))
         ax.scatter(P @ right, P @ up, s=0.3, c=[SCAN_RGB], alpha=0.25, linewidths=0)
-    fig.suptitle("\n".join(textwrap.wrap(title, 90)) if title else
-                 "body (grey; red: > 15 mm outside the scan) over the scan (blue)", fontsize=7)
-    fig.tight_layout()
-    return save_png(fig, path, dpi=110)
