@@ -61,7 +61,8 @@ def main(argv: list[str] | None = None) -> int:
 def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
     """Every edition of ``args``: data, baselines (through ``baseline_executor``; None: in
     this process), scoring (through ``executor``), tables."""
-    from dressmeup.bench import load_edition, runs
+    from dressmeup import runs
+    from dressmeup.bench import load_edition
     from dressmeup.bench.leaderboard import write_leaderboard
     from dressmeup.cache import cache_dir
 

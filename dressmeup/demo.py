@@ -67,7 +67,7 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     dict with ``run`` (folder), ``results`` (list of result folders), ``leaderboard`` (the
     retargeting table in Markdown), ``ok``.
     """
-    from dressmeup.bench import runs
+    from dressmeup import runs
     from dressmeup.bench.leaderboard import write_leaderboard
 
     t0 = time.perf_counter()
@@ -114,7 +114,7 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
 
 
 def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report) -> None:
-    from dressmeup.bench import runs
+    from dressmeup import runs
     from dressmeup.bench.leaderboard import write_leaderboard
 
     available = runs.uvparam_methods()

@@ -385,15 +385,6 @@ def _parse_pin(d: Any) -> tuple[DatasetPin | None, list[str]]:
     return None, [f"dataset.kind must be 'generated' or 'real', got {kind!r}"]
 
 
-def file_sha256(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
-    """sha256 hex digest of a file's bytes."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        while block := fh.read(chunk):
-            h.update(block)
-    return h.hexdigest()
-
-
 def create_edition(data_root: str | os.PathLike, task: str, name: str, *,
                    split: str = "test", metrics: list[str] | None = None,
                    primary_metric: str | None = None, per_category: list[str] | None = None,

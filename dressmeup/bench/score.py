@@ -107,7 +107,7 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
         raise InvalidSubmissionError(report)
     other_data = other_data_reason(ed, report.dataset or {}, data_root)
     if other_data and not allow_other_data:
-        raise InputError(f"{other_data}. Regenerate the data (dressmeup.bench.runs.build_data) "
+        raise InputError(f"{other_data}. Regenerate the data (dressmeup.runs.build_data) "
                          "on a supported machine, or pass --allow-other-data to score it anyway "
                          "as 'not comparable'")
     report.dataset["files_verified"] = _verify_data(Path(data_root), report.items)

@@ -118,7 +118,7 @@ def submission_files(folder: str | os.PathLike) -> list[Path]:
 def submission_hash(folder: str | os.PathLike) -> str:
     """sha256 over the sorted (name, sha256 of bytes) of every file, ``submission.json``
     included: any change to a prediction or to the metadata changes it."""
-    from dressmeup.bench.edition import file_sha256
+    from dressmeup.io.hashing import sha256_file
 
     folder = Path(folder)
     h = hashlib.sha256()
@@ -127,7 +127,7 @@ def submission_hash(folder: str | os.PathLike) -> str:
         files = sorted([*files, folder / SUBMISSION_JSON])
     for p in files:
         if p.is_file():
-            h.update(p.name.encode("utf-8") + b"\0" + file_sha256(p).encode("ascii") + b"\n")
+            h.update(p.name.encode("utf-8") + b"\0" + sha256_file(p).encode("ascii") + b"\n")
     return h.hexdigest()
 
 

@@ -69,8 +69,8 @@ def _params(items: list[str]) -> dict:
 
 def _run(args: argparse.Namespace) -> int:
     from dressmeup.bench import load_edition
-    from dressmeup.bench.runs import run_retarget_baseline
     from dressmeup.bench.submission import check_submission_out
+    from dressmeup.runs import run_retarget_baseline
 
     check_submission_out(args.out, args.overwrite)  # before the work, naming --overwrite
     edition = load_edition(args.edition)
@@ -90,7 +90,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from dressmeup.methods.retarget.train import train_from_dataset
+    from dressmeup.methods.retarget.train_dataset import train_from_dataset
 
     if args.threads:
         import torch

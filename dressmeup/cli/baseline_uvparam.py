@@ -75,7 +75,7 @@ def load_mesh_arg(spec: str):
     """A test-mesh id or a mesh file -> (mesh_id, V, F)."""
     import numpy as np
 
-    from dressmeup.methods.uvparam.shapes import make_test_mesh
+    from dressmeup.data.shapes import make_test_mesh
 
     path = Path(spec)
     if path.suffix.lower() in (".obj", ".ply", ".off", ".stl", ".glb"):
@@ -107,8 +107,8 @@ def _run_uvparam(args: argparse.Namespace) -> int:
     import numpy as np
 
     from dressmeup.bench.submission import check_submission_out
+    from dressmeup.data.shapes import DEFAULT_MESH_IDS
     from dressmeup.methods.uvparam import get_method
-    from dressmeup.methods.uvparam.shapes import DEFAULT_MESH_IDS
     from dressmeup.progress import progress
 
     check_submission_out(args.out, args.overwrite)  # before the work, naming --overwrite
@@ -146,8 +146,8 @@ def _run_uvparam(args: argparse.Namespace) -> int:
                               chart_ids=res.chart_ids)
         sys.stdout.write(f"{mesh_id}: {len(V)} vertices, {res.n_charts} charts, {res.seconds:.2f} s\n")
     from dressmeup.bench.provenance import hardware
-    from dressmeup.bench.runs import BASELINE_AUTHORS
     from dressmeup.bench.submission import write_submission
+    from dressmeup.runs import BASELINE_AUTHORS
 
     write_submission(out, preds, edition=edition, method=args.method,
                      authors=BASELINE_AUTHORS, url="", hardware=hardware(),
@@ -160,8 +160,8 @@ def _run_uvparam(args: argparse.Namespace) -> int:
 
 
 def _run_on_mesh_set(args: argparse.Namespace, params: dict) -> int:
-    """``--data``: every mesh of the edition's split, through :func:`bench.runs.run_uvparam_baseline`."""
-    from dressmeup.bench.runs import run_uvparam_baseline
+    """``--data``: every mesh of the edition's split, through :func:`dressmeup.runs.run_uvparam_baseline`."""
+    from dressmeup.runs import run_uvparam_baseline
 
     if args.edition is None:
         raise InputError("--data needs --edition (the edition whose mesh set --data holds)")
@@ -176,12 +176,12 @@ def _run_on_mesh_set(args: argparse.Namespace, params: dict) -> int:
 
 
 def _run_train(args: argparse.Namespace) -> int:
-    from dressmeup.methods.uvparam.neural.method import decimate_for_training
+    from dressmeup.geometry.simplify import decimate
     from dressmeup.methods.uvparam.neural.train import get_config, save_model, train
 
     cfg = get_config(args.config, **_parse_params(args.param))
     mesh_id, V, F = load_mesh_arg(args.mesh)
-    Vt, Ft = decimate_for_training(V, F, cfg.train_vertices)
+    Vt, Ft = decimate(V, F, cfg.train_vertices)
     model = train(Vt, Ft, cfg, progress=True)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     save_model(model, args.out)

@@ -101,7 +101,7 @@ def _synth_edition(args: argparse.Namespace) -> int:
     if pin.kind != "generated":
         raise InputError(f"--edition {ed.name} is scored on a real dataset; it cannot be generated")
     if ed.task == "uvparam":  # a mesh set, not a garment dataset
-        from dressmeup.bench.runs import build_data
+        from dressmeup.runs import build_data
 
         root = build_data(ed, args.out)
     else:

@@ -36,7 +36,7 @@ def verify_listed_files(root: str | os.PathLike, rows: Iterable[dict], id_col: s
 
     Returns the number of files verified; raises :class:`ChecksumError` on any mismatch.
     """
-    from dressmeup.data.writer import sha256_file
+    from dressmeup.io.hashing import sha256_file
 
     root = Path(root)
     problems: list[str] = []
@@ -78,7 +78,7 @@ def verify_checksums(root: str | os.PathLike, sample_ids: Iterable[str] | None =
     InputError
         When the manifest is unreadable.
     """
-    from dressmeup.data.writer import sha256_file
+    from dressmeup.io.hashing import sha256_file
 
     root = Path(root)
     table = read_manifest(root / layout.MANIFEST)

@@ -118,7 +118,7 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
     -------
     ValidationReport (``report.ok`` is False when any problem was found).
     """
-    from dressmeup.data.writer import sha256_file
+    from dressmeup.io.hashing import sha256_file
 
     root = Path(root)
     rep = ValidationReport(root)

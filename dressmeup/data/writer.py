@@ -9,7 +9,6 @@ a generator what to skip) and rewrites any stray files of the unfinished sample.
 
 from __future__ import annotations
 
-import hashlib
 import io
 import json
 import logging
@@ -26,6 +25,7 @@ from dressmeup.data import layout
 from dressmeup.data.manifest import MANIFEST_VERSION, read_manifest, write_manifest
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
+from dressmeup.io.hashing import sha256_file
 from dressmeup.io.jsonable import json_default
 
 log = logging.getLogger(__name__)
@@ -33,18 +33,6 @@ log = logging.getLogger(__name__)
 #: dataset.json keys that change while a build runs and are ignored when resuming.
 _VOLATILE = {"complete", "n_samples", "n_garments", "n_subjects", "toolkit_version",
              "manifest_version", "format", "units", "splits", "timings"}
-
-
-def sha256_file(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
-    """Hex sha256 of a file's bytes."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        while True:
-            b = fh.read(chunk)
-            if not b:
-                break
-            h.update(b)
-    return h.hexdigest()
 
 
 def _jsonable(obj: Any) -> Any:

@@ -17,6 +17,7 @@ worker otherwise).
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import logging
 import os
 import pickle
@@ -47,6 +48,16 @@ def _import_distributed() -> Any:
         raise InputError("--executor dask needs Dask distributed: pip install "
                          "'dressmeup[distributed]' (or: pip install distributed)") from exc
     return distributed
+
+
+def dashboard_available() -> bool:
+    """True when Dask's dashboard can run (it needs bokeh)."""
+    return importlib.util.find_spec("bokeh") is not None
+
+
+def dask_available() -> bool:
+    """True when Dask distributed is installed."""
+    return importlib.util.find_spec("distributed") is not None
 
 
 # ----------------------------------------------------------------------------- worker side
@@ -250,8 +261,6 @@ class DaskExecutor:
         self._client.register_plugin(_worker_plugin())
         self.check_worker_env()
         self.startup_s = time.perf_counter() - t0
-        from dressmeup.executors import dashboard_available
-
         dash_link = self._client.dashboard_link if dashboard_available() else None
         self.log(f"dask: {where} ({self.startup_s:.1f} s to start)"
                  + (f"; dashboard {dash_link}" if dash_link else "; no dashboard "

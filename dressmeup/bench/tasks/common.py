@@ -35,13 +35,13 @@ def manifest_sha256(root: str | os.PathLike) -> str:
     InputError
         When the manifest is missing.
     """
-    from dressmeup.bench.edition import file_sha256
+    from dressmeup.io.hashing import sha256_file
 
     path = Path(root) / "manifest.parquet"
     if not path.is_file():
         raise InputError(f"{path} not found: --data must be a dataset root (dataset.json + "
                          "manifest.parquet); build one with 'dressmeup synth OUT ...'")
-    return file_sha256(path)
+    return sha256_file(path)
 
 
 def generator_record(info: dict[str, Any]) -> dict[str, Any] | None:
@@ -128,7 +128,7 @@ def check_pin(edition: Any, root: str | os.PathLike) -> tuple[dict[str, Any], li
         problems.append(f"this is not the data of edition {edition.name}: generate it with "
                         f"generator {pin.generator} {pin.generator_version}, parameters "
                         f"{json.dumps(pin.params, sort_keys=True)} and seed {pin.seed} "
-                        "(dressmeup.bench.runs.build_data(edition, root) does exactly that)")
+                        "(dressmeup.runs.build_data(edition, root) does exactly that)")
     return info, problems
 
 

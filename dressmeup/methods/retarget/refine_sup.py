@@ -111,7 +111,7 @@ class IsomapRefineSup(IsomapRefine):
     """
 
     name = "isomap-refine-sup"
-    supervised = True  # training reads the target garments (bench.runs passes them)
+    supervised = True  # training reads the target garments (dressmeup.runs passes them)
     _format = "dressmeup-isomap-refine-sup-v1"
     weights_stem = "isomap_refine_sup"
 

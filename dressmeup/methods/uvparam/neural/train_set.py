@@ -100,9 +100,9 @@ def _prepare(V, F, cfg: NeuralConfig, rng: np.random.Generator) -> _PatchData:
     import torch
     from scipy.sparse.csgraph import dijkstra
 
-    from dressmeup.methods.uvparam.neural.method import decimate_for_training
+    from dressmeup.geometry.simplify import decimate
 
-    V, F = decimate_for_training(*as_arrays(V, F), cfg.train_vertices)
+    V, F = decimate(*as_arrays(V, F), cfg.train_vertices)
     Vn = normalize_vertices(V)
     ops = compute_operators(Vn, F, k_eig=cfg.k_eig)
     n = len(Vn)
