@@ -27,6 +27,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from dressmeup.viz.site import write_site
+
 DEMO_EDITION = "synth-retarget-mini-v3"
 QUICK_EDITION = "synth-retarget-tiny-v3"
 UV_EDITION = "synth-uvparam-mini-v1"
@@ -67,6 +69,7 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     dict with ``run`` (folder), ``results`` (list of result folders), ``leaderboard`` (the
     retargeting table in Markdown), ``ok``.
     """
+    # start-up time: the stage loads when the command runs
     from dressmeup import runs
     from dressmeup.bench.leaderboard import write_leaderboard
 
@@ -114,6 +117,7 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
 
 
 def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report) -> None:
+    # start-up time: the stage loads when the command runs
     from dressmeup import runs
     from dressmeup.bench.leaderboard import write_leaderboard
 
@@ -142,7 +146,6 @@ def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report
 
 def _site_part(run: Path, log, report) -> None:
     """Write the report site of every result of this run (``run/site/index.html``)."""
-    from dressmeup.viz.site import write_site
 
     if not report["results"]:
         return
@@ -157,6 +160,7 @@ def _site_part(run: Path, log, report) -> None:
 def _fusion_part(data: Path, run: Path, quick: bool, log, report) -> None:
     """Render one synthetic capture of a test sample, fuse it, score it against the scan."""
     try:
+        # optional dependency (ImportError handled)
         from dressmeup.data.sample_capture import fuse_synthetic_sample
     except ImportError as exc:
         log(f"capture/fusion stage not available ({exc}): fusion part skipped")

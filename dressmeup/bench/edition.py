@@ -23,7 +23,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from dressmeup.bench.tasks import get_task
+from dressmeup.bench.tasks.common import manifest_sha256
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_write_text
 
 SCHEMA = "dressmeup-edition/1"
 TASKS = ("retarget", "uvparam", "fusion", "registration", "correspondence")
@@ -161,7 +164,6 @@ class Edition:
 
     def save(self, path: str | os.PathLike) -> None:
         """Write the edition as pretty JSON (atomically)."""
-        from dressmeup.io.atomic import atomic_write_text
 
         atomic_write_text(path, json.dumps(self.to_dict(), indent=2, sort_keys=False) + "\n")
 
@@ -225,7 +227,6 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
     InputError
         Listing every invalid or missing field of the edition.
     """
-    from dressmeup.bench.tasks import get_task
 
     problems: list[str] = []
     if not isinstance(data, dict):
@@ -417,8 +418,6 @@ def create_edition(data_root: str | os.PathLike, task: str, name: str, *,
         Unknown task, a bad name, no dataset at ``data_root``, or no items of the task in
         ``split`` (the message says which).
     """
-    from dressmeup.bench.tasks import get_task
-    from dressmeup.bench.tasks.common import manifest_sha256
 
     if task not in TASKS:
         raise InputError(f"--task must be one of {', '.join(TASKS)}, got {task!r}")

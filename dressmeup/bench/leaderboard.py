@@ -20,7 +20,9 @@ from __future__ import annotations
 import csv
 import datetime as _dt
 import html
+import importlib
 import io
+import json
 import math
 import os
 from collections.abc import Sequence
@@ -28,11 +30,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from dressmeup.bench.edition import Edition, edition_from_dict
+from dressmeup.bench.edition import Edition, edition_from_dict, load_edition
 from dressmeup.bench.escape import csv_text, latex_text, md_text, safe_url
+from dressmeup.bench.intervals import (
+    MIN_UNITS_SEPARATION,
+    N_RESAMPLES,
+    describe_resolution,
+    paired_difference,
+)
 from dressmeup.bench.results import EDITION_JSON, Result, load_result
 from dressmeup.bench.tasks import MetricSpec, get_task
+from dressmeup.bench.verify import verify_results
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_write_text
 
 FORMATS = ("md", "csv", "latex", "html")
 
@@ -220,11 +230,6 @@ class Leaderboard:
 
     def _ci_note(self) -> str:
         """Caption sentences on intervals, separation and comparability."""
-        from dressmeup.bench.intervals import (
-            MIN_UNITS_SEPARATION,
-            N_RESAMPLES,
-            describe_resolution,
-        )
 
         out = ""
         if self.show_ci:
@@ -471,11 +476,8 @@ class Leaderboard:
 def _edition_of(result: Result) -> Edition:
     path = result.path / EDITION_JSON
     if path.is_file():
-        import json
-
         return edition_from_dict(json.loads(path.read_text(encoding="utf-8")),
                                  source=str(path))
-    from dressmeup.bench.edition import load_edition
 
     return load_edition(result.summary["edition"]["name"])
 
@@ -521,7 +523,6 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
                  for r in comparable]
         raise InputError("results scored on different datasets cannot share a leaderboard:\n"
                          + "\n".join(lines))
-    from dressmeup.bench.verify import verify_results
 
     edition_check = verify_results(loaded)  # means vs per_sample, edition hashes
     ed = _edition_of(loaded[0])
@@ -628,7 +629,6 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
 def _mark_pareto(ed: Edition, rows: list[dict[str, Any]]) -> tuple[str, ...]:
     """Set ``row["pareto"]`` for tasks with a Pareto pair (uvparam: QCE vs seam length) when
     the edition lists both metrics; returns the metric names (empty: not marked)."""
-    import importlib
 
     try:
         config = importlib.import_module(f"dressmeup.bench.tasks.{ed.task}.config")
@@ -658,7 +658,6 @@ def _mark_separation(rows: list[dict[str, Any]], primary: str, unit: str | None)
     """Set ``row["separated"]`` (True/False/None) between consecutive comparable ranks by
     a paired bootstrap over ``unit`` of the primary column (see
     :func:`dressmeup.bench.intervals.paired_difference`)."""
-    from dressmeup.bench.intervals import MIN_UNITS_SEPARATION, paired_difference
 
     metric, _, track = primary.partition("#")
     ranked = [r for r in rows if r["comparable"]]
@@ -707,15 +706,12 @@ def write_leaderboard(results: Sequence[str | os.PathLike | Result], fmt: str,
     """
     text = build_leaderboard(results, **kw).render(fmt)
     if out is not None:
-        from dressmeup.io.atomic import atomic_write_text
-
         atomic_write_text(Path(out), text)
     return text
 
 
 def format_summary(summary: dict[str, Any]) -> str:
     """A short human-readable summary of one result (display units, arrows, failures)."""
-    from dressmeup.bench.edition import load_edition
 
     ed_info = summary["edition"]
     try:

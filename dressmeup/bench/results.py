@@ -31,7 +31,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from dressmeup.bench.intervals import LEVEL, N_RESAMPLES, SEED, bootstrap_mean
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_dir, atomic_write_text, only_temp_files
+from dressmeup.io.jsonio import parse_json_file, validate_json
 
 RESULT_SCHEMA = "dressmeup-result/2"
 #: Integer version of :data:`RESULT_SCHEMA` (stored as ``schema_version``).
@@ -94,7 +97,6 @@ def check_out_dir(out: str | os.PathLike) -> Path:
     InputError
         When ``out`` exists and is a non-empty folder or a file.
     """
-    from dressmeup.io.atomic import only_temp_files
 
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -118,7 +120,6 @@ def stats(values: np.ndarray) -> dict[str, Any]:
 def metric_stats(values: np.ndarray, units: np.ndarray | None = None) -> dict[str, Any]:
     """:func:`stats` plus, when ``units`` is given, the 95 % cluster-bootstrap interval
     (``ci95`` [lo, hi], ``n_units``, ``distinct_resamples``, ``degenerate``)."""
-    from dressmeup.bench.intervals import bootstrap_mean
 
     out = stats(values)
     if units is not None and out["n"]:
@@ -145,7 +146,6 @@ def summarise(table: pd.DataFrame, metrics: list[str], extra: list[str],
     unit_column : the independent unit of the bootstrap (task ``UNIT_COLUMN``); None or a
         missing column: no intervals.
     """
-    from dressmeup.bench.intervals import LEVEL, N_RESAMPLES, SEED
 
     ok = table[table["status"] == "ok"] if len(table) else table
     unit = unit_column if unit_column and unit_column in table else None
@@ -200,7 +200,6 @@ def write_result(out: str | os.PathLike, table: pd.DataFrame, summary: dict[str,
     InputError
         When ``out`` already holds anything.
     """
-    from dressmeup.io.atomic import atomic_dir, atomic_write_text
 
     out = check_out_dir(out)
     # built in a hidden sibling and renamed into place: a killed run leaves no folder behind
@@ -227,7 +226,6 @@ def load_result(path: str | os.PathLike, table: bool = True) -> Result:
         hint = (" (interrupted run: per_sample.parquet without summary.json)"
                 if (folder / PER_SAMPLE).is_file() else "")
         raise InputError(f"{folder} is not a result folder: {SUMMARY} not found{hint}")
-    from dressmeup.io.jsonio import parse_json_file, validate_json
 
     summary = parse_json_file(summary_path)
     if isinstance(summary, dict) and summary.get("schema") in READABLE_SCHEMAS:

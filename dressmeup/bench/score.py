@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from dressmeup import __version__
 from dressmeup.bench.edition import Edition, load_edition
 from dressmeup.bench.executor import Executor, LocalExecutor
 from dressmeup.bench.provenance import environment
@@ -29,6 +30,7 @@ from dressmeup.bench.tasks.base import STATUS_ERROR
 from dressmeup.bench.validate import ValidationReport, validate_submission
 from dressmeup.errors import InputError
 from dressmeup.executors import require_shared
+from dressmeup.progress import progress
 
 
 class InvalidSubmissionError(InputError):
@@ -94,8 +96,6 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     dressmeup.data.integrity.ChecksumError
         When a dataset file the items read differs from the manifest's sha256.
     """
-    from dressmeup import __version__
-    from dressmeup.progress import progress
 
     t_start = time.perf_counter()
     started = _now()
@@ -192,6 +192,7 @@ def _verify_data(data_root: Path, items: list[Any]) -> int:
     Items name their samples by id (the item id or a string in ``meta``); a data root
     without a manifest (a task not scored on a dataset) has nothing to verify.
     """
+    # heavy: pyarrow (~0.3 s to import)
     import pyarrow.parquet as pq
 
     from dressmeup.data import layout

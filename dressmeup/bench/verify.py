@@ -20,7 +20,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
+from dressmeup.bench.edition import edition_from_dict, list_editions, load_edition
 from dressmeup.bench.results import EDITION_JSON, PER_SAMPLE, SUMMARY, Result, stats
 from dressmeup.errors import InputError
 
@@ -82,7 +84,6 @@ def check_summary(result: Result) -> list[str]:
         path = result.path / PER_SAMPLE
         if not path.is_file():
             return [f"{where}: {PER_SAMPLE} is missing, so the summary cannot be checked"]
-        import pandas as pd
 
         try:
             table = pd.read_parquet(path)
@@ -127,7 +128,6 @@ def check_edition(result: Result) -> tuple[EditionCheck, list[str]]:
     -------
     (EditionCheck, problems)
     """
-    from dressmeup.bench.edition import edition_from_dict, list_editions, load_edition
 
     ed_info = result.summary.get("edition") or {}
     name, claimed = str(ed_info.get("name", "")), str(ed_info.get("hash", ""))

@@ -4,9 +4,12 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+from pathlib import Path
 
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
+from dressmeup.errors import InputError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -117,6 +120,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _validate(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.validate import validate_submission
 
     report = validate_submission(args.submission, args.edition, args.data)
@@ -127,6 +131,7 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _score(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.leaderboard import format_summary
     from dressmeup.bench.score import InvalidSubmissionError, score_submission
 
@@ -145,6 +150,7 @@ def _score(args: argparse.Namespace) -> int:
 
 
 def _leaderboard(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.leaderboard import write_leaderboard
 
     per_cat = None
@@ -161,8 +167,7 @@ def _leaderboard(args: argparse.Namespace) -> int:
 
 
 def _editions(args: argparse.Namespace) -> int:
-    import json
-
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.edition import list_editions, load_edition
 
     if args.name:
@@ -177,10 +182,8 @@ def _editions(args: argparse.Namespace) -> int:
 
 
 def _edition_create(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.edition import create_edition
-    from dressmeup.errors import InputError
 
     out = Path(args.out or f"{args.name}.json")
     if out.exists() and not args.overwrite:
@@ -199,6 +202,7 @@ def _edition_create(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.demo import run_demo
 
     res = run_demo(out=args.out, workers=args.workers, quick=args.quick,

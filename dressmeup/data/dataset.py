@@ -20,9 +20,12 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.body.params import BodyParams
 from dressmeup.data import layout
 from dressmeup.data.manifest import read_manifest
 from dressmeup.errors import InputError
+from dressmeup.io.jsonio import read_json
+from dressmeup.io.mesh import load_mesh
 
 ID_FIELDS = ("sample_id", "subject_id", "garment_id", "pose_id", "category", "garment_type",
              "split")
@@ -190,7 +193,6 @@ class Sample:
         fast = read_dataset_ply(p)
         if fast is not None:
             return fast
-        from dressmeup.io.mesh import load_mesh
 
         m = load_mesh(p)
         return GarmentMesh(m.vertices, m.faces, m.uv, m.uv_faces, m.texture_path)
@@ -202,7 +204,6 @@ class Sample:
         p = self.path("body")
         if p is None:
             return None
-        from dressmeup.body.params import BodyParams
 
         return BodyParams.load(p)
 
@@ -213,7 +214,6 @@ class Sample:
         p = self.path("scan")
         if p is None:
             return None
-        from dressmeup.io.mesh import load_mesh
 
         m = load_mesh(p)
         return m.vertices, m.faces
@@ -319,7 +319,6 @@ class Dataset:
         InputError
             When ``dataset.json`` is not UTF-8 JSON fitting the dataset schema.
         """
-        from dressmeup.io.jsonio import read_json
 
         p = self.root / layout.DATASET_JSON
         return read_json(p, "dataset") if p.is_file() else {}
@@ -384,6 +383,7 @@ class Dataset:
     def torch(self, load_body: bool = True, load_scan: bool = False):
         """A ``torch.utils.data.Dataset`` over this view
         (see :class:`dressmeup.data.torch_dataset.TorchDataset`)."""
+        # heavy: torch (~1.1 s to import)
         from dressmeup.data.torch_dataset import TorchDataset
 
         return TorchDataset(self, load_body=load_body, load_scan=load_scan)

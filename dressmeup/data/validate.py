@@ -14,8 +14,12 @@ from pathlib import Path
 import numpy as np
 
 from dressmeup.data import layout
+from dressmeup.data.dataset import read_dataset_ply
 from dressmeup.data.manifest import COLUMNS, HASH_OF, PATH_COLUMNS, read_manifest
 from dressmeup.errors import InputError
+from dressmeup.io.hashing import sha256_file
+from dressmeup.io.jsonio import parse_json_file, schema_problems
+from dressmeup.io.mesh import load_mesh
 
 KNOWN_SPLITS = ("train", "val", "test")
 #: Largest plausible extent of a garment or scan in metres (a person is under 3 m; a
@@ -77,9 +81,6 @@ def _check_body(path: Path, where: str, problems: list[str]) -> None:
 
 
 def _check_mesh(path: Path, where: str, what: str, n_v, n_f, problems: list[str]):
-    from dressmeup.data.dataset import read_dataset_ply
-    from dressmeup.io.mesh import load_mesh
-
     try:
         m = read_dataset_ply(path) if path.suffix.lower() == ".ply" else None
         if m is None:  # other layouts, or a damaged file: the general reader names the fault
@@ -118,7 +119,6 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
     -------
     ValidationReport (``report.ok`` is False when any problem was found).
     """
-    from dressmeup.io.hashing import sha256_file
 
     root = Path(root)
     rep = ValidationReport(root)
@@ -130,8 +130,6 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
     if not info_path.is_file():
         P.append(f"{layout.DATASET_JSON}: missing")
     else:
-        from dressmeup.io.jsonio import parse_json_file, schema_problems
-
         try:
             info = parse_json_file(info_path)
         except InputError as exc:

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image
 
 from dressmeup import __version__
 from dressmeup.cache import hash_arrays
@@ -27,6 +28,7 @@ from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
 from dressmeup.io.hashing import sha256_file
 from dressmeup.io.jsonable import json_default
+from dressmeup.io.mesh import save_mesh
 
 log = logging.getLogger(__name__)
 
@@ -209,7 +211,6 @@ class DatasetWriter:
             "pose_id": pose_id, "category": category, "garment_type": garment_type,
             "split": split, "topology_shared": False,
         }
-        from dressmeup.io.mesh import save_mesh
 
         tex_arr = None if texture is None else self._texture_array(texture)
         save_mesh(d / layout.GARMENT_FILE, V, F, uv=uv, uv_faces=uvf, texture=tex_arr)
@@ -239,7 +240,6 @@ class DatasetWriter:
     @staticmethod
     def _texture_array(texture: Any) -> np.ndarray:
         """An (h, w, 3|4) uint8 image from bytes, a PIL image, an array or a path."""
-        from PIL import Image
 
         if isinstance(texture, (bytes, bytearray)):
             with Image.open(io.BytesIO(bytes(texture))) as im:
@@ -259,6 +259,7 @@ class DatasetWriter:
         sid = row["sample_id"]
         if sid not in self._faces_key:
             try:
+                # optional dependency (ImportError handled)
                 from dressmeup.io.mesh import load_mesh
 
                 F = load_mesh(layout.resolve_inside(self.root, row["garment_path"])).faces

@@ -17,6 +17,7 @@ worker otherwise).
 from __future__ import annotations
 
 import hashlib
+import importlib
 import importlib.util
 import logging
 import os
@@ -43,6 +44,7 @@ def _stderr(line: str) -> None:
 
 def _import_distributed() -> Any:
     try:
+        # optional dependency (ImportError handled)
         import distributed
     except ImportError as exc:  # pragma: no cover - depends on the install
         raise InputError("--executor dask needs Dask distributed: pip install "
@@ -122,9 +124,6 @@ MAIN_THREAD_IMPORTS = ("pymeshlab",)
 
 def _main_thread_imports(modules: Sequence[str] = MAIN_THREAD_IMPORTS) -> list[str]:
     """Import ``modules`` (those installed) in the calling thread; return the imported ones."""
-    import importlib
-    import importlib.util
-
     done = []
     for name in modules:
         if importlib.util.find_spec(name) is not None:
@@ -136,6 +135,7 @@ def _main_thread_imports(modules: Sequence[str] = MAIN_THREAD_IMPORTS) -> list[s
 def _worker_plugin() -> Any:
     """A WorkerPlugin whose ``setup`` (run in the worker's main thread, also for workers
     that join or restart later) performs :data:`MAIN_THREAD_IMPORTS`."""
+    # heavy: distributed (optional)
     from distributed import WorkerPlugin
 
     class MainThreadImports(WorkerPlugin):
@@ -236,6 +236,7 @@ class DaskExecutor:
             where = f"scheduler {self._client.scheduler.address}"
             self.workers = len(self._client.scheduler_info()["workers"])
         else:
+            # heavy: dask (optional)
             import dask
 
             # the scheduler's HTTP server (dashboard with bokeh, else health/metrics only)

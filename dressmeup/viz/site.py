@@ -27,6 +27,7 @@ pictures. Finding them: :mod:`dressmeup.viz.site_inputs`; drawing items:
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import html
 import math
@@ -40,6 +41,9 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_write_text
+from dressmeup.viz.result_images import render_category_bars, render_grouped_bars
 from dressmeup.viz.site_inputs import find_data_root, find_submission
 from dressmeup.viz.site_items import draw_items
 
@@ -100,6 +104,7 @@ def _slug(text: str, taken: set[str]) -> str:
 
 def _page(title: str, body: str, nav: str = "") -> str:
     """A complete HTML page with the leaderboard stylesheet and the sorting script."""
+    # heavy: pandas (~0.4 s to import)
     from dressmeup.bench.leaderboard import HTML_CSS, SORT_JS
 
     generated = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
@@ -136,7 +141,6 @@ def _fmt(spec: Any, value: Any) -> str:
 def _extra_specs(specs: list, extra: Sequence[str]) -> list:
     """Specs for task extra columns named ``<metric>_<what>`` (``ir_gt`` -> ``IR (gt)``,
     the same unit as IR); other extras are left out."""
-    import dataclasses
 
     out = []
     for col in extra:
@@ -192,8 +196,6 @@ def _overall_table(summary: dict, specs: list) -> str:
 
 
 def _category_chart(summary: dict, spec: Any, path: Path, group: str) -> Path | None:
-    from dressmeup.viz.result_images import render_category_bars
-
     groups = summary.get(group, {})
     if not groups:
         return None
@@ -244,6 +246,7 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
     parts.append("<h2>Numbers</h2>" + _overall_table(s, specs))
     boot = s.get("bootstrap")
     if boot:
+        # heavy: pandas (~0.4 s to import)
         from dressmeup.bench.intervals import describe_resolution
 
         parts.append(f'<p class="meta">Intervals: cluster bootstrap over {e(str(boot["unit"]))}'
@@ -332,7 +335,6 @@ def _edition_charts(board: Any, ed_dir: Path, report: SiteReport, max_methods: i
                     ) -> str:
     """HTML of the edition's grouped bar charts: the primary metric per category and per
     track, one bar per ranked method (the first ``max_methods``) with its interval."""
-    from dressmeup.viz.result_images import render_grouped_bars
 
     e = html.escape
     metric = board.primary.split("#")[0]
@@ -360,8 +362,6 @@ def _edition_charts(board: Any, ed_dir: Path, report: SiteReport, max_methods: i
 
 
 def _write(path: Path, text: str) -> None:
-    from dressmeup.io.atomic import atomic_write_text
-
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, text)
 
@@ -392,10 +392,10 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
     InputError
         No results, unreadable results, or results of one edition on different datasets.
     """
+    # heavy: pandas (~0.4 s to import)
     from dressmeup.bench.leaderboard import build_leaderboard
     from dressmeup.bench.results import load_result
     from dressmeup.bench.tasks import get_task
-    from dressmeup.errors import InputError
 
     t0 = time.perf_counter()
     log = log or (lambda line: None)

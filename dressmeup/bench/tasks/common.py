@@ -11,6 +11,9 @@ from typing import Any
 import numpy as np
 
 from dressmeup.errors import InputError
+from dressmeup.io.hashing import sha256_file
+from dressmeup.io.jsonio import parse_json_file, schema_problems
+from dressmeup.io.npz import load_npz
 
 
 @functools.lru_cache(maxsize=4)
@@ -22,6 +25,7 @@ def open_dataset(root: str):
     ----------
     root : dataset root as a resolved path string (the cache key).
     """
+    # heavy: pyarrow (~0.3 s to import)
     from dressmeup.data import Dataset
 
     return Dataset(root)
@@ -35,7 +39,6 @@ def manifest_sha256(root: str | os.PathLike) -> str:
     InputError
         When the manifest is missing.
     """
-    from dressmeup.io.hashing import sha256_file
 
     path = Path(root) / "manifest.parquet"
     if not path.is_file():
@@ -80,8 +83,6 @@ def check_pin(edition: Any, root: str | os.PathLike) -> tuple[dict[str, Any], li
     if not ds_json.is_file():
         problems.append(f"{ds_json} not found (not a dataset root)")
     else:
-        from dressmeup.io.jsonio import parse_json_file, schema_problems
-
         try:
             meta = parse_json_file(ds_json)
         except (OSError, InputError) as exc:
@@ -160,7 +161,6 @@ def load_npz_arrays(path: Path, keys: tuple[str, ...],
         Unreadable or damaged file, an object array (pickles are refused), or arrays that
         declare more than ``max_bytes`` uncompressed.
     """
-    from dressmeup.io.npz import load_npz
 
     arrays = load_npz(path, what="prediction", max_bytes=max_bytes)
     return {k: np.asarray(arrays[k]) for k in keys if k in arrays}

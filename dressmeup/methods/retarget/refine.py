@@ -29,6 +29,7 @@ truth), on CPU; inference is one forward pass.
 
 from __future__ import annotations
 
+import io
 import logging
 import time
 from pathlib import Path
@@ -39,6 +40,8 @@ from scipy.spatial import cKDTree
 
 from dressmeup.errors import MissingModelError
 from dressmeup.geometry.mesh import edges as mesh_edges
+from dressmeup.io.atomic import atomic_write_bytes
+from dressmeup.methods.retarget.base import body_context, check_garment
 from dressmeup.methods.retarget.isomap import IsomapRetarget
 from dressmeup.methods.retarget.refine_losses import (  # noqa: F401  (re-exported)
     MASK_JOINTS,
@@ -49,6 +52,8 @@ from dressmeup.methods.retarget.refine_losses import (  # noqa: F401  (re-export
     refine_losses,
     subsample,
 )
+from dressmeup.methods.retarget.train import train_network
+from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +68,7 @@ _FORMAT = "dressmeup-isomap-refine-v1"
 # the network
 # --------------------------------------------------------------------------------------------
 def _build_network(in_dim: int, code_dim: int, width: int, depth: int, pointnet_hidden: int, out_scale: float):
+    # heavy: torch (~1.1 s to import)
     import torch
     from torch import nn
 
@@ -93,6 +99,7 @@ def _decode_with_partial(decoder, x, neighbors, phi_term, code):
     so only ``x`` and the neighbours are multiplied per vertex. Same result as
     ``decoder(cat([x, phi, neighbours]), code)`` up to float round-off (tested).
     """
+    # heavy: torch (~1.1 s to import)
     import torch
     from torch import nn
 
@@ -235,6 +242,7 @@ class IsomapRefine(IsomapRetarget):
 
     def features(self, sample: RefineSample):
         """Network inputs of a sample: per-vertex features (n, 3 + d + 3k), garment points, body points."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         feats = np.concatenate([sample.x, sample.phi, sample.neighbors], axis=1)
@@ -244,6 +252,7 @@ class IsomapRefine(IsomapRetarget):
 
     def new_network(self):
         """A freshly initialised network (seeded) for these hyperparameters."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         torch.manual_seed(int(self.seed))
@@ -254,6 +263,7 @@ class IsomapRefine(IsomapRetarget):
 
     def loss(self, net, sample: RefineSample) -> tuple[Any, dict[str, float]]:
         """Weighted total loss of ``net`` on one sample, and its terms as floats."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         feats, gp, bp = self.features(sample)
@@ -294,7 +304,6 @@ class IsomapRefine(IsomapRetarget):
 
     def prepare_many(self, triplets, body_model, desc: str = "preparing") -> list[RefineSample]:
         """:meth:`prepare` of every (garment_V, garment_F, source, target[, truth]) tuple."""
-        from dressmeup.progress import progress
 
         triplets = list(triplets)
         return [self.prepare(t[0], t[1], t[2], t[3], body_model, truth=t[4] if len(t) > 4 else None)
@@ -309,7 +318,6 @@ class IsomapRefine(IsomapRetarget):
         ``k_neighbors``, ``n_points``, ...) as this object's; the loss settings may differ,
         which is how the loss ablation reuses one preparation for every variant.
         """
-        from dressmeup.methods.retarget.train import train_network
 
         if not samples:
             raise ValueError("samples: expected at least one prepared sample")
@@ -330,11 +338,9 @@ class IsomapRefine(IsomapRetarget):
         back as float32: the shipped files use it). ``info`` (JSON-like) is stored as the
         checkpoint's ``"training"`` record (data, steps, times).
         """
-        import io
 
+        # heavy: torch (~1.1 s to import)
         import torch
-
-        from dressmeup.io.atomic import atomic_write_bytes
 
         if not hasattr(self, "network_"):
             raise ValueError(f"{self.name}: nothing to save, call fit() or load() first")
@@ -353,6 +359,7 @@ class IsomapRefine(IsomapRetarget):
     @classmethod
     def load(cls, path, device: str = "cpu") -> IsomapRefine:
         """Read a checkpoint written by :meth:`save` (hyperparameters included)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         path = Path(path)
@@ -377,6 +384,7 @@ class IsomapRefine(IsomapRetarget):
         """Load the weights (``weights`` or the shipped file of ``body_model``) unless fitted or loaded."""
         if hasattr(self, "network_"):
             return
+        # heavy: torch (~1.1 s to import)
         import torch
 
         path = Path(self.weights) if self.weights else WEIGHTS_DIR / f"{self.weights_stem}_{body_model.name}.pt"
@@ -416,9 +424,8 @@ class IsomapRefine(IsomapRetarget):
         return self._retarget_prepared(garment_V, garment_F, source, target, body_model)
 
     def _retarget_prepared(self, garment_V, garment_F, source, target, body_model) -> np.ndarray:
+        # heavy: torch (~1.1 s to import)
         import torch
-
-        from dressmeup.methods.retarget.base import body_context, check_garment
 
         V, F = check_garment(garment_V, garment_F)
         t0 = time.perf_counter()
@@ -456,6 +463,7 @@ class IsomapRefine(IsomapRetarget):
 
     def _garment_partial(self, prep, V: np.ndarray, s) -> dict:
         """Per-garment network inputs: the garment's PointNet code and ``phi W_phi^T`` (memoised)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         key = (prep.key, id(self.network_), int(self.n_points), int(self.seed))
@@ -476,6 +484,7 @@ class IsomapRefine(IsomapRetarget):
 
     def predict_sample(self, sample: RefineSample) -> np.ndarray:
         """One forward pass on a prepared sample: (n, 3) float64 world positions."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         if not hasattr(self, "network_"):

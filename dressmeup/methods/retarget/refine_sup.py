@@ -26,6 +26,7 @@ __all__ = ["IsomapRefineSup", "supervised_losses"]
 
 
 def _vertex_normals_torch(v, faces):
+    # heavy: torch (~1.1 s to import)
     import torch
 
     F = torch.as_tensor(faces)
@@ -39,6 +40,7 @@ def _vertex_normals_torch(v, faces):
 
 def _laplace_magnitude(v, edges: np.ndarray):
     """Eq. 4.9-4.10: ``|v_i - mean_{j in N(i)} v_j|`` per vertex, (n,) tensor."""
+    # heavy: torch (~1.1 s to import)
     import torch
 
     E = torch.as_tensor(edges)
@@ -80,6 +82,7 @@ def supervised_losses(v, sample: RefineSample, flat_threshold: float = 0.01) -> 
     -------
     dict of scalar tensors ``l1``, ``normal``, ``laplace``.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     if sample.truth is None:
@@ -140,6 +143,7 @@ class IsomapRefineSup(IsomapRefine):
 
     def loss(self, net, sample: RefineSample) -> tuple[Any, dict[str, float]]:
         """Weighted supervised loss of ``net`` on one sample (needs ``sample.truth``), and its terms."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         feats, gp, bp = self.features(sample)

@@ -24,6 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.io.atomic import atomic_write_bytes
+from dressmeup.progress import progress
+
 log = logging.getLogger(__name__)
 
 __all__ = ["TrainHistory", "train_network", "validate", "plot_history"]
@@ -67,6 +70,7 @@ class TrainHistory:
 
 def validate(method, net, samples) -> tuple[float, float]:
     """Mean loss and mean ground-truth ED (metres; nan without ground truth) over ``samples``."""
+    # heavy: torch (~1.1 s to import)
     import torch
 
     if not samples:
@@ -86,6 +90,7 @@ def validate(method, net, samples) -> tuple[float, float]:
 
 
 def _state_bytes(obj: Any) -> bytes:
+    # heavy: torch (~1.1 s to import)
     import torch
 
     buf = io.BytesIO()
@@ -114,10 +119,8 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
     -------
     (network with the kept weights, in eval mode; TrainHistory)
     """
+    # heavy: torch (~1.1 s to import)
     import torch
-
-    from dressmeup.io.atomic import atomic_write_bytes
-    from dressmeup.progress import progress
 
     if not samples:
         raise ValueError("samples: expected at least one prepared training sample")
@@ -200,12 +203,12 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
 
 def plot_history(history: TrainHistory, path: str | Path, title: str = "") -> Path:
     """Learning curves as a PNG: training loss (running mean of 20 steps) and validation ED/loss."""
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib
 
     matplotlib.use("Agg")
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib.pyplot as plt
-
-    from dressmeup.io.atomic import atomic_write_bytes
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6))
     if history.train:

@@ -12,6 +12,7 @@ float (or a ``.ply`` / ``.obj`` with the source's faces).
 from __future__ import annotations
 
 import functools
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,7 @@ from dressmeup.bench.tasks.common import (
     open_dataset,
 )
 from dressmeup.errors import InputError
+from dressmeup.io.mesh import load_mesh
 
 FILE_SUFFIXES = (".npz", ".ply", ".obj")
 
@@ -53,7 +55,6 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     -------
     list of pairs sorted by pair id.
     """
-    import zlib
 
     if not pairs_spec:
         return sorted(pairs, key=lambda p: p.pair_id)
@@ -139,7 +140,6 @@ def read_prediction(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
             raise InputError(f"{path.name}: no 'vertices' array (found keys: "
                              f"{', '.join(_npz_keys(path)) or 'none'})")
         return arrays["vertices"], arrays.get("faces")
-    from dressmeup.io.mesh import load_mesh
 
     mesh = load_mesh(path)
     return mesh.vertices, mesh.faces

@@ -27,12 +27,21 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup import metrics as M
 from dressmeup.bench.tasks.base import STATUS_OK, Item
+from dressmeup.bench.tasks.retarget.data import _sample, open_dataset, read_prediction
+from dressmeup.body import get_body_model
+from dressmeup.cache import cache_dir, hash_arrays
+from dressmeup.geometry.sampling import sample_surface
+from dressmeup.io.atomic import atomic_path
+from dressmeup.metrics import interpenetration_ratio
+from dressmeup.progress import progress
 
 
 # ------------------------------------------------------------------------ main process side
 def largest_component(F: np.ndarray, n_vertices: int) -> np.ndarray:
     """Faces ``(k, 3)`` of the largest connected component (by face count) of a mesh."""
+    # heavy: scipy (~0.5 s to import)
     from dressmeup.geometry.topology import largest_component_faces
 
     F = np.asarray(F, dtype=np.int64)
@@ -52,8 +61,6 @@ def posed_body_file(params: Any, models: dict[str, Any]) -> Path:
     params : BodyParams of the target sample.
     models : cache of body models by name, filled on first use.
     """
-    from dressmeup.cache import cache_dir, hash_arrays
-    from dressmeup.io.atomic import atomic_path
 
     key = hash_arrays(np.asarray(params.shape, np.float64), np.asarray(params.pose, np.float64),
                       np.asarray(params.transl, np.float64),
@@ -63,8 +70,6 @@ def posed_body_file(params: Any, models: dict[str, Any]) -> Path:
     if path.is_file():
         return path
     if params.model not in models:
-        from dressmeup.body import get_body_model
-
         models[params.model] = get_body_model(params.model)
     model = models[params.model]
     out = model.posed(params)
@@ -78,8 +83,6 @@ def posed_body_file(params: Any, models: dict[str, Any]) -> Path:
 def jobs(edition: Any, data_root: Path, files: Mapping[str, Path],
          items: Sequence[Item], show_progress: bool | None = None) -> list[dict[str, Any]]:
     """Build one picklable job per pair; poses each distinct target body once (cached)."""
-    from dressmeup.bench.tasks.retarget.data import open_dataset
-    from dressmeup.progress import progress
 
     ds = open_dataset(str(Path(data_root).resolve()))
     by_id = {s.sample_id: s for s in ds}
@@ -107,8 +110,6 @@ def jobs(edition: Any, data_root: Path, files: Mapping[str, Path],
 # ---------------------------------------------------------------------------- worker side
 @functools.lru_cache(maxsize=8)
 def _garment(root: str, sample_id: str) -> tuple[np.ndarray, np.ndarray]:
-    from dressmeup.bench.tasks.retarget.data import _sample, open_dataset
-
     g = _sample(open_dataset(root), sample_id).garment()
     return np.asarray(g.vertices, np.float64), np.asarray(g.faces, np.int64)
 
@@ -121,16 +122,12 @@ def _body(path: str) -> tuple[np.ndarray, np.ndarray]:
 
 @functools.lru_cache(maxsize=8)
 def _gt_samples(root: str, sample_id: str, n: int, seed: int) -> np.ndarray:
-    from dressmeup.geometry.sampling import sample_surface
-
     V, F = _garment(root, sample_id)
     return sample_surface(V, F, n, seed=seed)[0]
 
 
 @functools.lru_cache(maxsize=8)
 def _gt_ir(root: str, sample_id: str, body_path: str) -> float:
-    from dressmeup.metrics import interpenetration_ratio
-
     V, F = _garment(root, sample_id)
     return float(interpenetration_ratio((V, F), _body(body_path)))
 
@@ -156,8 +153,6 @@ def evaluate_pair(pred_V: np.ndarray, src_F: np.ndarray, gt_V: np.ndarray, gt_F:
     values : metric name -> float (metres, ratios); ``ed`` NaN when topologies differ.
     notes : human-readable notes (why a value is NaN).
     """
-    from dressmeup import metrics as M
-    from dressmeup.geometry.sampling import sample_surface
 
     n, seed = int(options["n_samples"]), int(options["seed"])
     pred, gt = (pred_V, src_F), (gt_V, gt_F)
@@ -197,7 +192,6 @@ def evaluate_pair(pred_V: np.ndarray, src_F: np.ndarray, gt_V: np.ndarray, gt_F:
 
 def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
     """Score one pair job (see :func:`jobs`); errors propagate to the scorer, which records them."""
-    from dressmeup.bench.tasks.retarget.data import read_prediction
 
     t0 = time.perf_counter()
     meta = job["meta"]

@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from dressmeup.errors import InputError
 from dressmeup.geometry.mesh import as_arrays
 from dressmeup.geometry.simplify import decimate
 from dressmeup.methods.uvparam.base import UVResult
@@ -33,7 +34,6 @@ def pretrained_path(name: str) -> Path:
     InputError
         Unknown name, or the weights are not installed.
     """
-    from dressmeup.errors import InputError
 
     if name not in PRETRAINED:
         raise InputError(f"pretrained: expected one of {', '.join(PRETRAINED)} or 'category', "
@@ -74,8 +74,6 @@ class NeuralMethod:
     def __init__(self, config: str = "fast", checkpoint: str | Path | None = None,
                  use_operator_cache: bool = True, save_checkpoint: str | Path | None = None,
                  progress: bool = False, pretrained: str | None = None, **overrides: Any):
-        from dressmeup.errors import InputError
-
         if pretrained is not None and checkpoint is not None:
             raise InputError("neural: give either pretrained= or checkpoint=, not both")
         if pretrained is not None and pretrained != "category":
@@ -90,6 +88,7 @@ class NeuralMethod:
         self.overrides = overrides
 
     def _load(self, path: Path):
+        # heavy: scipy (~0.5 s to import)
         from dressmeup.methods.uvparam.neural.train import load_model
 
         key = str(path)
@@ -114,6 +113,7 @@ class NeuralMethod:
             applied (the mesh's hash is not among the model's training meshes), otherwise
             ``"per-mesh"``; ``info["model"]`` names the model used.
         """
+        # heavy: scipy (~0.5 s to import)
         from dressmeup.methods.uvparam.neural.infer import infer
         from dressmeup.methods.uvparam.neural.train import get_config, save_model, train
         from dressmeup.methods.uvparam.neural.train_set import mesh_sha
