@@ -83,6 +83,25 @@ class DatasetPin:
 
 
 @dataclass(frozen=True)
+class PrimaryFigure:
+    """The figure an edition's leaderboards rank by.
+
+    Attributes
+    ----------
+    metric : a metric of the edition.
+    track : a track of the edition, or None: the metric over every item.
+    """
+
+    metric: str
+    track: str | None = None
+
+    @property
+    def key(self) -> str:
+        """The leaderboard column: ``metric`` or ``metric#track``."""
+        return self.metric if self.track is None else f"{self.metric}#{self.track}"
+
+
+@dataclass(frozen=True)
 class Edition:
     """A loaded, validated benchmark edition (see the module docstring).
 
@@ -95,12 +114,12 @@ class Edition:
     split : the manifest split scored (``test``).
     metrics : metric names, in table order (a subset of the task's metrics).
     options : metric options, task defaults filled in.
-    primary_metric : the metric leaderboards sort by.
+    primary : the figure leaderboards rank by (:class:`PrimaryFigure`: a metric, over one
+        track or over all items). In the JSON file: ``primary_metric`` and, for a track,
+        ``primary: {"metric": m, "track": t}``.
     per_category : metrics shown per category in leaderboards.
     tracks : names of the tracks scored and shown separately (retarget v3: ``re-pose``,
         ``re-shape``, ``cross``); empty for editions without tracks.
-    primary : ``{"metric": m, "track": t}``, the ranking figure of an edition with tracks, or
-        None (rank by ``primary_metric`` over all items).
     pairs : retarget pair sampling, ``{"seed": int, "per_track": {track: pairs per source
         garment}}``; empty: every pair of the split.
     description : free text (not hashed).
@@ -114,12 +133,11 @@ class Edition:
     split: str
     metrics: tuple[str, ...]
     options: dict[str, Any]
-    primary_metric: str
+    primary: PrimaryFigure
     per_category: tuple[str, ...] = ()
     description: str = ""
     source: str = ""
     tracks: tuple[str, ...] = ()
-    primary: dict[str, str] | None = None
     pairs: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self, include_description: bool = True) -> dict[str, Any]:
@@ -133,14 +151,14 @@ class Edition:
             "split": self.split,
             "metrics": list(self.metrics),
             "options": copy.deepcopy(self.options),
-            "primary_metric": self.primary_metric,
+            "primary_metric": self.primary.metric,
             "per_category": list(self.per_category),
         }
         # optional fields (editions v3): absent from older editions, so their hash is unchanged
         if self.tracks:
             d["tracks"] = list(self.tracks)
-        if self.primary:
-            d["primary"] = dict(self.primary)
+        if self.primary.track is not None:
+            d["primary"] = {"metric": self.primary.metric, "track": self.primary.track}
         if self.pairs:
             d["pairs"] = copy.deepcopy(self.pairs)
         if include_description:
@@ -297,13 +315,17 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
         problems.append(f"per_category must list metrics of the edition, got {per_category!r}")
         per_category = []
     tracks, primary_track, pairs = _parse_tracks(data, metrics, problems)
+    if primary_track is not None and primary_track["metric"] != primary:
+        problems.append(f"primary.metric {primary_track['metric']!r} differs from primary_metric "
+                        f"{primary!r}: an edition ranks by one figure")
     if problems:
         raise InputError(f"edition {source} is invalid:\n  - " + "\n  - ".join(problems))
     return Edition(name=name, version=int(version), task=task_name, dataset=pin,
                    split=split, metrics=tuple(metrics), options=options,
-                   primary_metric=primary, per_category=tuple(per_category),
+                   primary=PrimaryFigure(primary, primary_track and primary_track["track"]),
+                   per_category=tuple(per_category),
                    description=str(data.get("description", "")), source=source,
-                   tracks=tracks, primary=primary_track, pairs=pairs)
+                   tracks=tracks, pairs=pairs)
 
 
 def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]

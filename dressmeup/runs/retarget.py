@@ -73,8 +73,9 @@ def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: s
                 f"here (train with 'dressmeup baseline train-retarget --data {data_root} "
                 f"--out w.pt', then '--weights w.pt')")
         else:
-            if "steps" in inspect.signature(type(method).__init__).parameters and \
-                    "steps" not in hyperparameters:
+            names = getattr(type(method), "hyperparameter_names", None)  # a chain has none
+            takes = names() if names else inspect.signature(type(method).__init__).parameters
+            if "steps" in takes and "steps" not in hyperparameters:
                 method = get_method(method_name, steps=train_steps, **hyperparameters)
             t0 = time.perf_counter()
             supervised = bool(getattr(getattr(method, "method", method), "supervised", False))

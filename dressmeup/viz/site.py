@@ -105,7 +105,7 @@ def _slug(text: str, taken: set[str]) -> str:
 def _page(title: str, body: str, nav: str = "") -> str:
     """A complete HTML page with the leaderboard stylesheet and the sorting script."""
     # heavy: pandas (~0.4 s to import)
-    from dressmeup.bench.leaderboard import HTML_CSS, SORT_JS
+    from dressmeup.bench.board_html import HTML_CSS, SORT_JS
 
     generated = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return f"""<!DOCTYPE html>
@@ -218,7 +218,7 @@ def _category_chart(summary: dict, spec: Any, path: Path, group: str) -> Path | 
                                 title=f"{spec.label} per {what}")
 
 
-def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, slug: str,
+def _method_page(result: Any, row: Any, board: Any, task: Any, ed_dir: Path, slug: str,
                  data_roots: Sequence, submissions: Sequence, budget: list[int],
                  per_side: int, report: SiteReport) -> Path:
     e = html.escape
@@ -227,7 +227,7 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
     primary_name = board.primary.split("#")[0]
     pspec = next(x for x in specs if x.name == primary_name)
     img_dir = ed_dir / "img"
-    parts = [f"<h1>{e(row['method'])}</h1>"]
+    parts = [f"<h1>{e(row.method)}</h1>"]
     meta = s.get("method", {})
     bits = [f"edition <b>{e(board.edition.name)}</b> v{board.edition.version}",
             f"{s.get('counts', {}).get('ok', 0)}/{s.get('counts', {}).get('items', 0)} items "
@@ -318,7 +318,7 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
                          f'<div class="gallery">{figs}</div>')
     if why:
         parts.append(f'<p class="why">{e(why)}</p>')
-        report.notes.append(f"{board.edition.name} / {row['method']}: {why}")
+        report.notes.append(f"{board.edition.name} / {row.method}: {why}")
     if table is not None:
         parts.append(f"<h2>Every item ({len(table)})</h2>"
                      '<p class="meta">Click a column header to sort.</p>'
@@ -327,7 +327,7 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
     nav = '<nav><a href="index.html">&larr; leaderboard</a> · <a href="../index.html">all ' \
           "editions</a></nav>"
     path = ed_dir / f"{slug}.html"
-    _write(path, _page(f"{row['method']} on {board.edition.name}", "\n".join(parts), nav))
+    _write(path, _page(f"{row.method} on {board.edition.name}", "\n".join(parts), nav))
     return path
 
 
@@ -343,13 +343,12 @@ def _edition_charts(board: Any, ed_dir: Path, report: SiteReport, max_methods: i
         cols = [c for c in board.columns if c.spec.name == metric and getattr(c, attr)]
         if len(cols) < 2:
             continue
-        rows = [r for r in board.rows if r.get("comparable", True)][:max_methods]
+        rows = [r for r in board.rows if r.comparable][:max_methods]
         spec = cols[0].spec
-        series = {r["method"]: [spec.display(r["values"][c.key][0])
-                                if r["values"][c.key][0] is not None else float("nan")
-                                for c in cols] for r in rows}
-        ivs = {r["method"]: [tuple(sorted(spec.display(x) for x in r["ci"][c.key]))
-                             if c.key in r.get("ci", {}) else None for c in cols]
+        series = {r.method: [spec.display(r.mean(c.key)) if r.mean(c.key) is not None
+                             else float("nan") for c in cols] for r in rows}
+        ivs = {r.method: [tuple(sorted(spec.display(x) for x in r.ci[c.key]))
+                          if c.key in r.ci else None for c in cols]
                for r in rows}
         png = ed_dir / "img" / f"_edition-per-{kind}.png"
         render_grouped_bars([getattr(c, attr) for c in cols], series, ivs, png,
@@ -393,6 +392,7 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
         No results, unreadable results, or results of one edition on different datasets.
     """
     # heavy: pandas (~0.4 s to import)
+    from dressmeup.bench.board_html import html_meta, html_notes, html_table
     from dressmeup.bench.leaderboard import build_leaderboard
     from dressmeup.bench.results import load_result
     from dressmeup.bench.tasks import get_task
@@ -420,18 +420,18 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
         taken: set[str] = {"index"}
         links: dict[str, str] = {}
         for row in board.rows:
-            slug = _slug(row["method"], taken)
-            log(f"report: {board.edition.name} / {row['method']}")
-            page = _method_page(by_path[row["result"]], row, board, task, ed_dir, slug,
+            slug = _slug(row.method, taken)
+            log(f"report: {board.edition.name} / {row.method}")
+            page = _method_page(by_path[row.result], row, board, task, ed_dir, slug,
                                 data_roots, submissions, budget, images_per_side, report)
             budget[1] -= 1
             report.method_pages.append(page)
-            links[row["method"]] = f"{slug}.html"
+            links[row.method] = f"{slug}.html"
         e = html.escape
         head = (f"<h1>{e(board.edition.name)} <small>v{board.edition.version}</small></h1>\n"
-                f"{board.html_meta()}")
+                f"{html_meta(board)}")
         charts = _edition_charts(board, ed_dir, report)
-        page_body = (f"{head}\n{board.html_table(links)}\n{board.html_notes()}\n"
+        page_body = (f"{head}\n{html_table(board, links)}\n{html_notes(board)}\n"
                      + charts)
         ed_index = ed_dir / "index.html"
         _write(ed_index, _page(f"{board.edition.name} leaderboard", page_body,
@@ -439,8 +439,8 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
         report.edition_pages.append(ed_index)
         root_links = {m: f"{ed_slug}/{u}" for m, u in links.items()}
         sections.append(f'<h2><a href="{e(ed_slug)}/index.html">{e(board.edition.name)}</a> '
-                        f"<small>v{board.edition.version}</small></h2>\n{board.html_meta()}\n"
-                        f"{board.html_table(root_links)}\n{board.html_notes()}\n"
+                        f"<small>v{board.edition.version}</small></h2>\n{html_meta(board)}\n"
+                        f"{html_table(board, root_links)}\n{html_notes(board)}\n"
                         + charts.replace('src="img/', f'src="{e(ed_slug)}/img/'))
     body = ("<h1>Benchmark results</h1>\n<p class=\"meta\">One leaderboard per edition; "
             "click a method for its per-item numbers and pictures, a column header to "

@@ -28,7 +28,7 @@ def test_cli_creates_a_pinned_edition_that_validates(bench_data, tmp_path, capsy
     assert raw["dataset"] == {"kind": "real", "name": "bench-fixture",
                               "manifest_sha256": sha256_file(bench_data / "manifest.parquet")}
     ed = load_edition(out)
-    assert ed.task == "retarget" and ed.primary_metric == "p2s" and "ir" in ed.metrics
+    assert ed.task == "retarget" and ed.primary.metric == "p2s" and "ir" in ed.metrics
     assert "18 items" in ed.description
     preds = gt_predictions(bench_data, ed)
     sub = make_submission(tmp_path / "sub", preds, ed, "GT")
@@ -58,4 +58,4 @@ def test_create_refuses_empty_split_and_missing_data(bench_data, tmp_path):
         (tmp_path / "empty").mkdir()
         create_edition(tmp_path / "empty", "retarget", "x-v1")
     ed = create_edition(bench_data, "retarget", "x-v1", metrics=["ed", "p2s"])
-    assert ed.primary_metric == "ed" and ed.per_category == ("ed",)
+    assert ed.primary.metric == "ed" and ed.per_category == ("ed",)

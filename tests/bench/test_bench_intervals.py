@@ -165,7 +165,7 @@ def test_tracks_get_columns_in_every_format(scored, tmp_path):
     assert "P2S ↓ [mm] · track re-pose" in board.render("csv").splitlines()[0]
     assert "track cross" in board.render("latex") and "track re-pose" in board.render("html")
     col = next(c for c in board.columns if c.track == "cross")
-    assert board.rows[0]["ci"][col.key][0] <= board.rows[0]["values"][col.key][0]
+    assert board.rows[0].ci[col.key][0] <= board.rows[0].values[col.key][0]
 
     # an edition naming a primary track sorts by that track's column
     for folder in (a, b):
@@ -178,7 +178,7 @@ def test_tracks_get_columns_in_every_format(scored, tmp_path):
         summary["provenance"]["edition_hash"] = summary["edition"]["hash"]
         (folder / "summary.json").write_text(json.dumps(summary))
     board = build_leaderboard([b, a])
-    assert board.primary == "p2s#cross" and board.rows[0]["method"] == "GT"
+    assert board.primary == "p2s#cross" and board.rows[0].method == "GT"
     assert [c.track for c in board.columns if c.track] == ["re-pose", "cross"]   # its order
     assert "Sorted by P2S ↓ [mm] · track cross" in board.render("md")
     # every track is shown for the primary metric even without per-category metrics
@@ -199,7 +199,7 @@ def test_rank_separation_marked(scored, tmp_path):
     noisy = _copy(scored["noisy"]["res"].path, tmp_path / "noisy", table_edit=_six_units)
     twin = _copy(noisy, tmp_path / "twin", method="NOISY-TWIN")
     board = build_leaderboard([gt, noisy, twin], sort_by="ed")
-    seps = {r["method"]: r["separated"] for r in board.rows}
+    seps = {r.method: r.separated for r in board.rows}
     assert seps["GT"] is True
     assert [seps["NOISY"], seps["NOISY-TWIN"]].count(False) == 1
     assert [seps["NOISY"], seps["NOISY-TWIN"]].count(None) == 1
@@ -217,10 +217,10 @@ def test_not_comparable_marked_in_every_format(scored, tmp_path):
 
     nc = _copy(scored["gt"]["res"].path, tmp_path / "nc", method="ELSEWHERE", edit=other)
     board = build_leaderboard([scored["noisy"]["res"].path, nc])
-    assert board.rows[-1]["method"] == "ELSEWHERE"       # last, unranked
+    assert board.rows[-1].method == "ELSEWHERE"       # last, unranked
     md = board.render("md")
     assert "| – | ELSEWHERE (not comparable) |" in md and "Not comparable" in md
-    assert all(r["method"] != "ELSEWHERE" or not any(
+    assert all(r.method != "ELSEWHERE" or not any(
         board.rows.index(r) in v for v in board.best.values()) for r in board.rows)
     rows = list(csv.DictReader(io.StringIO(board.render("csv"))))
     assert rows[-1]["comparable"] == "false" and rows[-1]["rank"] == ""
@@ -246,14 +246,14 @@ def test_separation_when_the_unit_is_the_item():
     from dressmeup.bench.leaderboard import _mark_separation
 
     ids = [f"m{i}" for i in range(6)]
-    rows = []
+    rows, results = [], []
     for name, offset in (("A", 0.0), ("B", 1.0)):
         t = pd.DataFrame({"sample_id": ids, "qce": np.arange(6.0) + offset,
                           "status": ["ok"] * 6})
-        rows.append({"method": name, "comparable": True, "schema_version": 2,
-                     "_result": SimpleNamespace(table=t)})
-    _mark_separation(rows, "qce", "sample_id")
-    assert rows[0]["separated"] is True and rows[1]["separated"] is None
+        rows.append(_row(name, schema_version=2))
+        results.append(SimpleNamespace(table=t))
+    _mark_separation(rows, results, "qce", "sample_id")
+    assert rows[0].separated is True and rows[1].separated is None
 
 
 def test_one_unit_shows_degenerate_interval_and_says_why(scored, tmp_path):
@@ -268,7 +268,7 @@ def test_one_unit_shows_degenerate_interval_and_says_why(scored, tmp_path):
     board = build_leaderboard([a, b])
     md = board.render("md")
     assert board.show_ci and "[–]" in md.splitlines()[2] and "degenerate" in md
-    assert all(r["separated"] is None for r in board.rows)
+    assert all(r.separated is None for r in board.rows)
 
 
 def test_no_separation_verdict_below_four_units(scored):
@@ -276,7 +276,7 @@ def test_no_separation_verdict_below_four_units(scored):
     95 % verdict (the all-one-garment resample has probability 1/27 > 2.5 %)."""
     board = build_leaderboard([scored["gt"]["res"].path, scored["noisy"]["res"].path],
                               sort_by="ed")
-    assert [r["separated"] for r in board.rows] == [None, None]
+    assert [r.separated for r in board.rows] == [None, None]
     assert "below 4 shared units" in board.render("md")
 
 
@@ -290,16 +290,13 @@ def test_pareto_front_marked_for_uvparam():
     from dressmeup.bench.tasks import get_task
 
     ed = SimpleNamespace(task="uvparam", metrics=("qce", "seam_length", "flip"))
-    rows = [{"method": m, "comparable": True,
-             "values": {"qce": (q, None, 3), "seam_length": (sl, None, 3)}}
+    rows = [_row(m, values={"qce": (q, None, 3), "seam_length": (sl, None, 3)}, items=3)
             for m, q, sl in (("few-cuts", 1.20, 0.5), ("low-qce", 1.01, 3.0),
                              ("dominated", 1.30, 4.0))]
     assert _mark_pareto(ed, rows) == ("qce", "seam_length")
-    assert [r["pareto"] for r in rows] == [True, True, False]
+    assert [r.pareto for r in rows] == [True, True, False]
     assert _mark_pareto(SimpleNamespace(task="uvparam", metrics=("qce",)), rows) == ()
     assert _mark_pareto(SimpleNamespace(task="retarget", metrics=("p2s",)), rows) == ()
-    for r in rows:
-        r.update(failed=0, items=3, runtime=None, ci={})
     ed2 = load_edition("synth-uvparam-v2")
     specs = {sp.name: sp for sp in get_task("uvparam").metric_specs(ed2)}
     board = Leaderboard(edition=ed2, manifest_sha256=None,
@@ -310,3 +307,13 @@ def test_pareto_front_marked_for_uvparam():
         "true", "true", "false"]
     assert r"few-cuts $\diamond$" in board.render("latex")
     assert board.render("html").count('class="pareto"') == 2
+
+
+def _row(method: str, **kw):
+    """A leaderboard row with defaults for what a test does not set."""
+    from dressmeup.bench.board import BoardRow
+
+    base = dict(method=method, result=method, values={}, ci={}, failed=0, items=0,
+                runtime=None, url=None, authors="", comparable=True,
+                not_comparable_reason=None, schema_version=1)
+    return BoardRow(**{**base, **kw})

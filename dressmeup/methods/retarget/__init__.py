@@ -112,7 +112,9 @@ def get_method(name: str, **hyperparameters: Any):
 
 def _make(table: dict, name: str, kw: dict[str, Any]):
     cls = _cls(table, name)
-    known = [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
+    names = getattr(cls, "hyperparameter_names", None)
+    known = list(names()) if names else [p for p in inspect.signature(cls.__init__).parameters
+                                         if p != "self"]
     bad = sorted(set(kw) - set(known))
     if bad:
         raise InputError(f"{name}: unknown hyperparameter(s) {bad}; known: {known}")
