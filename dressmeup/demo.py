@@ -79,23 +79,24 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     report: dict[str, Any] = {"run": run, "results": [], "ok": True}
     edition = QUICK_EDITION if quick else DEMO_EDITION
     log(f"[1/4] synthetic dataset for edition {edition} -> {out / 'data' / edition}")
-    data = runs.build_data(edition, out / "data" / edition, log=log)
+    parts = runs.build_parts(edition, out / "data" / edition, log=log,
+                             allow_other_data=True)
+    other = runs.data_differs(edition, parts.full) is not None
 
-    log("[2/4] retargeting baselines -> submissions")
+    log("[2/4] retargeting baselines on the public part -> submissions")
     kw = {"train_steps": train_steps}
-    subs = runs.run_baselines(edition, data, run / "submissions" / edition,
+    subs = runs.run_baselines(edition, parts.public, run / "submissions" / edition,
                               methods=retarget_methods, log=log, **kw)
     if not subs:
         log("no retargeting baseline produced a submission; nothing to score")
         report["ok"] = False
         return report
 
-    log(f"[3/4] scoring {len(subs)} submissions (validated first)")
+    log(f"[3/4] scoring {len(subs)} submissions against the private part (validated first)")
     # data this machine generated differently from the pin: the demo still ends in a
     # leaderboard, its rows marked not comparable (build_data has said why)
-    results = runs.score_many(subs, edition, data, run / "results" / edition,
-                              workers=workers, log=log,
-                              allow_other_data=runs.data_differs(edition, data) is not None)
+    results = runs.score_many(subs, edition, parts.private, run / "results" / edition,
+                              workers=workers, log=log, allow_other_data=other)
     report["results"] += results
     md = write_leaderboard(results, "md", run / f"leaderboard-{edition}.md")
     write_leaderboard(results, "html", run / f"leaderboard-{edition}.html")
@@ -108,7 +109,7 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     if with_uv:
         _uv_part(run, out, workers, quick, log, report)
     if with_fusion:
-        _fusion_part(data, run, quick, log, report)
+        _fusion_part(parts.private, run, quick, log, report)
     _site_part(run, log, report)
     log(f"done in {time.perf_counter() - t0:.0f} s; everything is under {run}")
     if report.get("site"):

@@ -27,7 +27,9 @@ from dressmeup.bench.results import (
 from dressmeup.bench.submission import submission_hash
 from dressmeup.bench.tasks import get_task
 from dressmeup.bench.tasks.base import STATUS_ERROR
+from dressmeup.bench.tasks.common import other_data_reason
 from dressmeup.bench.validate import ValidationReport, validate_submission
+from dressmeup.data.parts import part_of, withheld_message
 from dressmeup.errors import InputError
 from dressmeup.executors import require_shared
 from dressmeup.progress import progress
@@ -102,6 +104,8 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     out = check_out_dir(out)
     ed = load_edition(edition)
     task = get_task(ed.task)
+    if part_of(data_root) == "public":
+        raise InputError(withheld_message(data_root, "the ground truth"))
     report = validate_submission(submission, ed, data_root)
     if not report.ok:
         raise InvalidSubmissionError(report)
@@ -166,24 +170,6 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
         summary["not_comparable_reason"] = other_data
     path = write_result(out, table, summary, ed.to_dict())
     return ScoreResult(path=path, summary=summary, table=table)
-
-
-def other_data_reason(ed: Edition, dataset: dict[str, Any],
-                      data_root: str | os.PathLike) -> str | None:
-    """Why the data at ``data_root`` is not the edition's pinned data, or None when it is.
-
-    Only generated editions that record ``dataset.expected_manifest_sha256`` (v3) are checked
-    here (a real dataset's pin is checked by validation and cannot be overridden).
-    """
-    pin = ed.dataset
-    expected = pin.expected_manifest_sha256 if pin.kind == "generated" else None
-    got = dataset.get("manifest_sha256")
-    if not expected or got == expected:
-        return None
-    return (f"the data at {data_root} has manifest sha256 {str(got)[:12]}..., but edition "
-            f"{ed.name} expects {expected[:12]}... (what generator {pin.generator} "
-            f"{pin.generator_version} writes for its parameters); its scores are not comparable "
-            "with the edition's reference results")
 
 
 def _verify_data(data_root: Path, items: list[Any]) -> int:

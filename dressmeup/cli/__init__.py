@@ -20,7 +20,8 @@ from dressmeup import __version__
 from dressmeup.errors import DressmeupError
 
 # One module per stage; each defines ``register(subparsers) -> None``.
-COMMAND_MODULES = ("metrics", "body", "data", "capture", "baseline", "bench", "report")
+COMMAND_MODULES = ("metrics", "body", "data", "capture", "baseline", "bench", "edition",
+                   "report")
 
 
 def build_parser() -> argparse.ArgumentParser:

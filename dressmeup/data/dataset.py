@@ -23,6 +23,7 @@ import numpy as np
 from dressmeup.body.params import BodyParams
 from dressmeup.data import layout
 from dressmeup.data.manifest import read_manifest
+from dressmeup.data.parts import withheld_fields, withheld_message
 from dressmeup.errors import InputError
 from dressmeup.io.jsonio import read_json
 from dressmeup.io.mesh import load_mesh
@@ -183,12 +184,19 @@ class Sample:
             return Path(rel)
         return layout.resolve_inside(self.root, rel, f"{self.sample_id}.{field}_path")
 
+    def _check_withheld(self, field: str) -> None:
+        """Raise when this row of a public part withholds ``field``."""
+        if field in withheld_fields(self.row):
+            raise InputError(withheld_message(self.root, f"the {field} of sample "
+                                                         f"{self.sample_id}"))
+
     def garment(self) -> GarmentMesh:
         """Load the garment mesh (vertices in metres, UVs and texture when present)."""
         if "garment" in self._loaders:
             return self._loaders["garment"]()
         p = self.path("garment")
         if p is None:
+            self._check_withheld("garment")
             raise InputError(f"sample {self.sample_id}: no garment file")
         fast = read_dataset_ply(p)
         if fast is not None:
@@ -203,6 +211,7 @@ class Sample:
             return self._loaders["body"]()
         p = self.path("body")
         if p is None:
+            self._check_withheld("body")
             return None
 
         return BodyParams.load(p)
@@ -213,6 +222,7 @@ class Sample:
             return self._loaders["scan"]()
         p = self.path("scan")
         if p is None:
+            self._check_withheld("scan")
             return None
 
         m = load_mesh(p)

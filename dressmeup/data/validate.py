@@ -15,7 +15,8 @@ import numpy as np
 
 from dressmeup.data import layout
 from dressmeup.data.dataset import read_dataset_ply
-from dressmeup.data.manifest import COLUMNS, HASH_OF, PATH_COLUMNS, read_manifest
+from dressmeup.data.manifest import HASH_OF, PATH_COLUMNS, columns, read_manifest
+from dressmeup.data.parts import part_record, withheld_fields
 from dressmeup.errors import InputError
 from dressmeup.io.hashing import sha256_file
 from dressmeup.io.jsonio import parse_json_file, schema_problems
@@ -148,7 +149,8 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
     except InputError as exc:
         P.append(f"{layout.MANIFEST}: {exc}")
         return rep
-    for name, typ, nullable, _d in COLUMNS:
+    public = "withheld" in table.column_names
+    for name, typ, nullable, _d in columns(public):
         if name in table.column_names:
             got = table.schema.field(name).type
             if got != typ:
@@ -158,6 +160,13 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
                          "null value(s)")
     rows = table.to_pylist()
     rep.n_samples = len(rows)
+    part = part_record(root)
+    carried = set(part.get("splits") or ()) if part.get("part") == "private" else None
+    if carried is not None:
+        skipped = sum(1 for r in rows if r.get("split") not in carried)
+        if skipped:
+            rep.warnings.append(f"private part: the files of {skipped} sample(s) of splits "
+                                f"other than {sorted(carried)} are in the public part, not here")
     if not rows:
         P.append(f"{layout.MANIFEST}: no samples")
     seen: dict[str, int] = {}
@@ -194,8 +203,10 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
                          "another sample (a garment has one split/category/type)")
         for col in PATH_COLUMNS:
             rel = r.get(col)
+            if carried is not None and split not in carried:
+                continue
             if rel is None:
-                if col == "garment_path":
+                if col == "garment_path" and "garment" not in withheld_fields(r):
                     P.append(f"{where}: {col} is missing")
                 continue
             try:

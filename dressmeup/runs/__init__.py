@@ -31,7 +31,7 @@ from dressmeup.runs.common import (
     retarget_methods,
     uvparam_methods,
 )
-from dressmeup.runs.data import build_data, data_differs
+from dressmeup.runs.data import DataParts, build_data, build_parts, data_differs
 from dressmeup.runs.registration import RegisterJob, run_registration_baseline
 from dressmeup.runs.retarget import run_retarget_baseline
 from dressmeup.runs.uvparam import UVMeshJob, run_uvparam_baseline
@@ -84,7 +84,7 @@ def score_many(subs: dict[str, Path], edition: str | Edition, data_root: str | o
     return out
 
 
-__all__ = ["BASELINE_AUTHORS", "RegisterJob", "SkippedBaseline", "UVMeshJob", "build_data",
-           "data_differs", "registration_methods", "retarget_methods", "run_baselines",
+__all__ = ["BASELINE_AUTHORS", "DataParts", "RegisterJob", "SkippedBaseline", "UVMeshJob", "build_data",
+           "build_parts", "data_differs", "registration_methods", "retarget_methods", "run_baselines",
            "run_registration_baseline", "run_retarget_baseline", "run_uvparam_baseline",
            "score_many", "uvparam_methods"]

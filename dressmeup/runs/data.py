@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import inspect
 import os
+import shutil
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from dressmeup.bench.edition import Edition, load_edition
-from dressmeup.bench.score import other_data_reason
-from dressmeup.bench.tasks.common import manifest_sha256
+from dressmeup.bench.parts import export_parts
+from dressmeup.bench.tasks.common import manifest_sha256, other_data_reason
+from dressmeup.data.parts import part_of
 from dressmeup.data.synth import generate_dataset
 from dressmeup.data.uvmeshes import build_mesh_set
 from dressmeup.errors import InputError
@@ -62,3 +65,37 @@ def data_differs(edition: str | Edition, root: str | os.PathLike) -> str | None:
     if not (Path(root) / "manifest.parquet").is_file():
         return None
     return other_data_reason(ed, {"manifest_sha256": manifest_sha256(root)}, root)
+
+
+@dataclass(frozen=True)
+class DataParts:
+    """An edition's data as built by :func:`build_parts`: the full data (the generator's
+    working folder), the public part methods run on and the private part scoring reads."""
+
+    full: Path
+    public: Path
+    private: Path
+
+
+def build_parts(edition: str | Edition, root: str | os.PathLike, log: Log = _quiet,
+                allow_other_data: bool = False) -> DataParts:
+    """Generate (or resume) an edition's data into ``root/full`` and export its public and
+    private parts into ``root/public`` and ``root/private`` (kept when already complete).
+
+    ``allow_other_data`` exports data this machine generated differently from the pin (the
+    parts are then marked by their own manifests; scores on them are not comparable).
+    """
+    ed = load_edition(edition)
+    root = Path(root)
+    full = build_data(ed, root / "full", log=log)
+    public, private = root / "public", root / "private"
+    if part_of(public) != "public" or part_of(private) != "private":
+        for p in (public, private):
+            if p.exists():
+                shutil.rmtree(p)
+        res = export_parts(ed, full, public, private, allow_other_data=allow_other_data)
+        note = (f"; {len(res.public_answers)} scored item(s) have a public answer (a target "
+                "is also a source)" if res.public_answers else "")
+        log(f"public part {public} ({res.parts.public_files} files), private part {private} "
+            f"({res.parts.private_files} files){note}")
+    return DataParts(full=full, public=public, private=private)

@@ -198,3 +198,21 @@ def faces_problems(name: str, f: np.ndarray, n_vertices: int) -> list[str]:
         return [f"'{name}': {bad} faces index outside [0, {n_vertices}) "
                 f"(range found [{int(f.min())}, {int(f.max())}])"]
     return []
+
+
+def other_data_reason(ed: Any, dataset: dict[str, Any],
+                      data_root: str | os.PathLike) -> str | None:
+    """Why the data at ``data_root`` is not the edition's pinned data, or None when it is.
+
+    Only generated editions that record ``dataset.expected_manifest_sha256`` (v3) are checked
+    here (a real dataset's pin is checked by validation and cannot be overridden).
+    """
+    pin = ed.dataset
+    expected = pin.expected_manifest_sha256 if pin.kind == "generated" else None
+    got = dataset.get("manifest_sha256")
+    if not expected or got == expected:
+        return None
+    return (f"the data at {data_root} has manifest sha256 {str(got)[:12]}..., but edition "
+            f"{ed.name} expects {expected[:12]}... (what generator {pin.generator} "
+            f"{pin.generator_version} writes for its parameters); its scores are not comparable "
+            "with the edition's reference results")
