@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from dressmeup.bench.board_html import html_table, to_html
 from dressmeup.bench.board_text import to_csv, to_latex, to_markdown
 from dressmeup.bench.edition import Edition
-from dressmeup.bench.intervals import MIN_UNITS_SEPARATION, N_RESAMPLES, describe_resolution
+from dressmeup.bench.intervals import N_RESAMPLES
 from dressmeup.bench.tasks import MetricSpec
 from dressmeup.errors import InputError
 
@@ -44,6 +44,17 @@ class Column:
 CellValue = tuple[float | None, float | None, int]
 
 
+@dataclass(frozen=True)
+class Separation:
+    """A paired comparison on the primary column (SI units): ``diff`` = this row minus the
+    other, its 95 % interval, and whether the interval excludes 0."""
+
+    diff: float
+    lo: float
+    hi: float
+    separated: bool
+
+
 @dataclass
 class BoardRow:
     """One result in a leaderboard.
@@ -60,7 +71,12 @@ class BoardRow:
     comparable : scored on the data the edition pins (else unranked, shown last).
     not_comparable_reason : why not, in words.
     schema_version : the result schema's version (``dressmeup-result/<n>``).
-    separated : the rank is separated from the next by the paired bootstrap (None: unknown).
+    medians : column key -> median over the column's items (recomputed from the table).
+    levels : column key -> the levels of each factor its interval rests on.
+    group : the submission-level track the row is ranked in (uvparam: ``per-mesh``,
+        ``pretrained``), or None: one ranking.
+    vs_leader, vs_next : paired comparison with the first row of its group and with the next
+        ranked row on the primary column (None: none, the leader itself, or no shared items).
     pareto : on the Pareto front of the task's metric pair.
     """
 
@@ -76,12 +92,21 @@ class BoardRow:
     comparable: bool
     not_comparable_reason: str | None
     schema_version: int
-    separated: bool | None = None
+    medians: dict[str, float] = field(default_factory=dict)
+    levels: dict[str, dict[str, int]] = field(default_factory=dict)
+    group: str | None = None
+    vs_leader: Separation | None = None
+    vs_next: Separation | None = None
     pareto: bool = False
 
     def mean(self, key: str) -> float | None:
         """The mean of column ``key`` (None when absent)."""
         return self.values.get(key, (None, None, 0))[0]
+
+    @property
+    def separated(self) -> bool | None:
+        """Whether the row is separated from the next ranked one (None: unknown)."""
+        return None if self.vs_next is None else self.vs_next.separated
 
 
 @dataclass
@@ -96,6 +121,15 @@ class Leaderboard:
     rows : one :class:`BoardRow` per result, sorted by the primary figure.
     best : column key -> set of row indices holding the best printed value.
     show_std : print ``mean ± std``.
+    primary : the key of the column rows are ranked by.
+    show_ci : print intervals and the separation columns.
+    custom_edition : where a custom (not shipped) edition came from.
+    factors : the factors the intervals resample (task ``UNIT_COLUMNS`` present).
+    few : caption lines for the columns whose factors allow few distinct resamples.
+    show_median : print ``mean / median`` in each cell.
+    sensitivity : the ground truth's measured sensitivity on the primary column (SI
+        units); a smaller difference is never called separated.
+    pareto : the metric pair of the Pareto marks (empty: none).
     """
 
     edition: Edition
@@ -107,23 +141,47 @@ class Leaderboard:
     primary: str = ""
     show_ci: bool = False
     custom_edition: str | None = None
-    unit: str | None = None
-    n_units: int | None = None
+    factors: tuple[str, ...] = ()
+    few: list[str] = field(default_factory=list)
+    show_median: bool = False
+    sensitivity: float | None = None
     pareto: tuple[str, ...] = ()
 
     # ----------------------------------------------------------------- ranks and marks
     def rank(self, i: int) -> str:
-        """Printed rank of row ``i`` (``–`` for a not-comparable result)."""
-        if not self.rows[i].comparable:
+        """Printed rank of row ``i`` within its group (``–`` for a not-comparable result)."""
+        row = self.rows[i]
+        if not row.comparable:
             return "–"
-        return str(1 + sum(1 for r in self.rows[:i] if r.comparable))
+        return str(1 + sum(1 for r in self.rows[:i] if r.comparable and r.group == row.group))
 
     def separated(self, i: int) -> str:
-        """``yes`` / ``no``: row ``i`` is (not) separated from the next rank by the paired
-        bootstrap on the primary column; ``–`` when unknown (last row, old results, no
-        shared items)."""
-        sep = self.rows[i].separated
-        return "–" if sep is None else ("yes" if sep else "no")
+        """``yes`` / ``not separated``: row ``i`` is (not) separated from the next ranked
+        row by the paired bootstrap on the primary column (a difference smaller than the
+        edition's stated sensitivity is never separated); ``–`` when unknown (last row,
+        older results, no shared items)."""
+        sep = self.rows[i].vs_next
+        if sep is None:
+            return "–"
+        return "yes" if self._wins(sep) else "not separated"
+
+    def _wins(self, sep: Separation) -> bool:
+        big = self.sensitivity is None or abs(sep.diff) > self.sensitivity
+        return sep.separated and big
+
+    def versus_leader(self, i: int) -> str:
+        """Row ``i`` minus the first row of its group on the primary column, with the 95 %
+        interval of the paired difference, in display units (``not separated`` in words
+        when the interval includes 0); ``–`` for the leader and unknown cases."""
+        sep = self.rows[i].vs_leader
+        col = next((c for c in self.columns if c.key == self.primary), None)
+        if sep is None or col is None:
+            return "–"
+        d = col.spec.digits
+        diff, lo, hi = (col.spec.display(x) for x in (sep.diff, sep.lo, sep.hi))
+        lo, hi = sorted((lo, hi))
+        text = f"{diff:+.{d}f} [{lo:+.{d}f}, {hi:+.{d}f}]"
+        return text if self._wins(sep) else text + " not separated"
 
     def method_text(self, row: BoardRow) -> str:
         """The method's name as plain text (escape it per format), with the
@@ -149,6 +207,9 @@ class Leaderboard:
             return "–"
         d = col.spec.digits
         text = f"{col.spec.display(mean):.{d}f}"
+        med = row.medians.get(col.key)
+        if self.show_median and med is not None:
+            text += f" / {col.spec.display(med):.{d}f}"
         if (self.show_std if with_std is None else with_std) and std is not None:
             text += f" ± {col.spec.display(std):.{d}f}"
         if self.show_ci:
@@ -196,16 +257,31 @@ class Leaderboard:
                    if self.custom_edition else ""))
 
     def _ci_note(self) -> str:
-        """Caption sentences on intervals, separation and comparability."""
+        """Caption sentences on intervals, separation, groups and comparability."""
 
         out = ""
+        if self.grouped:
+            out += (" Ranked within each track (a method is ranked only against methods of "
+                    "its own track).")
+        if self.show_median:
+            out += " Cells: mean / median over the items."
         if self.show_ci:
-            out += (f" [lo, hi]: 95 % bootstrap interval over {self.unit or 'units'} "
-                    f"({N_RESAMPLES} seeded resamples; "
-                    f"{describe_resolution(self.n_units or 0)}); [–]: no interval (one unit "
-                    "or an older result). "
-                    "Sep.: paired bootstrap of the primary column says the rank is separated "
-                    f"from the next (yes/no; – below {MIN_UNITS_SEPARATION} shared units).")
+            out += (f" [lo, hi]: 95 % interval of the mean, resampling together every factor "
+                    f"the items share ({', '.join(self.factors) or 'units'}; reweighting "
+                    f"bootstrap over crossed factors, {N_RESAMPLES} seeded resamples, "
+                    "widened for few levels; docs/benchmark.md); [–]: none (one level of "
+                    "every factor). vs #1: paired difference to the first of the group on the "
+                    "primary column with its 95 % interval. Sep.: separated from the next "
+                    "row by the same paired test (\"not separated\": the interval includes 0")
+            if self.sensitivity is not None:
+                col = next((c for c in self.columns if c.key == self.primary), None)
+                sens = (f"{col.spec.display(self.sensitivity):.{col.spec.digits}f} "
+                        f"{col.spec.unit}") if col else f"{self.sensitivity:g}"
+                out += (f", or the difference is within the ground truth's measured "
+                        f"sensitivity, {sens}")
+            out += ")."
+            for line in self.few:
+                out += f" {line}."
         if self.pareto:
             labels = {c.spec.name: c.spec.label for c in self.columns}
             pair = " and ".join(labels.get(m, m) for m in self.pareto)
@@ -214,6 +290,11 @@ class Leaderboard:
         if any(not r.comparable for r in self.rows):
             out += " Not comparable: scored on data other than the edition pins; unranked."
         return out
+
+    @property
+    def grouped(self) -> bool:
+        """True when the rows are ranked within submission-level tracks."""
+        return any(r.group is not None for r in self.rows)
 
     def _primary_label(self, ascii_only: bool = False) -> str:
         for c in self.columns:

@@ -104,6 +104,9 @@ def html_table(board: Leaderboard, links: dict[str, str] | None = None) -> str:
                    '<th title="mean runtime per sample reported by the submission" '
                    'data-type="num">Runtime <span class="unit">[s/sample]</span></th>']
     if board.show_ci:
+        head_cells.append('<th title="this row minus the first of its group on the primary '
+                          'column, with the 95 % interval of the paired difference" '
+                          'data-type="num">vs #1</th>')
         head_cells.append('<th title="paired bootstrap: is this rank separated from the '
                           'next one on the primary column (95 %)?" data-type="text">'
                           'Sep.</th>')
@@ -143,8 +146,13 @@ def html_table(board: Leaderboard, links: dict[str, str] | None = None) -> str:
                   f'<td data-v="{rt if isinstance(rt, (int, float)) else ""}">'
                   f'{e(board._runtime(row))}</td>']
         if board.show_ci:
+            lead = row.vs_leader
+            vs = board.versus_leader(i)
+            cells.append(f'<td class="vs" data-v="{"" if lead is None else f"{lead.diff:.9g}"}">'
+                         f'{e(vs)}</td>')
             sep = board.separated(i)
-            cells.append(f'<td class="sep sep-{"na" if sep == "–" else sep}">{sep}</td>')
+            kind = {"–": "na", "yes": "yes"}.get(sep, "no")
+            cells.append(f'<td class="sep sep-{kind}">{e(sep)}</td>')
         body.append("<tr>" + "".join(cells) + "</tr>")
     return (f'<div class="wrap"><table class="leaderboard sortable">\n'
             f"<thead><tr>{''.join(head_cells)}</tr></thead>\n<tbody>\n"

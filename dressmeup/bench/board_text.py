@@ -19,7 +19,7 @@ def to_markdown(board: Leaderboard) -> str:
     head = ["#", "Method",
             *[c.spec.header() + (f" · {md_text(c.group)}" if c.group else "")
               for c in board.columns], "Failed",
-            "Runtime [s/sample]"] + (["Sep."] if board.show_ci else [])
+            "Runtime [s/sample]"] + (["vs #1", "Sep."] if board.show_ci else [])
     lines = ["| " + " | ".join(head) + " |",
              "|" + "|".join([":-:", ":--"] + ["--:"] * (len(head) - 2)) + "|"]
     for i, row in enumerate(board.rows):
@@ -29,7 +29,7 @@ def to_markdown(board: Leaderboard) -> str:
             cells.append(f"**{t}**" if i in board.best.get(c.key, ()) else t)
         cells += [f"{row.failed}/{row.items}", board._runtime(row)]
         if board.show_ci:
-            cells.append(board.separated(i))
+            cells += [board.versus_leader(i), board.separated(i)]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n\n" + html.escape(board._caption(), quote=False) + "\n"
 
@@ -46,7 +46,9 @@ def to_csv(board: Leaderboard) -> str:
         if board.show_ci:
             head += [c.header() + " ci95 lo", c.header() + " ci95 hi"]
     head += ["failed", "items", "runtime_s_per_sample", "best_in", "comparable",
-             "separated_from_next", "schema_version", "pareto"]
+             "separated_from_next", "schema_version", "pareto", "group",
+             "diff_to_leader", "diff_to_leader_lo", "diff_to_leader_hi",
+             "separated_from_leader"]
     w.writerow([csv_text(h) for h in head])
     for i, row in enumerate(board.rows):
         rank = board.rank(i)
@@ -67,13 +69,19 @@ def to_csv(board: Leaderboard) -> str:
             if i in board.best.get(c.key, ()):
                 best_in.append(c.key)
         rt = row.runtime
-        sep = row.separated
+        sep = row.vs_next
+        lead = row.vs_leader
         vals += [row.failed, row.items,
                  "" if rt is None else f"{rt:.4f}", ";".join(best_in),
                  str(bool(row.comparable)).lower(),
-                 "" if sep is None else str(bool(sep)).lower(),
+                 "" if sep is None else str(bool(board._wins(sep))).lower(),
                  row.schema_version,
-                 str(bool(row.pareto)).lower() if board.pareto else ""]
+                 str(bool(row.pareto)).lower() if board.pareto else "",
+                 csv_text(row.group or ""),
+                 *(["", "", "", ""] if lead is None else
+                   [_disp(board, lead.diff),
+                    *sorted([_disp(board, lead.lo), _disp(board, lead.hi)], key=float),
+                    str(bool(board._wins(lead))).lower()])]
         w.writerow(vals)
     return buf.getvalue()
 
@@ -87,11 +95,11 @@ def to_latex(board: Leaderboard) -> str:
         h = f"{esc(c.spec.label)} {arrow}" + (f" [{unit}]" if unit else "")
         return h + (f" {esc(c.group)}" if c.group else "")
 
-    cols = "l" + "r" * (len(board.columns) + 2 + int(board.show_ci))
+    cols = "l" + "r" * (len(board.columns) + 2 + 2 * int(board.show_ci))
     lines = [r"\begin{table}[t]", r"\centering", r"\small",
              rf"\begin{{tabular}}{{{cols}}}", r"\toprule",
              " & ".join(["Method", *[head(c) for c in board.columns], "Failed",
-                         "Time [s]"] + (["Sep."] if board.show_ci else [])) + r" \\",
+                         "Time [s]"] + ([r"vs \#1", "Sep."] if board.show_ci else [])) + r" \\",
              r"\midrule"]
     for i, row in enumerate(board.rows):
         cells = [esc(board.method_text(row)).replace("◆", r"$\diamond$")]
@@ -100,10 +108,19 @@ def to_latex(board: Leaderboard) -> str:
             cells.append(rf"\textbf{{{t}}}" if i in board.best.get(c.key, ()) else t)
         cells += [f"{row.failed}/{row.items}", board._runtime(row).replace("–", "--")]
         if board.show_ci:
-            cells.append(board.separated(i).replace("–", "--"))
+            cells += [board.versus_leader(i).replace("–", "--"),
+                      board.separated(i).replace("–", "--")]
         lines.append(" & ".join(cells) + r" \\")
     lines += [r"\bottomrule", r"\end{tabular}",
               rf"\caption{{{esc(board._caption(ascii_only=True))}}}".replace(
                   "◆", r"$\diamond$"),
               rf"\label{{tab:{esc(board.edition.name)}}}", r"\end{table}"]
     return "\n".join(lines) + "\n"
+
+
+def _disp(board: Leaderboard, x: float) -> str:
+    """A primary-column value in display units with two more digits than the table."""
+    prim = next((c for c in board.columns if c.key == board.primary), None)
+    if prim is None:
+        return f"{x:.6g}"
+    return f"{prim.spec.display(x):.{prim.spec.digits + 2}f}"

@@ -120,6 +120,9 @@ class Edition:
     per_category : metrics shown per category in leaderboards.
     tracks : names of the tracks scored and shown separately (retarget v3: ``re-pose``,
         ``re-shape``, ``cross``); empty for editions without tracks.
+    sensitivity : metric -> the ground truth's measured sensitivity in stored units (how far
+        it moves when its solver runs longer or starts elsewhere): leaderboards never call a
+        smaller difference separated; empty when not measured.
     pairs : retarget pair sampling, ``{"seed": int, "per_track": {track: pairs per source
         garment}}``; empty: every pair of the split.
     description : free text (not hashed).
@@ -139,6 +142,7 @@ class Edition:
     source: str = ""
     tracks: tuple[str, ...] = ()
     pairs: dict[str, Any] = field(default_factory=dict)
+    sensitivity: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self, include_description: bool = True) -> dict[str, Any]:
         """Serialise to the JSON structure of the edition file (defaults filled in)."""
@@ -161,6 +165,8 @@ class Edition:
             d["primary"] = {"metric": self.primary.metric, "track": self.primary.track}
         if self.pairs:
             d["pairs"] = copy.deepcopy(self.pairs)
+        if self.sensitivity:
+            d["sensitivity"] = dict(self.sensitivity)
         if include_description:
             d["description"] = self.description
         return d
@@ -256,7 +262,7 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
         if key not in data:
             problems.append(f"missing field {key!r}")
     known = set(_REQUIRED) | {"schema", "options", "primary_metric", "per_category",
-                              "description", "tracks", "primary", "pairs"}
+                              "description", "tracks", "primary", "pairs", "sensitivity"}
     for key in sorted(set(data) - known):
         problems.append(f"unknown field {key!r}")
     name = data.get("name", "")
@@ -318,6 +324,13 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
     if primary_track is not None and primary_track["metric"] != primary:
         problems.append(f"primary.metric {primary_track['metric']!r} differs from primary_metric "
                         f"{primary!r}: an edition ranks by one figure")
+    sensitivity = data.get("sensitivity", {})
+    if not isinstance(sensitivity, dict) or any(
+            m not in metrics or isinstance(v, bool) or not isinstance(v, (int, float)) or v < 0
+            for m, v in sensitivity.items()):
+        problems.append(f"sensitivity must map metrics of the edition to numbers >= 0, got "
+                        f"{sensitivity!r}")
+        sensitivity = {}
     if problems:
         raise InputError(f"edition {source} is invalid:\n  - " + "\n  - ".join(problems))
     return Edition(name=name, version=int(version), task=task_name, dataset=pin,
@@ -325,7 +338,8 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
                    primary=PrimaryFigure(primary, primary_track and primary_track["track"]),
                    per_category=tuple(per_category),
                    description=str(data.get("description", "")), source=source,
-                   tracks=tracks, pairs=pairs)
+                   tracks=tracks, pairs=pairs,
+                   sensitivity={str(k): float(v) for k, v in sensitivity.items()})
 
 
 def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]

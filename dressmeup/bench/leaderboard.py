@@ -26,9 +26,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from dressmeup.bench.board import FORMATS, BoardRow, Column, Leaderboard
+from dressmeup.bench.board import FORMATS, BoardRow, Column, Leaderboard, Separation
+from dressmeup.bench.board_stats import cell_stats, compare
 from dressmeup.bench.edition import Edition, edition_from_dict, load_edition
-from dressmeup.bench.intervals import MIN_UNITS_SEPARATION, paired_difference
+from dressmeup.bench.intervals import FEW_RESAMPLES, describe_levels, resample_count
 from dressmeup.bench.results import EDITION_JSON, Result, load_result
 from dressmeup.bench.tasks import get_task
 from dressmeup.bench.verify import verify_results
@@ -120,62 +121,37 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
         primary = prim.key
         if primary not in {c.key for c in columns}:
             columns.append(Column(primary, by_name[prim.metric], track=prim.track))
+    factors = tuple(c for c in task.unit_columns
+                    if any(r.table is not None and c in r.table for r in loaded))
+    submission_tracks = task.track_level == "submission"
     names = [r.method for r in loaded]
-    rows: list[BoardRow] = []
-    by_row: dict[int, Result] = {}
-    for r in loaded:
-        s = r.summary
-        values, cis = {}, {}
-        for c in columns:
-            if c.track is not None:
-                st = s.get("per_track", {}).get(c.track, {}).get("metrics", {}).get(
-                    c.spec.name, {})
-            elif c.category is None:
-                st = s.get("metrics", {}).get(c.spec.name, {})
-            else:
-                st = s.get("per_category", {}).get(c.category, {}).get("metrics", {}).get(
-                    c.spec.name, {})
-            mean = st.get("mean")
-            values[c.key] = (float(mean) if mean is not None else None, st.get("std"),
-                             st.get("n", 0))
-            ci = st.get("ci95")
-            if isinstance(ci, list) and len(ci) == 2 and None not in ci \
-                    and not st.get("degenerate", False):
-                cis[c.key] = (float(ci[0]), float(ci[1]))
-        method = r.method if names.count(r.method) == 1 else f"{r.method} ({r.path.name})"
-        meta = s.get("method", {})
-        rows.append(BoardRow(
-            method=method, result=str(r.path), values=values, ci=cis,
-            failed=s.get("counts", {}).get("failed", 0),
-            items=s.get("counts", {}).get("items", 0),
-            runtime=meta.get("runtime_per_sample_s"), url=meta.get("url"),
-            authors=_authors(meta.get("authors")), comparable=r.comparable,
-            not_comparable_reason=s.get("not_comparable_reason"),
-            schema_version=r.schema_version))
-        by_row[id(rows[-1])] = r
+    rows = [_row(r, columns, factors, names, submission_tracks) for r in loaded]
+    results = {id(row): r for row, r in zip(rows, loaded, strict=True)}
     spec = next(c.spec for c in columns if c.key == primary)
+    if submission_tracks and "#" in primary:
+        primary = primary.split("#")[0]   # each group is ranked on the metric overall
+    order = {t: i for i, t in enumerate(ed.tracks)}
 
     def sort_key(row: BoardRow) -> tuple:
         nc = 0 if row.comparable else 1
-        # a row without the primary value (e.g. a per-mesh uvparam method when the primary
-        # track is 'pretrained') follows the others, ordered by the metric overall
+        group = order.get(row.group, len(order)) if row.group is not None else 0
+        # a row without the primary value follows the others, ordered by the metric overall
         for missing, key in enumerate((primary, primary.split("#")[0])):
             v = row.mean(key)
             if v is not None and math.isfinite(v):
-                return (nc, missing, v if spec.better == "lower" else -v, row.method)
-        return (nc, 2, 0.0, row.method)
+                return (nc, group, missing, v if spec.better == "lower" else -v, row.method)
+        return (nc, group, 2, 0.0, row.method)
 
     rows.sort(key=sort_key)
-    boot = next((r.summary.get("bootstrap") for r in loaded if r.summary.get("bootstrap")),
-                None) or {}
     board = Leaderboard(edition=ed, manifest_sha256=(comparable or loaded)[0].manifest_hash,
                         columns=columns, rows=rows, show_std=show_std, primary=primary,
-                        show_ci=any(row.schema_version >= 2 for row in rows)
-                        if show_ci is None else show_ci,
-                        unit=boot.get("unit") or task.unit_column,
-                        n_units=boot.get("n_units"))
+                        show_ci=bool(factors) if show_ci is None else show_ci,
+                        factors=factors, show_median=task.show_median,
+                        sensitivity=ed.sensitivity.get(prim.metric) if ed.sensitivity
+                        else None)
     board.custom_edition = edition_check.source if edition_check.custom else None
-    _mark_separation(rows, [by_row[id(r)] for r in rows], primary, task.unit_column)
+    board.few = _few_resamples(columns, rows)
+    _mark_separation(rows, [results[id(r)] for r in rows], primary, factors)
     board.pareto = _mark_pareto(ed, rows)
     for c in columns:
         printed = []
@@ -188,6 +164,55 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
         best_val = (min if c.spec.better == "lower" else max)(v for v, _ in printed)
         board.best[c.key] = {i for v, i in printed if v == best_val}
     return board
+
+
+def _row(r: Result, columns: list[Column], factors: tuple[str, ...], names: list[str],
+         submission_tracks: bool) -> BoardRow:
+    """One row: means from the summary (checked against the table by
+    :func:`~dressmeup.bench.verify.verify_results`), intervals and medians recomputed from
+    the table."""
+    s = r.summary
+    values, cis, medians, levels = {}, {}, {}, {}
+    for c in columns:
+        if c.track is not None:
+            st = s.get("per_track", {}).get(c.track, {}).get("metrics", {}).get(c.spec.name, {})
+        elif c.category is None:
+            st = s.get("metrics", {}).get(c.spec.name, {})
+        else:
+            st = s.get("per_category", {}).get(c.category, {}).get("metrics", {}).get(
+                c.spec.name, {})
+        mean = st.get("mean")
+        values[c.key] = (float(mean) if mean is not None else None, st.get("std"),
+                         st.get("n", 0))
+        if r.table is not None and mean is not None:
+            cs = cell_stats(r.table, c.spec.name, c.track, c.category, factors)
+            if cs.ci is not None:
+                cis[c.key] = cs.ci
+            if cs.median is not None:
+                medians[c.key] = cs.median
+            levels[c.key] = cs.levels
+    method = r.method if names.count(r.method) == 1 else f"{r.method} ({r.path.name})"
+    meta = s.get("method", {})
+    tracks = list(s.get("per_track", {}))
+    return BoardRow(
+        method=method, result=str(r.path), values=values, ci=cis,
+        failed=s.get("counts", {}).get("failed", 0), items=s.get("counts", {}).get("items", 0),
+        runtime=meta.get("runtime_per_sample_s"), url=meta.get("url"),
+        authors=_authors(meta.get("authors")), comparable=r.comparable,
+        not_comparable_reason=s.get("not_comparable_reason"),
+        schema_version=r.schema_version, medians=medians, levels=levels,
+        group=tracks[0] if submission_tracks and len(tracks) == 1 else None)
+
+
+def _few_resamples(columns: list[Column], rows: list[BoardRow]) -> list[str]:
+    """Caption lines for the columns whose factors allow fewer than
+    :data:`~dressmeup.bench.intervals.FEW_RESAMPLES` distinct resamples."""
+    out = []
+    for c in columns:
+        levels = next((r.levels[c.key] for r in rows if r.levels.get(c.key)), None)
+        if levels and resample_count(levels) < FEW_RESAMPLES:
+            out.append(f"{c.header()}: {describe_levels(levels)}")
+    return out
 
 
 def _mark_pareto(ed: Edition, rows: list[BoardRow]) -> tuple[str, ...]:
@@ -219,40 +244,29 @@ def _tracks(ed: Edition, loaded: Sequence[Result]) -> list[str]:
 
 
 def _mark_separation(rows: list[BoardRow], results: list[Result], primary: str,
-                     unit: str | None) -> None:
-    """Set ``row.separated`` (True/False/None) between consecutive comparable ranks by
-    a paired bootstrap over ``unit`` of the primary column (see
-    :func:`dressmeup.bench.intervals.paired_difference`)."""
-
+                     factors: tuple[str, ...]) -> None:
+    """Set ``vs_leader`` (paired comparison with the first comparable row of the group) and
+    ``vs_next`` (with the next comparable row of the group) on the primary column, by the
+    paired bootstrap over the items both scored
+    (:func:`~dressmeup.bench.board_stats.compare`)."""
     metric, _, track = primary.partition("#")
-    ranked = [(row, res) for row, res in zip(rows, results, strict=True) if row.comparable]
-    for row in rows:
-        row.separated = None
-    for (a, ra), (b, rb) in zip(ranked, ranked[1:], strict=False):
-        ta, tb = ra.table, rb.table
-        if unit is None or ta is None or tb is None or a.schema_version < 2 \
-                or b.schema_version < 2:
-            continue
-        if any(metric not in t or unit not in t for t in (ta, tb)):
-            continue
-        if track and not all("track" in t for t in (ta, tb)):
-            continue
+    track = track or None
+    by_group: dict[str | None, list[tuple[BoardRow, Result]]] = {}
+    for row, res in zip(rows, results, strict=True):
+        row.vs_leader = row.vs_next = None
+        if row.comparable and res.table is not None:
+            by_group.setdefault(row.group, []).append((row, res))
 
-        def ok_rows(t):
-            t = t[t["status"] == "ok"]
-            if track:
-                t = t[t["track"].astype(str) == track]
-            return t.set_index("sample_id", drop=False)   # the unit may be sample_id
+    def sep(a: Result, b: Result) -> Separation | None:
+        d = compare(a.table, b.table, metric, track, factors)
+        return None if d is None else Separation(d.diff, d.lo, d.hi, d.separated)
 
-        xa, xb = ok_rows(ta), ok_rows(tb)
-        shared = xa.index.intersection(xb.index)
-        if not len(shared):
-            continue
-        d = paired_difference(xa.loc[shared, metric].to_numpy(),
-                              xb.loc[shared, metric].to_numpy(),
-                              xa.loc[shared, unit].to_numpy())
-        if d is not None and d.n_units >= MIN_UNITS_SEPARATION:
-            a.separated = d.separated
+    for ranked in by_group.values():
+        (lead, lead_res), *rest = ranked
+        for row, res in rest:
+            row.vs_leader = sep(res, lead_res)
+        for (a, ra), (_b, rb) in zip(ranked, ranked[1:], strict=False):
+            a.vs_next = sep(ra, rb)
 
 
 def _authors(a: Any) -> str:

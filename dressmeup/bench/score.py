@@ -140,7 +140,7 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
             rows.append(res)
     table = _to_table(rows, list(ed.metrics), list(task.extra_columns))
     stats = summarise(table, list(ed.metrics), list(task.extra_columns),
-                      unit_column=task.unit_column)
+                      unit_columns=task.unit_columns)
     info = report.info or {}
     summary: dict[str, Any] = {
         "schema": RESULT_SCHEMA,

@@ -179,43 +179,48 @@ def _item_table(table: Any, specs: list, unit: str | None, extra: Sequence[str] 
             "<tbody>\n" + "\n".join(body) + "\n</tbody></table></div>")
 
 
-def _overall_table(summary: dict, specs: list) -> str:
+def _overall_table(row: Any, board: Any) -> str:
+    """The method's overall figures: mean, median, the recomputed interval, item count and
+    the levels of each factor the interval rests on (every value escaped)."""
     e = html.escape
     rows = []
-    for s in specs:
-        st = summary.get("metrics", {}).get(s.name, {})
-        ci = st.get("ci95")
-        ci_txt = (f"[{_fmt(s, min(ci))}, {_fmt(s, max(ci))}]" if ci and None not in ci
-                  and not st.get("degenerate") else "–")
-        rows.append(f"<tr><td class=\"method\">{e(s.header())}</td>"
-                    f"<td>{_fmt(s, st.get('mean'))}</td><td>{e(ci_txt)}</td>"
-                    f"<td>{st.get('n', 0)}</td><td>{st.get('n_units', '–')}</td></tr>")
-    return ('<div class="wrap"><table><thead><tr><th class="method">metric</th><th>mean</th>'
-            "<th>95 % interval</th><th>items</th><th>units</th></tr></thead><tbody>"
-            + "".join(rows) + "</tbody></table></div>")
-
-
-def _category_chart(summary: dict, spec: Any, path: Path, group: str) -> Path | None:
-    groups = summary.get(group, {})
-    if not groups:
-        return None
-    names, means, ivs = [], [], []
-    for name, g in groups.items():
-        st = g.get("metrics", {}).get(spec.name, {})
-        if st.get("mean") is None:
+    for c in board.columns:
+        if c.group is not None:
             continue
-        names.append(name)
-        means.append(spec.display(st["mean"]))
-        ci = st.get("ci95")
-        ivs.append(tuple(sorted(spec.display(x) for x in ci))
-                   if ci and None not in ci and not st.get("degenerate") else None)
+        s_ = c.spec
+        mean, _std, n = row.values.get(c.key, (None, None, 0))
+        ci = row.ci.get(c.key)
+        ci_txt = f"[{_fmt(s_, min(ci))}, {_fmt(s_, max(ci))}]" if ci else "–"
+        levels = row.levels.get(c.key) or {}
+        lv = " x ".join(f"{int(k)} {name}" for name, k in levels.items()) or "–"
+        rows.append(f"<tr><td class=\"method\">{e(s_.header())}</td>"
+                    f"<td>{e(_fmt(s_, mean))}</td><td>{e(_fmt(s_, row.medians.get(c.key)))}</td>"
+                    f"<td>{e(ci_txt)}</td><td>{int(n or 0)}</td><td>{e(lv)}</td></tr>")
+    return ('<div class="wrap"><table><thead><tr><th class="method">metric</th><th>mean</th>'
+            "<th>median</th><th>95 % interval</th><th>items</th><th>levels</th></tr></thead>"
+            "<tbody>" + "".join(rows) + "</tbody></table></div>")
+
+
+def _category_chart(row: Any, board: Any, spec: Any, path: Path, kind: str) -> Path | None:
+    """Bars of the primary metric per category (``kind="category"``) or per track, with
+    the row's recomputed intervals."""
+    cols = [c for c in board.columns if c.spec.name == spec.name
+            and (c.category if kind == "category" else c.track) is not None]
+    names, means, ivs = [], [], []
+    for c in cols:
+        mean = row.mean(c.key)
+        if mean is None:
+            continue
+        names.append(c.category if kind == "category" else c.track)
+        means.append(spec.display(mean))
+        ci = row.ci.get(c.key)
+        ivs.append(tuple(sorted(spec.display(x) for x in ci)) if ci else None)
     if not names:
         return None
-    what = "category" if group == "per_category" else "track"
     return render_category_bars(names, means, ivs, path,
                                 ylabel=f"{spec.label} [{spec.unit}]" if spec.unit
                                 else spec.label,
-                                title=f"{spec.label} per {what}")
+                                title=f"{spec.label} per {kind}")
 
 
 def _method_page(result: Any, row: Any, board: Any, task: Any, ed_dir: Path, slug: str,
@@ -243,31 +248,28 @@ def _method_page(result: Any, row: Any, board: Any, task: Any, ed_dir: Path, slu
         bits.append('<span class="nc">not comparable</span> '
                     + e(str(s.get("not_comparable_reason") or "")))
     parts.append(f'<div class="meta">{" · ".join(bits)}</div>')
-    parts.append("<h2>Numbers</h2>" + _overall_table(s, specs))
-    boot = s.get("bootstrap")
-    if boot:
-        # heavy: pandas (~0.4 s to import)
-        from dressmeup.bench.intervals import describe_resolution
-
-        parts.append(f'<p class="meta">Intervals: cluster bootstrap over {e(str(boot["unit"]))}'
-                     f" ({boot.get('resamples')} seeded resamples); "
-                     f"{e(describe_resolution(int(boot.get('n_units') or 0)))}.</p>")
+    parts.append("<h2>Numbers</h2>" + _overall_table(row, board))
+    if board.factors:
+        parts.append('<p class="meta">Intervals: recomputed from the per-item results, '
+                     f"resampling together {e(', '.join(board.factors))} (docs/benchmark.md, "
+                     '"Confidence intervals"); "levels": how many of each the items '
+                     "span.</p>")
     if result.schema_version < 2:
         parts.append('<p class="why">This result was scored by an older toolkit (schema 1): '
-                     "it has no intervals and no tracks.</p>")
+                     "it has no tracks.</p>")
     charts = []
-    for group in ("per_category", "per_track"):
-        png = _category_chart(s, pspec, img_dir / f"{slug}-{group}.png", group)
+    for kind in ("category", "track"):
+        png = _category_chart(row, board, pspec, img_dir / f"{slug}-per_{kind}.png", kind)
         if png is not None:
             report.images += 1
             charts.append(f'<img class="chart" src="img/{e(png.name)}" alt="{e(pspec.label)} '
-                          f'{group.replace("per_", "per ")}">')
+                          f'per {kind}">')
     if charts:
         parts.append("<h2>Per category" + (" and track" if len(charts) > 1 else "")
                      + "</h2>" + "".join(charts)
-                     + '<p class="meta">Error bars: 95 % bootstrap interval over '
-                     f"{e(str(getattr(task, 'unit_column', None) or 'units'))} (none when "
-                     "a group has a single unit or the result predates intervals).</p>")
+                     + '<p class="meta">Error bars: 95 % interval of the mean over the '
+                     "factors the items share (none when a group has one level of every "
+                     "factor).</p>")
     # ---- pictures
     parts.append("<h2>Best and worst items</h2>")
     table = result.table

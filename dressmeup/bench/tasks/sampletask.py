@@ -33,6 +33,7 @@ def sample_items(edition: Any, data_root: Path, need: str | None = None,
                           meta={"data_root": root, "sample_id": row.sample_id,
                                 "subject_id": str(row.subject_id),
                                 "garment_id": str(row.garment_id),
+                                "pose_id": str(row.pose_id),
                                 "session_id": f"{row.subject_id}-{row.pose_id}"}))
     return items
 

@@ -32,6 +32,6 @@ DEFAULT_OPTIONS: dict = {
 #: Extra per-pair columns written beside the metrics (not ranked).
 EXTRA_COLUMNS = ("ir_gt",)
 
-#: Result column of the independent unit that bootstrap intervals resample:
-#: the source garment: pairs of one garment are correlated.
-UNIT_COLUMN = "garment_id"
+#: Result columns of the factors the pairs share, resampled together by the bootstrap: the
+#: garment (its pairs are correlated), and the bodies and poses every garment is worn in.
+UNIT_COLUMNS = ("garment_id", "target_subject", "target_pose")

@@ -99,7 +99,8 @@ def items(edition: Any, data_root: Path) -> list[Item]:
         src, tgt = pair.source.sample_id, pair.target.sample_id
         row = manifest.loc[src]
         track = {"track": pair.track, "source_subject": pair.source.subject_id,
-                 "target_subject": pair.target.subject_id} if with_tracks else {}
+                 "target_subject": pair.target.subject_id,
+                 "target_pose": pair.target.pose_id} if with_tracks else {}
         out.append(Item(
             item_id=pair.pair_id,
             category=str(row["category"]),
