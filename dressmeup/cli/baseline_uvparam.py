@@ -18,7 +18,7 @@ from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
 from dressmeup.hyperparameters import parse_params
 
-METHOD_NAMES = ("xatlas", "lscm", "harmonic", "slim", "neural")
+METHOD_NAMES = ("xatlas", "lscm", "harmonic", "slim", "neural", "lscm-on-charts")
 
 
 def register(tasks: argparse._SubParsersAction) -> None:

@@ -43,7 +43,8 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     For every source garment and every track of ``pairs_spec["per_track"]`` (track -> n),
     ``n`` pairs are drawn without replacement (all when fewer) by a generator seeded with
     ``(seed, crc32(garment id), track index)``, so the choice for one garment does not
-    depend on the others; tracks not named are dropped.
+    depend on the others; tracks not named are dropped, and with ``"categories"`` so are
+    garments of other categories (the thesis protocol: topwear and bottomwear).
 
     Parameters
     ----------
@@ -60,6 +61,9 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
         return sorted(pairs, key=lambda p: p.pair_id)
     seed = int(pairs_spec.get("seed", 0))
     per = dict(pairs_spec["per_track"])
+    cats = pairs_spec.get("categories")
+    if cats:
+        pairs = [p for p in pairs if p.source.category in cats]
     order = sorted(per)
     groups: dict[tuple[str, str], list] = {}
     for p in pairs:

@@ -86,7 +86,7 @@ def jobs(edition: Any, data_root: Path, files: Mapping[str, Path],
 
     ds = open_dataset(str(Path(data_root).resolve()))
     by_id = {s.sample_id: s for s in ds}
-    need_body = "ir" in edition.metrics
+    need_body = "ir" in edition.metrics or "p2s_body" in edition.metrics
     bodies: dict[str, str] = {}
     models: dict[str, Any] = {}
     if need_body:
@@ -132,6 +132,12 @@ def _gt_ir(root: str, sample_id: str, body_path: str) -> float:
     return float(interpenetration_ratio((V, F), _body(body_path)))
 
 
+@functools.lru_cache(maxsize=8)
+def _gt_p2s_body(root: str, sample_id: str, body_path: str) -> float:
+    V, _ = _garment(root, sample_id)
+    return float(M.p2s(V, _body(body_path)))
+
+
 def evaluate_pair(pred_V: np.ndarray, src_F: np.ndarray, gt_V: np.ndarray, gt_F: np.ndarray,
                   body: tuple[np.ndarray, np.ndarray] | None, metrics: Sequence[str],
                   options: Mapping[str, Any], gt_points: np.ndarray | None = None
@@ -144,7 +150,7 @@ def evaluate_pair(pred_V: np.ndarray, src_F: np.ndarray, gt_V: np.ndarray, gt_F:
     src_F : (m, 3) int64 source garment faces.
     gt_V, gt_F : (n', 3) float64 / (m', 3) int64 ground-truth garment.
     body : (vertices (b, 3), faces (k, 3)) of the posed target body, or None (no IR).
-    metrics : names among ``p2s, p2s_bi, chamfer, ed, nc, ir``.
+    metrics : names among ``p2s, p2s_bi, chamfer, ed, nc, ir, p2s_body``.
     options : ``n_samples``, ``seed``, ``chamfer_squared``.
     gt_points : (n_samples, 3) precomputed samples of the ground truth (same seed), optional.
 
@@ -187,6 +193,12 @@ def evaluate_pair(pred_V: np.ndarray, src_F: np.ndarray, gt_V: np.ndarray, gt_F:
             notes.append("ir: no target body")
         else:
             values["ir"] = float(M.interpenetration_ratio(pred, body))
+    if "p2s_body" in metrics:
+        if body is None:
+            values["p2s_body"] = math.nan
+            notes.append("p2s_body: no target body")
+        else:
+            values["p2s_body"] = float(M.p2s(pred_V, body))
     return {k: values[k] for k in metrics if k in values}, notes
 
 
@@ -208,10 +220,12 @@ def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
     row: dict[str, Any] = {"sample_id": job["item_id"], "category": job["category"],
                            "source_id": meta["source_id"], "target_id": meta["target_id"],
                            "garment_id": meta["garment_id"],
-                           **{k: meta[k] for k in ("track", "source_subject", "target_subject")
-                              if k in meta}, **values}
+                           **{k: meta[k] for k in ("track", "source_subject", "target_subject",
+                                                   "target_pose") if k in meta}, **values}
     if "ir" in job["metrics"] and body is not None:
         row["ir_gt"] = _gt_ir(root, meta["target_id"], job["body_path"])
+    if "p2s_body" in job["metrics"] and body is not None:
+        row["p2s_body_gt"] = _gt_p2s_body(root, meta["target_id"], job["body_path"])
     row["status"] = STATUS_OK
     row["error"] = ""
     row["note"] = "; ".join(notes)
