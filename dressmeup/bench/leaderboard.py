@@ -32,7 +32,7 @@ from dressmeup.bench.edition import Edition, edition_from_dict, load_edition
 from dressmeup.bench.intervals import FEW_RESAMPLES, describe_levels, resample_count
 from dressmeup.bench.results import EDITION_JSON, Result, load_result
 from dressmeup.bench.tasks import get_task
-from dressmeup.bench.verify import verify_results
+from dressmeup.bench.verify import comparability, verify_results
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 
@@ -83,7 +83,10 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
                  for r in loaded]
         raise InputError("results of different editions cannot share a leaderboard:\n"
                          + "\n".join(lines) + "\nmake one leaderboard per edition")
-    comparable = [r for r in loaded if r.comparable]
+    edition_check = verify_results(loaded)  # means vs per_sample, edition hashes
+    ed = _edition_of(loaded[0])
+    comp = {id(r): comparability(r, ed) for r in loaded}
+    comparable = [r for r in loaded if comp[id(r)][0]]
     manifests = {r.manifest_hash for r in comparable}
     if len(manifests) > 1:
         lines = [f"  {r.path}: dataset manifest {str(r.manifest_hash)[:12]}"
@@ -91,8 +94,6 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
         raise InputError("results scored on different datasets cannot share a leaderboard:\n"
                          + "\n".join(lines))
 
-    edition_check = verify_results(loaded)  # means vs per_sample, edition hashes
-    ed = _edition_of(loaded[0])
     task = get_task(ed.task)
     specs = task.metric_specs(ed)
     by_name = {s.name: s for s in specs}
@@ -125,7 +126,7 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
                     if any(r.table is not None and c in r.table for r in loaded))
     submission_tracks = task.track_level == "submission"
     names = [r.method for r in loaded]
-    rows = [_row(r, columns, factors, names, submission_tracks) for r in loaded]
+    rows = [_row(r, columns, factors, names, submission_tracks, comp[id(r)]) for r in loaded]
     results = {id(row): r for row, r in zip(rows, loaded, strict=True)}
     spec = next(c.spec for c in columns if c.key == primary)
     if submission_tracks and "#" in primary:
@@ -167,7 +168,7 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
 
 
 def _row(r: Result, columns: list[Column], factors: tuple[str, ...], names: list[str],
-         submission_tracks: bool) -> BoardRow:
+         submission_tracks: bool, comp: tuple[bool, str | None]) -> BoardRow:
     """One row: means from the summary (checked against the table by
     :func:`~dressmeup.bench.verify.verify_results`), intervals and medians recomputed from
     the table."""
@@ -198,8 +199,8 @@ def _row(r: Result, columns: list[Column], factors: tuple[str, ...], names: list
         method=method, result=str(r.path), values=values, ci=cis,
         failed=s.get("counts", {}).get("failed", 0), items=s.get("counts", {}).get("items", 0),
         runtime=meta.get("runtime_per_sample_s"), url=meta.get("url"),
-        authors=_authors(meta.get("authors")), comparable=r.comparable,
-        not_comparable_reason=s.get("not_comparable_reason"),
+        authors=_authors(meta.get("authors")), comparable=comp[0],
+        not_comparable_reason=comp[1],
         schema_version=r.schema_version, medians=medians, levels=levels,
         group=tracks[0] if submission_tracks and len(tracks) == 1 else None)
 

@@ -9,6 +9,9 @@ Threat model: accidents and casual tampering (a hand-edited ``summary.json`` or
 - ``edition.json`` must hash to the edition hash the summary records.
 - A result naming a shipped edition must carry that edition's hash; an edition given as a
   path (a custom edition) is allowed and reported as custom.
+- Comparability is recomputed from the data pin (:func:`comparability`): a result whose
+  dataset manifest is not the one the edition pins is not comparable, whatever its summary
+  says.
 """
 
 from __future__ import annotations
@@ -181,3 +184,22 @@ def verify_results(results: Sequence[Result]) -> EditionCheck:
         raise InputError("results that do not verify cannot join a leaderboard (re-score "
                          "them with 'dressmeup score'):\n  " + "\n  ".join(problems))
     return checks[0] if checks else EditionCheck(False, "")
+
+
+def comparability(result: Result, edition: Any) -> tuple[bool, str | None]:
+    """Whether ``result`` was scored on the data ``edition`` pins, and why not.
+
+    A summary marked not comparable stays so; one marked comparable is checked against the
+    edition's pinned manifest (``expected_manifest_sha256`` of a generated edition,
+    ``manifest_sha256`` of a real one).
+    """
+    if not result.comparable:
+        return False, str(result.summary.get("not_comparable_reason") or "scored on other data")
+    pin = edition.dataset
+    want = pin.expected_manifest_sha256 if pin.kind == "generated" else pin.manifest_sha256
+    got = result.manifest_hash
+    if want and got != want:
+        return False, (f"scored on data with manifest {str(got)[:12]}..., not the "
+                       f"{want[:12]}... edition {edition.name} pins (its summary claims "
+                       "otherwise)")
+    return True, None

@@ -387,3 +387,48 @@ def _row(method: str, **kw):
                 runtime=None, url=None, authors="", comparable=True,
                 not_comparable_reason=None, schema_version=1)
     return BoardRow(**{**base, **kw})
+
+
+def test_a_result_edited_to_look_comparable_is_still_not(scored, tmp_path, monkeypatch):
+    """Comparability is recomputed from the data pin: a summary flipped to comparable on
+    other data stays unranked."""
+    import dressmeup.bench.leaderboard as lb
+
+    def other(s):
+        s["dataset"]["manifest_sha256"] = "f" * 64      # another dataset, claimed comparable
+
+    odd = _copy(scored["gt"]["res"].path, tmp_path / "odd", method="ODD", edit=other)
+    real = lb._edition_of
+
+    def pinned(result):
+        ed = real(result)
+        import dataclasses
+        pin = dataclasses.replace(ed.dataset, expected_manifest_sha256=load_result(
+            scored["noisy"]["res"].path).manifest_hash)
+        return dataclasses.replace(ed, dataset=pin)
+
+    monkeypatch.setattr(lb, "_edition_of", pinned)
+    board = build_leaderboard([scored["noisy"]["res"].path, odd])
+    odd_row = next(r for r in board.rows if r.method == "ODD")
+    assert not odd_row.comparable and "claims otherwise" in odd_row.not_comparable_reason
+    assert board.rank(board.rows.index(odd_row)) == "–"
+
+
+def test_result_fields_that_reach_html_are_validated(scored, tmp_path):
+    """A summary whose interval bookkeeping carries markup is refused when loaded (the
+    report site never sees it)."""
+    from dressmeup.errors import InputError
+
+    def evil(s):
+        s["metrics"]["p2s"]["n_units"] = "<script>alert(3)</script>"
+
+    bad = _copy(scored["gt"]["res"].path, tmp_path / "bad", edit=evil)
+    with pytest.raises(InputError, match="n_units"):
+        load_result(bad)
+
+    def evil_boot(s):
+        s["bootstrap"] = {"resamples": "<img src=x onerror=alert(1)>"}
+
+    bad2 = _copy(scored["gt"]["res"].path, tmp_path / "bad2", edit=evil_boot)
+    with pytest.raises(InputError, match="resamples"):
+        load_result(bad2)
