@@ -21,7 +21,7 @@ from dressmeup.errors import DressmeupError
 
 # One module per stage; each defines ``register(subparsers) -> None``.
 COMMAND_MODULES = ("metrics", "body", "data", "capture", "baseline", "bench", "edition",
-                   "report")
+                   "server", "report")
 
 
 def build_parser() -> argparse.ArgumentParser:
