@@ -20,6 +20,8 @@ Pages: ``/leaderboard/...`` (the public report site of the published results), `
 from __future__ import annotations
 
 import contextlib
+import errno
+import logging
 import mimetypes
 import secrets
 from pathlib import Path
@@ -28,6 +30,7 @@ from typing import Annotated, Any
 from fastapi import Depends, FastAPI, Header, HTTPException, Request
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, RedirectResponse
 from pydantic import BaseModel
+from sqlalchemy.exc import SQLAlchemyError
 
 from dressmeup.errors import InputError
 from dressmeup.server.accounts import team_for_token
@@ -37,6 +40,8 @@ from dressmeup.server.editions import registered
 from dressmeup.server.service import EvaluationServer, LimitReached, NotFound, Rejected
 from dressmeup.server.teampage import TEAM_PAGE
 from dressmeup.server.uploads import TooLarge, receive
+
+log = logging.getLogger(__name__)
 
 
 class Publication(BaseModel):
@@ -103,6 +108,22 @@ def create_app(server: EvaluationServer) -> FastAPI:
         code = 404 if isinstance(exc, NotFound) else 429 if isinstance(exc, LimitReached) \
             else 413 if isinstance(exc, TooLarge) else 400
         return JSONResponse({"detail": str(exc)}, status_code=code)
+
+    @app.exception_handler(SQLAlchemyError)
+    async def _database_error(_request: Request, exc: SQLAlchemyError) -> JSONResponse:
+        log.error("database error: %s", exc)
+        return JSONResponse({"detail": "the server's database cannot be written or read "
+                                       "(read-only, full disk or unreachable); nothing was "
+                                       "recorded: try again later"}, status_code=503)
+
+    @app.exception_handler(OSError)
+    async def _disk_error(_request: Request, exc: OSError) -> JSONResponse:
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EROFS):
+            return JSONResponse({"detail": "the server's disk is full or read-only; nothing "
+                                           "was recorded: try again later"}, status_code=507)
+        log.error("i/o error: %s", exc)
+        return JSONResponse({"detail": "the server could not read or write a file; nothing "
+                                       "was recorded"}, status_code=500)
 
     @app.get("/api/editions")
     def editions() -> list[dict[str, str]]:
