@@ -50,7 +50,8 @@ def _run_folder(out: Path) -> Path:
 def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
              quick: bool = False, log: Callable[[str], Any] = lambda s: None,
              retarget_methods: list[str] | None = None, with_uv: bool = True,
-             with_fusion: bool = True, train_steps: int = 0) -> dict[str, Any]:
+             with_fusion: bool = True, train_steps: int = 0,
+             serve: bool = False) -> dict[str, Any]:
     """Run the demo journey; return a dict with the paths and leaderboards it made.
 
     Parameters
@@ -63,6 +64,10 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     with_uv, with_fusion : include the UV and capture/fusion parts when installed.
     train_steps : self-supervised training steps for trainable baselines without shipped
         weights (0: such baselines are skipped with a line saying how to train them).
+    serve : also start an evaluation server on 127.0.0.1 with the edition's private part,
+        submit the baselines to it over HTTP and publish them; the running server is
+        returned as ``report["server"]`` (a :class:`~dressmeup.server.local.LocalServer`:
+        the caller stops it with ``report["server"].__exit__()``).
 
     Returns
     -------
@@ -104,6 +109,8 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     log("")
     log(f"Leaderboard {edition}:")
     log(md)
+    if serve:
+        _serve_part(edition, parts.private, list(subs.values()), run, log, report)
 
     log("[4/4] other stages")
     if with_uv:
@@ -143,6 +150,19 @@ def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report
     report["uv_leaderboard"] = md
     log(f"Leaderboard {UV_EDITION}:")
     log(md)
+
+
+def _serve_part(edition: str, private: Path, subs: list[Path], run: Path, log,
+                report) -> None:
+    """Start an evaluation server, submit the baselines over HTTP, publish them."""
+    # start-up time: the server stack (FastAPI, SQLAlchemy) loads only with --serve
+    from dressmeup.server.local import LocalServer, submit_all
+
+    local = LocalServer(run / "server").__enter__()
+    log(f"evaluation server on {local.url}: submitting {len(subs)} baselines as team 'demo'")
+    submit_all(local, edition, private, subs, log)
+    report["server"] = local
+    log(f"public leaderboard: {local.url}/leaderboard/ (team page: {local.url}/team)")
 
 
 def _site_part(run: Path, log, report) -> None:

@@ -207,13 +207,14 @@ def _row(r: Result, columns: list[Column], factors: tuple[str, ...], names: list
 
 def _few_resamples(columns: list[Column], rows: list[BoardRow]) -> list[str]:
     """Caption lines for the columns whose factors allow fewer than
-    :data:`~dressmeup.bench.intervals.FEW_RESAMPLES` distinct resamples."""
-    out = []
+    :data:`~dressmeup.bench.intervals.FEW_RESAMPLES` distinct resamples (columns resting on
+    the same levels share one line)."""
+    by_text: dict[str, list[str]] = {}
     for c in columns:
         levels = next((r.levels[c.key] for r in rows if r.levels.get(c.key)), None)
         if levels and resample_count(levels) < FEW_RESAMPLES:
-            out.append(f"{c.header()}: {describe_levels(levels)}")
-    return out
+            by_text.setdefault(describe_levels(levels), []).append(c.header(ascii_only=True))
+    return [f"{', '.join(cols)}: {text}" for text, cols in by_text.items()]
 
 
 def _mark_pareto(ed: Edition, rows: list[BoardRow]) -> tuple[str, ...]:

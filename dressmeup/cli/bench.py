@@ -83,6 +83,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", "-j", type=int, default=None, help="scoring workers")
     p.add_argument("--quick", action="store_true",
                    help="the tiny edition (procedural body, 2 pairs): a few minutes")
+    p.add_argument("--serve", action="store_true",
+                   help="also run an evaluation server on 127.0.0.1, submit the baselines to "
+                        "it over HTTP, publish them, and keep serving until Ctrl-C")
     p.add_argument("--train-steps", type=int, default=0,
                    help="train trainable baselines without shipped weights for this many "
                         "self-supervised steps (default 0: skip them)")
@@ -157,6 +160,14 @@ def _demo(args: argparse.Namespace) -> int:
     from dressmeup.demo import run_demo
 
     res = run_demo(out=args.out, workers=args.workers, quick=args.quick,
-                   train_steps=args.train_steps,
+                   train_steps=args.train_steps, serve=args.serve,
                    log=lambda line: sys.stdout.write(line + "\n") or sys.stdout.flush())
+    server = res.get("server")
+    if server is not None:
+        sys.stdout.write(f"serving {server.url}/leaderboard/ until Ctrl-C\n")
+        sys.stdout.flush()
+        try:
+            server.wait_forever()
+        finally:
+            server.__exit__(None, None, None)
     return 0 if res.get("ok", True) else 1
