@@ -12,8 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.capture.rig import Rig
-from dressmeup.capture.session import RGBDFrame, frame_camera
+from dressmeup.capture.frame import RGBDFrame, frame_camera
 
 __all__ = ["resolve_device", "integrate_tsdf"]
 
@@ -41,7 +40,7 @@ def resolve_device(device: str = "cpu") -> str:
     raise ValueError(f"device: expected 'cpu' or 'cuda[:N]', got {device!r}")
 
 
-def integrate_tsdf(frames: Sequence[RGBDFrame], rig: Rig, voxel_size: float = 0.004,
+def integrate_tsdf(frames: Sequence[RGBDFrame], voxel_size: float = 0.004,
                    trunc_voxels: float = 5.0, depth_max: float = 5.0,
                    min_weight: float = 1.0, device: str = "cpu", block_count: int = 1000
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -50,13 +49,14 @@ def integrate_tsdf(frames: Sequence[RGBDFrame], rig: Rig, voxel_size: float = 0.
     Parameters
     ----------
     frames : sequence of RGBDFrame (pinhole images: see ``filtering.undistort_frame``),
-        depth in metres; several frames of one camera are allowed.
-    rig : Rig giving the intrinsics and camera-to-world transform (by serial) of frames that
-        carry no camera (:func:`~dressmeup.capture.session.frame_camera`).
+        depth in metres, each carrying its camera (intrinsics and camera-to-world); several
+        frames of one camera are allowed.
     voxel_size : float, metres.
     trunc_voxels : float, truncation distance in voxels.
     depth_max : float, metres; deeper measurements are ignored.
-    min_weight : float, voxels observed fewer times are not meshed.
+    min_weight : float, a voxel is meshed when at least this many frames observed it (each
+        frame that measured a depth within the truncation band adds 1 to its weight); 1:
+        everything any frame saw.
     device : ``"cpu"`` or ``"cuda[:N]"``.
     block_count : int, minimum hash-map capacity (sized from the blocks the frames touch).
 
@@ -73,6 +73,8 @@ def integrate_tsdf(frames: Sequence[RGBDFrame], rig: Rig, voxel_size: float = 0.
 
     if voxel_size <= 0:
         raise ValueError(f"voxel_size: expected > 0 metres, got {voxel_size}")
+    if not min_weight >= 1:
+        raise ValueError(f"min_weight: expected >= 1 observation, got {min_weight}")
     if not frames:
         raise ValueError("frames: expected at least one frame")
     dev = o3c.Device(resolve_device(device))
@@ -86,9 +88,9 @@ def integrate_tsdf(frames: Sequence[RGBDFrame], rig: Rig, voxel_size: float = 0.
 
     inputs = []
     for fr in frames:
-        cam = frame_camera(fr, rig)
+        cam = frame_camera(fr)
         if fr.depth.shape != (cam.height, cam.width):
-            raise ValueError(f"frame {fr.serial}/{fr.index}: depth is {fr.depth.shape}, rig says "
+            raise ValueError(f"frame {fr.serial}/{fr.index}: depth is {fr.depth.shape}, its camera says "
                              f"{(cam.height, cam.width)}")
         depth_m = np.ascontiguousarray(fr.depth, dtype=np.float32)
         if not (depth_m > 0).any():
@@ -108,7 +110,8 @@ def integrate_tsdf(frames: Sequence[RGBDFrame], rig: Rig, voxel_size: float = 0.
     for depth, color, K, ext in inputs:
         coords = vbg.compute_unique_block_coordinates(depth, K, ext, 1.0, depth_max, trunc_voxels)
         vbg.integrate(coords, depth, color, K, ext, 1.0, depth_max, trunc_voxels)
-    mesh = vbg.extract_triangle_mesh(weight_threshold=float(min_weight))
+    # open3d meshes voxels whose weight is strictly above the threshold; weights count frames
+    mesh = vbg.extract_triangle_mesh(weight_threshold=float(min_weight) - 0.5)
     if "indices" not in mesh.triangle or mesh.triangle.indices.shape[0] == 0:
         raise ValueError("TSDF fusion produced an empty mesh: check the extrinsics, depth scale and "
                          "depth range (are the cameras looking at the same place?)")
