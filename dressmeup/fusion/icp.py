@@ -114,6 +114,8 @@ class PairResult:
     ----------
     i, j : int, view indices. T : (4, 4) float64. fitness, rmse : open3d's figures at the
     last scale run. information : (6, 6) float64. scales : int, how many scales ran.
+    overlap : float, the fitness at the coarsest scale (share of view i's points with a
+    counterpart in view j within the coarse radius).
     """
 
     i: int
@@ -123,6 +125,7 @@ class PairResult:
     rmse: float
     information: np.ndarray
     scales: int
+    overlap: float = 0.0
 
 
 def backproject(frame: RGBDFrame, stride: int = 1, world: bool = True) -> tuple[np.ndarray, np.ndarray]:
@@ -235,6 +238,8 @@ def _icp_step(clouds: Sequence[Sequence], pair: PairResult, s: int, config: ICPC
     if result.fitness > 0:
         pair.T = np.asarray(result.transformation).copy()
     pair.fitness, pair.rmse, pair.scales = float(result.fitness), float(result.inlier_rmse), s + 1
+    if s == 0:
+        pair.overlap = pair.fitness
 
 
 def register_pairs(views: Sequence[ViewClouds], poses: Sequence[np.ndarray],

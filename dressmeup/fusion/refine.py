@@ -189,7 +189,7 @@ def refine_extrinsics(frames: Sequence[RGBDFrame], config: ICPConfig | None = No
             break
         pairs = candidate_pairs(views, poses, cfg)
         results = [r for r in register_pairs(views, poses, pairs, cfg, deadline)
-                   if r.fitness >= cfg.min_overlap and _plausible(r, poses, cfg)]
+                   if r.overlap >= cfg.min_overlap and r.fitness > 0 and _plausible(r, poses, cfg)]
         if not results:
             log.warning("no overlapping camera pairs found; extrinsics left unchanged")
             break
@@ -211,9 +211,11 @@ def refine_extrinsics(frames: Sequence[RGBDFrame], config: ICPConfig | None = No
     out = {}
     for k, s in enumerate(serials):
         if proposals[k] and not keep[k]:
-            report.refused[s] = "does not lower the view-to-view residual by the margin"
+            report.refused[s] = ("does not lower the view-to-view residual by the margin"
+                                 if max(report.proposed[s]) > 0 else
+                                 "no reliable registration links it to the reference camera")
         out[s] = replace(cams[s], camera_to_world=final[k]) if keep[k] else cams[s]
-        report.corrections[s] = pose_difference(start[k], final[k])
+        report.corrections[s] = pose_difference(start[k], final[k]) if keep[k] else (0.0, 0.0)
         report.residual_before_mm[s] = float(1000 * before[k])
         report.residual_after_mm[s] = float(1000 * after[k])
     report.seconds = time.perf_counter() - t_start
