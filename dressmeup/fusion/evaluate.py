@@ -12,9 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dressmeup.capture.frame import RGBDFrame, frame_camera
 from dressmeup.capture.rig import Rig
 
-__all__ = ["score_surface", "face_label_accuracy", "extrinsic_errors", "SurfaceScore"]
+__all__ = ["score_surface", "face_label_accuracy", "extrinsic_errors", "SurfaceScore", "open3d_reference_mesh"]
 
 
 @dataclass
@@ -141,3 +142,47 @@ def extrinsic_errors(estimated: Rig, truth: Rig, points: np.ndarray) -> dict[str
         E = c.camera_to_world @ truth.camera(c.serial).world_to_camera
         out[c.serial] = float(np.linalg.norm(P @ E[:3, :3].T + E[:3, 3] - P, axis=1).mean())
     return out
+
+
+def open3d_reference_mesh(frames: list[RGBDFrame], voxel_size: float = 0.004, trunc_voxels: float = 5.0,
+                          depth_max: float = 5.0) -> tuple[np.ndarray, np.ndarray]:
+    """Open3D's own TSDF integration of frames as they are: the reference fusion is compared to.
+
+    The raw depth of every frame (no undistortion, no filtering) is integrated with its
+    camera into an open3d ``t.geometry.VoxelBlockGrid`` as Open3D's integration example
+    does, and every voxel observed at least once is meshed (``weight_threshold=0``, as the
+    legacy ``ScalableTSDFVolume`` meshes).
+
+    Parameters
+    ----------
+    frames : RGBDFrame list, each carrying its camera; depth in metres.
+    voxel_size : float, metres. trunc_voxels : float, truncation in voxels.
+    depth_max : float, metres.
+
+    Returns
+    -------
+    vertices : (n, 3) float64, faces : (m, 3) int64.
+    """
+    import open3d as o3d  # reason: heavy optional dependency
+    import open3d.core as o3c
+
+    def grid(count: int):
+        return o3d.t.geometry.VoxelBlockGrid(
+            attr_names=("tsdf", "weight"), attr_dtypes=(o3c.float32, o3c.float32), attr_channels=((1), (1)),
+            voxel_size=float(voxel_size), block_resolution=16, block_count=int(count), device=o3c.Device("CPU:0"))
+
+    inputs = []
+    for fr in frames:
+        cam = frame_camera(fr)
+        inputs.append((o3d.t.geometry.Image(o3c.Tensor(np.ascontiguousarray(fr.depth, dtype=np.float32))),
+                       o3c.Tensor(cam.K, o3c.float64), o3c.Tensor(cam.world_to_camera, o3c.float64)))
+    probe = grid(16)  # the hash map sized from the blocks the frames touch
+    touched = np.concatenate([probe.compute_unique_block_coordinates(d, K, e, 1.0, depth_max, trunc_voxels).numpy()
+                              for d, K, e in inputs])
+    vbg = grid(int(1.3 * len(np.unique(touched, axis=0))) + 64)
+    for depth, K, ext in inputs:
+        coords = vbg.compute_unique_block_coordinates(depth, K, ext, 1.0, depth_max, trunc_voxels)
+        vbg.integrate(coords, depth, K, ext, 1.0, depth_max, trunc_voxels)
+    mesh = vbg.extract_triangle_mesh(weight_threshold=0.0)
+    return (mesh.vertex.positions.numpy().astype(np.float64),
+            mesh.triangle.indices.numpy().astype(np.int64))
