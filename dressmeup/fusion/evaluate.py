@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dressmeup.capture.frame import RGBDFrame, frame_camera
+from dressmeup.capture.frame import RGBDFrame
 from dressmeup.capture.rig import Rig
+from dressmeup.fusion.tsdf import integrate_grid
 
 __all__ = ["score_surface", "face_label_accuracy", "extrinsic_errors", "SurfaceScore", "open3d_reference_mesh"]
 
@@ -163,26 +164,7 @@ def open3d_reference_mesh(frames: list[RGBDFrame], voxel_size: float = 0.004, tr
     -------
     vertices : (n, 3) float64, faces : (m, 3) int64.
     """
-    import open3d as o3d  # reason: heavy optional dependency
-    import open3d.core as o3c
-
-    def grid(count: int):
-        return o3d.t.geometry.VoxelBlockGrid(
-            attr_names=("tsdf", "weight"), attr_dtypes=(o3c.float32, o3c.float32), attr_channels=((1), (1)),
-            voxel_size=float(voxel_size), block_resolution=16, block_count=int(count), device=o3c.Device("CPU:0"))
-
-    inputs = []
-    for fr in frames:
-        cam = frame_camera(fr)
-        inputs.append((o3d.t.geometry.Image(o3c.Tensor(np.ascontiguousarray(fr.depth, dtype=np.float32))),
-                       o3c.Tensor(cam.K, o3c.float64), o3c.Tensor(cam.world_to_camera, o3c.float64)))
-    probe = grid(16)  # the hash map sized from the blocks the frames touch
-    touched = np.concatenate([probe.compute_unique_block_coordinates(d, K, e, 1.0, depth_max, trunc_voxels).numpy()
-                              for d, K, e in inputs])
-    vbg = grid(int(1.3 * len(np.unique(touched, axis=0))) + 64)
-    for depth, K, ext in inputs:
-        coords = vbg.compute_unique_block_coordinates(depth, K, ext, 1.0, depth_max, trunc_voxels)
-        vbg.integrate(coords, depth, K, ext, 1.0, depth_max, trunc_voxels)
-    mesh = vbg.extract_triangle_mesh(weight_threshold=0.0)
+    mesh = integrate_grid(frames, voxel_size, trunc_voxels, depth_max, color=False).extract_triangle_mesh(
+        weight_threshold=0.0)
     return (mesh.vertex.positions.numpy().astype(np.float64),
             mesh.triangle.indices.numpy().astype(np.int64))
