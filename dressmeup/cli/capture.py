@@ -246,7 +246,8 @@ def _fuse(args: argparse.Namespace) -> int:
     for note in session.notes:
         sys.stdout.write(f"note: {note}\n")
     result = fuse_session(session, _fusion_config(args))
-    extra: dict[str, Any] = {"session": str(Path(args.session).resolve())}
+    extra: dict[str, Any] = {"session": str(Path(args.session).resolve()),
+                             **({"pose_notes": session.notes} if session.notes else {})}
     if args.garments:
         from dressmeup.extraction.pipeline import extract_garments, save_garment
 
