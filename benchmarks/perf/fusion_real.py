@@ -11,7 +11,8 @@ Two sources:
 For each, it times and scores:
 
 - ``open3d``: ``fusion.evaluate.open3d_reference_mesh``, Open3D's VoxelBlockGrid integration
-  of the raw frames with the session's poses, every observed voxel meshed (the reference);
+  of the raw frames with the session's poses, every observed voxel meshed (the reference),
+  timed also with colour integrated (what a coloured scan costs);
 - ``dressmeup``: ``fuse_session`` (filtering, TSDF, cleanup) with the default rule (voxels seen
   by >= 1 frame) and, for comparison, the former rule (weight strictly above 1);
 - ``dressmeup --refine``: the same with refinement (the poses it keeps, and why it refused);
@@ -134,6 +135,8 @@ def main(argv=None) -> int:
     rows = [{"case": "open3d (reference)", "wall_s": wall, "cpu_s": cpu, "faces": len(ref[1])}]
     if truth is not None:
         rows[0].update(_truth(ref, truth, args.samples))
+    _, wall, cpu = _timed(lambda: open3d_reference_mesh(frames, args.voxel, 5.0, 5.0, color=True))
+    rows.append({"case": "open3d with colour (time only)", "wall_s": wall, "cpu_s": cpu})
     cfg = FusionConfig(voxel_size=args.voxel)
     rows.append(_fuse_row("dressmeup", session, cfg, ref, args.samples, truth))
     rows.append(_fuse_row("dressmeup, former rule (weight > 1)", session,

@@ -146,7 +146,7 @@ def extrinsic_errors(estimated: Rig, truth: Rig, points: np.ndarray) -> dict[str
 
 
 def open3d_reference_mesh(frames: list[RGBDFrame], voxel_size: float = 0.004, trunc_voxels: float = 5.0,
-                          depth_max: float = 5.0) -> tuple[np.ndarray, np.ndarray]:
+                          depth_max: float = 5.0, color: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Open3D's own TSDF integration of frames as they are: the reference fusion is compared to.
 
     The raw depth of every frame (no undistortion, no filtering) is integrated with its
@@ -158,13 +158,14 @@ def open3d_reference_mesh(frames: list[RGBDFrame], voxel_size: float = 0.004, tr
     ----------
     frames : RGBDFrame list, each carrying its camera; depth in metres.
     voxel_size : float, metres. trunc_voxels : float, truncation in voxels.
-    depth_max : float, metres.
+    depth_max : float, metres. color : bool, integrate colour too (as a coloured scan needs;
+    the geometry is the same).
 
     Returns
     -------
     vertices : (n, 3) float64, faces : (m, 3) int64.
     """
-    mesh = integrate_grid(frames, voxel_size, trunc_voxels, depth_max, color=False).extract_triangle_mesh(
+    mesh = integrate_grid(frames, voxel_size, trunc_voxels, depth_max, color=color).extract_triangle_mesh(
         weight_threshold=0.0)
     return (mesh.vertex.positions.numpy().astype(np.float64),
             mesh.triangle.indices.numpy().astype(np.int64))
