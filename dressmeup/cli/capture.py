@@ -89,7 +89,8 @@ def _register_import(subparsers: argparse._SubParsersAction) -> None:
                     "OpenCV camera-to-world matrices. Layouts and conventions: docs/capture-format.md. "
                     "Poses within 2e-3 of orthonormal are re-orthonormalised and reported; worse ones are "
                     "refused, all listed.")
-    p.add_argument("format", choices=["tum", "7scenes", "redwood", "arkitscenes"], help="the dataset's layout")
+    p.add_argument("format", choices=["tum", "7scenes", "redwood", "open3d-log", "arkitscenes"],
+                   help="the dataset's layout (open3d-log: the same as redwood)")
     p.add_argument("src", help="the dataset folder (a TUM sequence, a 7-Scenes seq-XX, a Redwood/Open3D "
                                "folder, an ARKitScenes scan)")
     p.add_argument("--out", required=True, help="session folder to write")

@@ -11,6 +11,7 @@ format          layout                                                poses
 ``tum``         TUM RGB-D: rgb.txt, depth.txt, groundtruth.txt        camera-to-world, qx qy qz qw
 ``7scenes``     7-Scenes: seq-XX/frame-XXXXXX.{color,depth,pose}      4x4 camera-to-world
 ``redwood``     Redwood / Open3D: color/, depth/, a .log trajectory   4x4 camera-to-world
+``open3d-log``  the same reader under Open3D's name for the layout
 ``arkitscenes`` ARKitScenes: lowres_wide/, lowres_depth/, .traj       world-to-camera, axis-angle
 =============== ===================================================== ===========================
 """
@@ -79,7 +80,7 @@ def _seven(src: Path, o: ImportOptions) -> tuple[list[SourceFrame], dict]:
 
 #: format name -> reader(src, options) -> (frames, source description)
 FORMATS: dict[str, Callable[[Path, ImportOptions], tuple[list[SourceFrame], dict]]] = {
-    "tum": _tum, "7scenes": _seven, "redwood": _redwood, "arkitscenes": _arkit,
+    "tum": _tum, "7scenes": _seven, "redwood": _redwood, "open3d-log": _redwood, "arkitscenes": _arkit,
 }
 
 
