@@ -119,6 +119,7 @@ def _register_import(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _import_capture(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.capture.importers import ImportOptions, import_capture
 
     out = Path(args.out)
@@ -144,6 +145,7 @@ def _import_capture(args: argparse.Namespace) -> int:
 
 
 def _validate_session(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.capture.session import check_session
 
     check = check_session(args.session, check_images=not args.quick)

@@ -14,7 +14,10 @@ import numpy as np
 
 from dressmeup.capture.frame import RGBDFrame
 from dressmeup.capture.rig import Rig
+from dressmeup.capture.visibility import raycasting_scene, visible_from
 from dressmeup.fusion.tsdf import integrate_grid
+from dressmeup.geometry.sampling import sample_surface
+from dressmeup.metrics.distance import distances_to
 
 __all__ = ["score_surface", "face_label_accuracy", "extrinsic_errors", "SurfaceScore", "open3d_reference_mesh"]
 
@@ -69,9 +72,6 @@ def score_surface(pred_vertices: np.ndarray, pred_faces: np.ndarray, gt_vertices
     -------
     SurfaceScore
     """
-    from dressmeup.capture.visibility import raycasting_scene
-    from dressmeup.geometry.sampling import sample_surface
-    from dressmeup.metrics.distance import distances_to
 
     GV = np.asarray(gt_vertices, dtype=np.float64)
     GF = np.asarray(gt_faces, dtype=np.int64)
@@ -84,7 +84,6 @@ def score_surface(pred_vertices: np.ndarray, pred_faces: np.ndarray, gt_vertices
     fn_all /= np.maximum(np.linalg.norm(fn_all, axis=1, keepdims=True), 1e-20)
     cp = scene.compute_closest_points(pts.astype(np.float32))
     nrm = fn_all[cp["primitive_ids"].numpy().astype(np.int64)]
-    from dressmeup.capture.visibility import visible_from
 
     vis = np.zeros(len(pts), dtype=bool)
     for cam in rig.cameras:
@@ -117,7 +116,6 @@ def face_label_accuracy(pred_vertices: np.ndarray, pred_faces: np.ndarray, pred_
     -------
     float in [0, 1]
     """
-    from dressmeup.capture.visibility import raycasting_scene
 
     PV = np.asarray(pred_vertices, dtype=np.float64)
     PF = np.asarray(pred_faces, dtype=np.int64)

@@ -12,6 +12,7 @@ whose optimum, the reference camera held fixed, gives each camera a candidate po
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 import time
@@ -263,7 +264,6 @@ def register_pairs(views: Sequence[ViewClouds], poses: Sequence[np.ndarray],
     list of PairResult, one per pair (``T`` between camera frames), with the information
     matrix of the last scale run.
     """
-    import copy
 
     import open3d as o3d  # reason: heavy optional dependency
 

@@ -27,6 +27,7 @@ from dressmeup.fusion.refine import ICPReport, refine_extrinsics
 from dressmeup.fusion.tsdf import integrate_tsdf
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonable import json_default
+from dressmeup.io.jsonio import read_json
 from dressmeup.io.mesh import write_ply  # re-exported: its home is io.mesh
 
 __all__ = ["FusionConfig", "FusionResult", "prepare_frames", "fuse_frames", "fuse_session",
@@ -230,7 +231,6 @@ def reuse_scan(session: Session | str | os.PathLike, scan_dir: str | os.PathLike
     FileNotFoundError
         When ``scan_dir`` holds no ``scan.ply``.
     """
-    from dressmeup.io.jsonio import read_json
 
     cfg = config or FusionConfig()
     if not isinstance(session, Session):
@@ -252,6 +252,7 @@ def reuse_scan(session: Session | str | os.PathLike, scan_dir: str | os.PathLike
 
 def load_scan(scan_dir: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Read ``scan.ply`` of a scan folder: (V (n,3) float64, F (m,3) int64, colors (n,3) uint8 or None)."""
+    # heavy: trimesh (~0.7 s to import)
     import trimesh
 
     p = Path(scan_dir) / "scan.ply"
