@@ -44,6 +44,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from dressmeup.body.importers import import_body_params
+from dressmeup.body.models import get_body_model
 from dressmeup.body.params import BodyParams
 from dressmeup.body.registration.optimizer import OptimizationRegistrar, RegistrationResult
 from dressmeup.body.registration.scan import prepare_scan
@@ -67,7 +69,6 @@ class FromFileRegistrar:
 
     def fit(self, scan, model, init: BodyParams | None = None, keypoints=None) -> RegistrationResult:
         """Return the imported parameters (the scan is not used)."""
-        from dressmeup.body.importers import import_body_params
 
         if self.path is None:
             raise InputError("from-file registrar: pass path= to the parameter file")
@@ -132,8 +133,6 @@ def register(scan, model, init: BodyParams | None = None, keypoints=None,
     BodyParams (vertices = scale * model(shape, pose) + transl), or RegistrationResult.
     """
     if isinstance(model, str):
-        from dressmeup.body.models import get_body_model
-
         model = get_body_model(model)
     result = get_registrar(registrar, **options).fit(scan, model, init=init, keypoints=keypoints)
     if isinstance(result, BodyParams):

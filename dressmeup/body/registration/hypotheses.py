@@ -87,6 +87,7 @@ def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarra
     def idx(n):
         return names.index(n) if n in names else None
 
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial.transform import Rotation
 
     tilt = Rotation.identity()  # the root's forward tilt, which everything inherits

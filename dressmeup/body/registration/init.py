@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from dressmeup.body.registration.hypotheses import UPRIGHT_HYPOTHESES, canonical_pose
 from dressmeup.body.registration.stages import run_adam
 from dressmeup.geometry.neighbors import NearestTree
 
@@ -28,6 +29,7 @@ logger = logging.getLogger(__name__)
 
 def place_on_scan(problem, size_init: bool) -> None:
     """Translate (and with ``size_init`` scale) the current body onto the scan's centre."""
+    # heavy: torch (~1.1 s to import)
     import torch
 
     V = problem.posed_numpy()
@@ -58,6 +60,7 @@ def yaw_search(problem, n_steps: int, lr_pose: float, lr_transl: float,
     Candidates are compared on the torso, hips and head only: with the limbs, a wrong yaw
     can win (A-pose arms sideways match a walking scan's legs seen from the side).
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     base = problem.snapshot()
@@ -132,6 +135,7 @@ def symmetric_score(problem, cap: float = 0.1, scan_cap: float | None = None) ->
 def compose_root(heading: np.ndarray, tilt: np.ndarray) -> np.ndarray:
     """Axis-angle (3,) of a hypothesis' root: its own ``tilt`` (e.g. a deep bend's forward
     lean, in the model frame) first, then the search's ``heading`` (the yaw search's root)."""
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial.transform import Rotation
 
     return (Rotation.from_rotvec(heading) * Rotation.from_rotvec(tilt)).as_rotvec()
@@ -165,9 +169,8 @@ def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, kee
     -------
     info : dict with the ranked hypotheses (name, yaw in degrees, data cost) and step counts.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
-
-    from dressmeup.body.registration.hypotheses import UPRIGHT_HYPOTHESES, canonical_pose
 
     model = problem.model
     rest = model.posed(model.default_params()).joints
@@ -282,10 +285,9 @@ def keypoint_start(problem, poses, n_pose: int, lr_pose: float, lr_transl: float
 
     Returns info like :func:`hypothesis_search`.
     """
+    # heavy: torch (~1.1 s to import), scipy (~0.5 s to import)
     import torch
     from scipy.spatial.transform import Rotation
-
-    from dressmeup.body.registration.hypotheses import canonical_pose
 
     model = problem.model
     ids, targets = problem.kp

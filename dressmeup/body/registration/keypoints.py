@@ -43,6 +43,7 @@ MEDIAPIPE_TO_SMPL: dict[int, str] = {
 def keypoints_available() -> bool:
     """True when mediapipe's legacy pose solution can be imported (``[keypoints]`` extra)."""
     try:
+        # optional dependency (ImportError handled)
         import mediapipe as mp
 
         return hasattr(mp, "solutions") and hasattr(mp.solutions, "pose")
@@ -135,6 +136,7 @@ def render_views(scan, cameras: list[Camera]) -> list[np.ndarray]:
 
 
 def _raycast(V: np.ndarray, F: np.ndarray, cam: Camera) -> np.ndarray:
+    # heavy: open3d (~0.8 s to import)
     import open3d as o3d
 
     scene = o3d.t.geometry.RaycastingScene()
@@ -185,6 +187,7 @@ def detect_2d(images: list[np.ndarray], model_complexity: int = 1) -> list[dict 
     ImportError : mediapipe (the ``[keypoints]`` extra) is not installed.
     """
     try:
+        # optional dependency (ImportError handled)
         import mediapipe as mp
     except ImportError as exc:
         raise ImportError("keypoints from scans need the [keypoints] extra: pip install "

@@ -32,7 +32,10 @@ import math
 
 import numpy as np
 
-from dressmeup.body.registration.init import capped_distances
+from dressmeup.body.registration.hypotheses import align_directions
+from dressmeup.body.registration.init import capped_distances, symmetric_score
+from dressmeup.body.registration.stages import run_adam
+from dressmeup.body.registration.terms import JOINT_LIMITS
 from dressmeup.geometry.neighbors import NearestTree
 
 logger = logging.getLogger(__name__)
@@ -150,6 +153,7 @@ def unexplained_groups(P: np.ndarray, V: np.ndarray, gap: float = 0.05, link: fl
     -------
     groups : list of (m_k, 3) arrays of scan points.
     """
+    # heavy: scipy (~0.5 s to import)
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
@@ -202,6 +206,7 @@ def aimed_candidates(W_up: np.ndarray, W_lo: np.ndarray,
         current pose (m); it moves with the lower bone.
     groups : list of (m_k, 3) scan points (m), e.g. :func:`unexplained_groups`.
     """
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial.transform import Rotation
 
     length = float(np.linalg.norm(J_lo - J_up))
@@ -212,7 +217,6 @@ def aimed_candidates(W_up: np.ndarray, W_lo: np.ndarray,
     groups = [g for g in groups if np.linalg.norm(g - J_up, axis=1).min() <= reach]
     if not groups:
         return []
-    from dressmeup.body.registration.hypotheses import align_directions
 
     D = fibonacci_directions(n_directions)
     d_all = np.repeat(D, twists, axis=0)
@@ -257,9 +261,8 @@ def _world(c_up, W_up, d, twist, bend, hinge, turns: dict | None = None):
     upper joint's world rotation (a matrix or a ``Rotation``); ``turns``: a dict kept across
     the calls of one limb (same ``c_up``), caching the turn of each (direction, twist), the
     same product in the same order, so the same floats."""
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial.transform import Rotation
-
-    from dressmeup.body.registration.hypotheses import align_directions
 
     key = (np.asarray(d, np.float64).tobytes(), float(twist))
     turn = None if turns is None else turns.get(key)
@@ -274,6 +277,7 @@ def _world(c_up, W_up, d, twist, bend, hinge, turns: dict | None = None):
 
 def _tilt(d: np.ndarray, a: float, b: float) -> np.ndarray:
     """``d`` tilted by angles ``a`` and ``b`` (rad) about two axes perpendicular to it."""
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial.transform import Rotation
 
     e1 = np.cross(d, (0.0, 1.0, 0.0) if abs(d[1]) < 0.9 else (1.0, 0.0, 0.0))
@@ -283,8 +287,6 @@ def _tilt(d: np.ndarray, a: float, b: float) -> np.ndarray:
 
 
 def _within_limits(name: str, rotvec: np.ndarray, margin: float = 0.3) -> bool:
-    from dressmeup.body.registration.terms import JOINT_LIMITS
-
     if name not in JOINT_LIMITS:
         return True
     lo, hi = np.array(JOINT_LIMITS[name]).T
@@ -298,6 +300,7 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
     :func:`aimed_candidates`) then a pattern search around the ``top`` best. Returns (start
     score, best score, local rotvec upper, local rotvec lower); ``W`` (j, 3, 3) are the
     current world rotations of the joints."""
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial.transform import Rotation
 
     names = list(problem.model.joint_names)
@@ -369,10 +372,8 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
     info : ``{"limbs_moved": [joint names], "limb_score": (before, after) m, "limb_kept":
     bool}``.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
-
-    from dressmeup.body.registration.init import symmetric_score
-    from dressmeup.body.registration.stages import run_adam
 
     model = problem.model
     names = list(model.joint_names)

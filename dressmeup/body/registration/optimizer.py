@@ -5,12 +5,17 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, field
+from numbers import Real
 from typing import ClassVar
 
 import numpy as np
 
 from dressmeup.body.params import BodyParams
-from dressmeup.body.registration.hypotheses import DEFAULT_HYPOTHESES
+from dressmeup.body.registration.hypotheses import (
+    CANONICAL_POSES,
+    DEFAULT_HYPOTHESES,
+    UPRIGHT_HYPOTHESES,
+)
 from dressmeup.body.registration.init import (
     hypothesis_search,
     keypoint_start,
@@ -18,6 +23,7 @@ from dressmeup.body.registration.init import (
     symmetric_score,
     yaw_search,
 )
+from dressmeup.body.registration.keypoints import detect_keypoints, keypoints_available
 from dressmeup.body.registration.limbs import FIRST_KNEE_BENDS, limb_search
 from dressmeup.body.registration.problem import FitProblem
 from dressmeup.body.registration.scan import (
@@ -28,8 +34,19 @@ from dressmeup.body.registration.scan import (
     rotate_scan,
     up_rotation,
 )
+from dressmeup.body.registration.shapes import (
+    BUILD_GRID,
+    DEFAULT_BUILD,
+    GENDERS,
+    I_BUILD,
+    I_GENDER,
+    I_HEIGHT,
+    stature_matched_shapes,
+)
 from dressmeup.body.registration.stages import run_adam, run_lbfgs
+from dressmeup.body.registration.support import remove_support, scan_without_support
 from dressmeup.body.rigid import rotate_params
+from dressmeup.errors import InputError
 
 logger = logging.getLogger(__name__)
 
@@ -271,6 +288,7 @@ class OptimizationRegistrar:
 
     def fit(self, scan, model, init: BodyParams | None = None, keypoints=None) -> RegistrationResult:
         """Fit ``model`` to ``scan``; see :func:`~dressmeup.body.registration.register`."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         R = up_rotation(self.up or "y")  # a bad axis fails before any work
@@ -371,7 +389,6 @@ class OptimizationRegistrar:
 
     def _check_options(self) -> None:
         """Raise :class:`~dressmeup.errors.InputError` for an unknown choice."""
-        from dressmeup.errors import InputError
 
         for name, allowed in (("far_cloth", ("pull", "loose", "free")),
                               ("far_cloth_from", ("start", "pose", "shape")),
@@ -380,7 +397,6 @@ class OptimizationRegistrar:
             if getattr(self, name) not in allowed:
                 raise InputError(f"{name}: expected one of {', '.join(allowed)}, got "
                                  f"{getattr(self, name)!r}")
-        from numbers import Real
 
         def real(x) -> bool:  # a number (numpy's too), not a bool or a string; NaN compares False
             return isinstance(x, Real) and not isinstance(x, bool)
@@ -399,7 +415,6 @@ class OptimizationRegistrar:
             raise InputError("limb_first_knee_bends: expected a non-empty list of knee bends in "
                              f"degrees, each in [0, 180) (default {list(FIRST_KNEE_BENDS)}); "
                              f"got {bends!r}")
-        from dressmeup.body.registration.hypotheses import CANONICAL_POSES, UPRIGHT_HYPOTHESES
 
         if any(p not in CANONICAL_POSES for p in self.hypotheses):  # a bare name fails too
             raise InputError(f"hypotheses: expected a list of {', '.join(CANONICAL_POSES)}; "
@@ -414,11 +429,9 @@ class OptimizationRegistrar:
     def _use_keypoints(self) -> bool:
         """Whether this fit detects keypoints on the scan (see ``init_route``, checked by
         :meth:`_check_options`)."""
-        from dressmeup.errors import InputError
 
         if self.init_route == "hypotheses":
             return False
-        from dressmeup.body.registration.keypoints import keypoints_available
 
         if keypoints_available():
             return True
@@ -439,9 +452,6 @@ class OptimizationRegistrar:
             check_upright(P)
         detected = None
         if keypoints is None and init is None and self._use_keypoints():
-            from dressmeup.body.registration.keypoints import detect_keypoints
-            from dressmeup.body.registration.support import scan_without_support
-
             detected = detect_keypoints(scan_without_support(scan, supports), model)
             keypoints = detected.joints
         kp = keypoint_arrays(keypoints, model)
@@ -468,7 +478,6 @@ class OptimizationRegistrar:
         """Find the supports on a denser sample of the scan; return the fit's points without
         them (``P`` itself when there are none), the planes and info (points removed of those
         checked, the planes, CPU seconds of the search)."""
-        from dressmeup.body.registration.support import remove_support
 
         cpu = time.process_time()
         dense = prepare_scan(scan, max(self.support_sample, 1) * self.n_scan_points, self.seed)
@@ -559,17 +568,8 @@ class OptimizationRegistrar:
         shape objective stays in ``p``. ``info["shape_search"]``: the objective of each start
         (``"fitted"`` and ``"gender <g> height <h>"``) and the one kept; returns the kept
         start's loss terms, prefixed ``search_`` (none when the fitted body stays)."""
+        # heavy: torch (~1.1 s to import)
         import torch
-
-        from dressmeup.body.registration.shapes import (
-            BUILD_GRID,
-            DEFAULT_BUILD,
-            GENDERS,
-            I_BUILD,
-            I_GENDER,
-            I_HEIGHT,
-            stature_matched_shapes,
-        )
 
         builds = BUILD_GRID if self.shape_search_builds else (DEFAULT_BUILD,)
         shapes = stature_matched_shapes(p.model, p.body_params(False).shape, builds)

@@ -24,6 +24,7 @@ from dressmeup.body.registration.terms import (
     pose_prior,
 )
 from dressmeup.body.skeleton import PHENOTYPE_NAMES
+from dressmeup.geometry.mesh import vertex_normals
 from dressmeup.geometry.neighbors import NearestTree
 
 
@@ -45,6 +46,7 @@ def body_neighbourhoods(rest_points: np.ndarray, radius: float, most: int = 16) 
     rest_points : (b, 3) the fit's body points on the rest body (m).
     radius : neighbourhood radius (m); most : at most this many neighbours (the nearest).
     """
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial import cKDTree
 
     _, idx = cKDTree(rest_points).query(rest_points, k=min(most, len(rest_points)),
@@ -69,6 +71,7 @@ def unseen_free_weights(normals, nn_b2s, nn_s2b, neighbourhoods=None):
     nn_s2b : (p,) body index of each scan point; neighbourhoods : None or (b, m) int64
         torch indices into the body points, padded with b.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     seen = (normals * normals[nn_s2b[nn_b2s]]).sum(-1) > 0
@@ -140,6 +143,7 @@ class FitProblem:
     """
 
     def __init__(self, opts, model, P: np.ndarray, kp):
+        # heavy: torch (~1.1 s to import)
         import torch
 
         self.opts, self.model, self.P, self.kp = opts, model, P, kp
@@ -218,6 +222,7 @@ class FitProblem:
     def set_params(self, shape: np.ndarray | None = None, pose: np.ndarray | None = None,
                    transl: np.ndarray | None = None, scale: float | None = None) -> None:
         """Overwrite some parameters (numpy, float64 ok); ``shape`` in model units."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         with torch.no_grad():
@@ -236,6 +241,7 @@ class FitProblem:
 
     def shape_value(self):
         """The shape in model units (sigmoid of ``shape_z`` for phenotype models)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         return torch.sigmoid(self.shape_z) if self.phenotype else self.shape_z
@@ -247,6 +253,7 @@ class FitProblem:
 
     def restore(self, snap: dict[str, Any]) -> None:
         """Set the free parameters back to a :meth:`snapshot`."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         with torch.no_grad():
@@ -255,6 +262,7 @@ class FitProblem:
 
     def body_params(self, keep_scale: bool) -> BodyParams:
         """The current parameters as :class:`BodyParams` (``scale`` 1 unless ``keep_scale``)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         with torch.no_grad():
@@ -280,6 +288,7 @@ class FitProblem:
         -------
         rms : float, remaining rest-shape mismatch (m) after the handover.
         """
+        # heavy: torch (~1.1 s to import)
         import torch
 
         with torch.no_grad():
@@ -315,6 +324,7 @@ class FitProblem:
         on or off. The shape stage's pull of the temporary scale back to 1 is not counted
         (it grows over a stage from zero weight). The correspondence cache is reset
         afterwards: the next stage starts afresh, as after :meth:`reset_correspondences`."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         keep = self.far_cloth_on
@@ -330,6 +340,7 @@ class FitProblem:
 
     def posed_numpy(self) -> np.ndarray:
         """(n, 3) float64 vertices of the whole body at the current parameters."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         with torch.no_grad():
@@ -344,9 +355,8 @@ class FitProblem:
         self.loose = None
 
     def _update_rest_normals(self, rest_vertices) -> None:
+        # heavy: torch (~1.1 s to import)
         import torch
-
-        from dressmeup.geometry.mesh import vertex_normals
 
         Vr = rest_vertices[0].detach().cpu().numpy().astype(np.float64)
         self.rest_normals = torch.as_tensor(vertex_normals(Vr, self.model.faces)[self.body_ids],
@@ -358,6 +368,7 @@ class FitProblem:
         ``global``: data term only; ``pose``: + pose prior; ``shape``: + shape prior and the
         pull of the temporary size scale back to 1 (unless the scale is fitted).
         """
+        # heavy: torch (~1.1 s to import)
         import torch
 
         o = self.opts

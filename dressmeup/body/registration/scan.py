@@ -53,6 +53,7 @@ def normal_lines(P: np.ndarray, k: int = 16) -> np.ndarray:
     direction of least variance of its ``k`` nearest neighbours (local plane fit). Works
     for meshes sampled by :func:`prepare_scan` and raw point clouds alike, whatever the
     winding or orientation of the source."""
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial import cKDTree
 
     P = np.asarray(P, dtype=np.float64)

@@ -42,6 +42,7 @@ BUILD_GRID = tuple((m, w, p) for m in (0.0, 0.5, 1.0) for w in (0.0, 0.5, 1.0)
 def statures(model, shapes: np.ndarray) -> np.ndarray:
     """(b,) extents (m) along y of ``model``'s rest bodies with ``shapes`` (b, k): one
     batched rest body."""
+    # heavy: torch (~1.1 s to import)
     import torch
 
     with torch.no_grad():

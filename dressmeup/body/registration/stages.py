@@ -17,15 +17,15 @@ from __future__ import annotations
 from contextlib import contextmanager
 
 from dressmeup.body.registration.terms import DISTAL_JOINTS
+from dressmeup.progress import progress
 
 
 def run_adam(problem, stage: str, n: int, params: list, lrs: list[float],
              label: str | None = None, verbose: bool = False) -> dict[str, float]:
     """Run ``n`` Adam steps of ``stage`` on ``params`` (tensors of ``problem``); return the
     last step's loss terms."""
+    # heavy: torch (~1.1 s to import)
     import torch
-
-    from dressmeup.progress import progress
 
     if n <= 0:
         return {}
@@ -68,9 +68,8 @@ def run_lbfgs(problem, n_outer: int, params: list, max_iter: int = 10,
               verbose: bool = False) -> dict[str, float]:
     """ICP-like refinement of the ``shape`` objective: ``n_outer`` rounds of fresh
     correspondences then ``max_iter`` L-BFGS steps with them frozen."""
+    # heavy: torch (~1.1 s to import)
     import torch
-
-    from dressmeup.progress import progress
 
     terms: dict = {}
     if n_outer <= 0:

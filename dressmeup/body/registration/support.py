@@ -31,6 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from dressmeup.body.registration.scan import normal_lines
 from dressmeup.errors import InputError
 
 #: Largest share of the scan that may lie on supports before the fit refuses the scan.
@@ -120,7 +121,6 @@ def find_supports(points: np.ndarray, band: float = 0.008, min_side: float = 0.3
     -------
     The supports in the order found (largest first, roughly).
     """
-    from dressmeup.body.registration.scan import normal_lines
 
     P = np.asarray(points, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 3:
@@ -243,6 +243,7 @@ def remove_support(points: np.ndarray, **options) -> tuple[np.ndarray, list[Supp
 
 def _spacing(P: np.ndarray, rng, n: int = 2000) -> float:
     """Median nearest-neighbour distance (m) of a random subset of ``P`` to all of ``P``."""
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial import cKDTree
 
     sub = P[rng.choice(len(P), min(n, len(P)), replace=False)]
@@ -267,6 +268,7 @@ class _RegionTest:
         """The plane's support region, or None: cells holding free slab points whose normal
         agrees with the plane, kept where a ``k`` x ``k`` square around them is at least
         ``fill`` occupied (the union of those squares)."""
+        # heavy: scipy (~0.5 s to import)
         from scipy import ndimage
 
         k = self.k

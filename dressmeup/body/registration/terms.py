@@ -82,6 +82,7 @@ def one_sided_cost(res, diff, weight, sigma_out: float, sigma_in: float, inside_
         ``cloth_max`` does: no excess cost, and the point-to-point term is capped at
         ``cloth_max`` (loose cloth a dress's width off the legs stops bending them into it).
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     inside = inside_weight * geman_mcclure(res * res, sigma_in)
@@ -102,6 +103,7 @@ def pose_prior(pose, prior_scale, lim_ids, lim_lo, lim_hi, prior_weight: float,
                limit_weight: float):
     """Squared joint rotations (root excluded, per-joint ``prior_scale`` (j-1, 1)) plus
     squared violations of the soft joint limits (``lim_*``: limited joints and bounds)."""
+    # heavy: torch (~1.1 s to import)
     import torch
 
     prior = prior_weight * (prior_scale * pose[1:] ** 2).sum()
