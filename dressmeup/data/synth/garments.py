@@ -243,7 +243,7 @@ def _remesh(V, F, edge_length, iterations=6):
 
 def _uv(V, F):
     # heavy: scipy (~0.5 s to import)
-    from dressmeup.geometry.uv_atlas import xatlas_atlas
+    from dressmeup.geometry.uv_packing import xatlas_atlas
 
     # xatlas' defaults and raw (not square-texel) UVs: the released synthetic datasets were
     # made this way, so the garments' UVs and the dataset hashes stay as they are.
