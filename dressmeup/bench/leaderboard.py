@@ -106,6 +106,8 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
         if m not in by_name:
             raise InputError(f"per-category metric {m!r} is not a metric of {ed.name}")
     tracks = _tracks(ed, loaded)
+    if len(tracks) == 1 and task.track_level == "item":
+        tracks = []   # one track only: its columns would repeat the overall ones
     prim = ed.primary
     # every track is shown separately for the primary metric, even without per_category
     track_metrics = list(dict.fromkeys(

@@ -434,3 +434,17 @@ def test_result_fields_that_reach_html_are_validated(scored, tmp_path):
     bad2 = _copy(scored["gt"]["res"].path, tmp_path / "bad2", edit=evil_boot)
     with pytest.raises(InputError, match="resamples"):
         load_result(bad2)
+
+
+def test_one_track_gets_no_repeated_columns(scored, tmp_path):
+    """Results whose items all carry one track: the track's columns would repeat the overall
+    ones, so the board shows the overall columns only and sorts by them."""
+    def one_track(t):
+        t["track"] = "re-pose"
+        return t
+
+    a = _copy(scored["gt"]["res"].path, tmp_path / "a", table_edit=one_track)
+    b = _copy(scored["noisy"]["res"].path, tmp_path / "b", table_edit=one_track)
+    board = build_leaderboard([a, b])
+    assert not [c for c in board.columns if c.track]
+    assert board.primary == "p2s" and "track re-pose" not in board.render("md")
