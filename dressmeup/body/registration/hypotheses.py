@@ -10,6 +10,7 @@ direction, then knees, elbows and spine get a bend. Directions are in the model 
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 #: name -> directions and bends. ``arm``: left upper-arm direction (x left, y up, z
 #: forward); ``thigh``: left thigh direction; ``knee``, ``elbow``, ``spine`` bends (degrees:
@@ -86,8 +87,6 @@ def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarra
 
     def idx(n):
         return names.index(n) if n in names else None
-
-    from scipy.spatial.transform import Rotation
 
     tilt = Rotation.identity()  # the root's forward tilt, which everything inherits
     if spec.get("pelvis"):

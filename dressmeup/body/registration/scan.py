@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from dressmeup.errors import InputError
 
@@ -53,8 +54,6 @@ def normal_lines(P: np.ndarray, k: int = 16) -> np.ndarray:
     direction of least variance of its ``k`` nearest neighbours (local plane fit). Works
     for meshes sampled by :func:`prepare_scan` and raw point clouds alike, whatever the
     winding or orientation of the source."""
-    from scipy.spatial import cKDTree
-
     P = np.asarray(P, dtype=np.float64)
     k = int(min(max(k, 3), len(P)))
     _, nn = cKDTree(P).query(P, k=k, workers=1)

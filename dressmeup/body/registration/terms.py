@@ -49,8 +49,6 @@ CORE_JOINTS = ("pelvis", "spine1", "spine2", "spine3", "neck", "head", "left_col
 DISTAL_JOINTS = ("left_ankle", "right_ankle", "left_foot", "right_foot", "left_wrist",
                  "right_wrist", "head")
 
-#: Joints whose skin is "hand" for the hand weight and the without-hands errors.
-HAND_JOINTS = ("left_wrist", "right_wrist")
 
 #: Per-joint multipliers of the pose prior: toes and ankles move little in scans, and their
 #: rotation is poorly seen by the data, so they are held closer to the rest pose.
@@ -82,7 +80,7 @@ def one_sided_cost(res, diff, weight, sigma_out: float, sigma_in: float, inside_
         ``cloth_max`` does: no excess cost, and the point-to-point term is capped at
         ``cloth_max`` (loose cloth a dress's width off the legs stops bending them into it).
     """
-    import torch
+    import torch  # heavy: loaded when a fit runs
 
     inside = inside_weight * geman_mcclure(res * res, sigma_in)
     dist2 = (diff * diff).sum(-1)
@@ -102,7 +100,7 @@ def pose_prior(pose, prior_scale, lim_ids, lim_lo, lim_hi, prior_weight: float,
                limit_weight: float):
     """Squared joint rotations (root excluded, per-joint ``prior_scale`` (j-1, 1)) plus
     squared violations of the soft joint limits (``lim_*``: limited joints and bounds)."""
-    import torch
+    import torch  # heavy: loaded when a fit runs
 
     prior = prior_weight * (prior_scale * pose[1:] ** 2).sum()
     if len(lim_ids):
