@@ -138,7 +138,13 @@ def test_limb_scorer_matches_the_symmetric_score(model, scan_cap):
     for k in range(40):
         spread = 0.2 if k % 2 else np.pi
         M_up, M_lo = Rotation.from_rotvec(rng.normal(0, spread, (2, 3))).as_matrix()
-        assert scorer.score(M_up, M_lo) == every_point(M_up, M_lo)
+        full = scorer.score(M_up, M_lo)
+        assert full == every_point(M_up, M_lo)
+        # with a bound the score is the same, or inf when it is above the bound
+        for above in (full * 0.9, full, full * 1.1, np.inf):
+            bounded = scorer.score(M_up, M_lo, above)
+            assert bounded == full or (bounded == np.inf and full > above), (full, above)
+        assert scorer.score(M_up, M_lo, 0.5 * full) == np.inf  # far enough: skipped
 
 
 @pytest.mark.skipif(neighbors._pykdtree_class() is None, reason="pykdtree not installed")

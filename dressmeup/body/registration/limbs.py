@@ -118,11 +118,21 @@ class LimbScorer:
         j_lo = self.J_up + M_up @ (self.J_lo - self.J_up)
         return np.r_[self.J_up + self.X_up @ M_up.T, j_lo + self.X_lo @ M_lo.T]
 
-    def score(self, M_up: np.ndarray, M_lo: np.ndarray) -> float:
+    def score(self, M_up: np.ndarray, M_lo: np.ndarray, above: float = math.inf) -> float:
         """Symmetric capped distance (m) with the limb moved (same value as
-        ``symmetric_score`` for the identity, up to the skinning blend near the joints)."""
+        ``symmetric_score`` for the identity, up to the skinning blend near the joints);
+        ``math.inf`` when it is surely above ``above`` (a lower bound of the score exceeds
+        it: the remaining queries are skipped; a search needs no more of a candidate that
+        cannot beat its best)."""
         X = self.points(M_up, M_lo)
+        cut = above * (1.0 + 1e-9) + 1e-12  # float rounding of the bounds on the safe side
+        if above < math.inf:  # every distance is >= 0: a quarter of the limb bounds b below
+            part = float(capped_distances(self.tree, X[::4], self.cap).sum())
+            if (self.const_body + part) / self.n_b + self.const_scan / self.n_p > cut:
+                return math.inf
         b = float(capped_distances(self.tree, X, self.cap).sum())
+        if (self.const_body + b) / self.n_b + self.const_scan / self.n_p > cut:
+            return math.inf
         # Only a scan point nearer the limb's bounding box than to the rest of the body can
         # get closer (the margin keeps float rounding of the box distance on the safe side),
         # so only those are queried: the same sum, term for term (benchmarks/perf/limb_scorer.py).
@@ -130,6 +140,10 @@ class LimbScorer:
                                                    self.P_near - X.max(0)), 0.0), axis=1)
         near = gap < self.d_near + 1e-9
         d = self.d_near.copy()
+        if above < math.inf:  # the points that cannot come nearer keep their distance
+            kept = float(d[~near].sum())
+            if (self.const_body + b) / self.n_b + (self.const_scan + kept) / self.n_p > cut:
+                return math.inf
         if near.any():
             d_limb, _ = NearestTree(X).query(self.P_near[near],
                                              distance_upper_bound=self.scan_cap)
@@ -185,10 +199,12 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
                 bends_deg, top: int = 3, rounds: int = 2, extra=(), grid=None) -> tuple[
                     float, float, np.ndarray, np.ndarray]:
     """Best configuration of one limb by the grid (:func:`grid_candidates`, or
-    ``grid(c_up)`` for a limb pointing along ``c_up`` when given) and the ``extra`` candidates (e.g. :func:`.aim.aimed_candidates`), then a
-    pattern search around the ``top`` best. Returns (start score, best score, local rotvec
-    upper, local rotvec lower); ``W`` (j, 3, 3) are the current world rotations of the
-    joints."""
+    ``grid(c_up)`` for a limb pointing along ``c_up`` when given) and the ``extra``
+    candidates (e.g. :func:`.aim.aimed_candidates`), then a pattern search around the
+    ``top`` best. Returns (start score, best score, local rotvec upper, local rotvec
+    lower); ``W`` (j, 3, 3) are the current world rotations of the joints. A candidate
+    that cannot enter the ``top`` (or, in the pattern search, beat the current best) is
+    not scored to the end (:meth:`LimbScorer.score`'s ``above``): the same result."""
     names = list(problem.model.joint_names)
     parent = int(problem.model.joint_parents[upper])
     W_par = Rotation.from_matrix(W[parent]) if parent >= 0 else Rotation.identity()
@@ -198,17 +214,32 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
     W_up_inv, W_lo_inv = W[upper].T, W[lower].T
     up_name, lo_name = names[upper], names[lower]
     R_W_up, W_par_inv, turns = Rotation.from_matrix(W[upper]), W_par.inv(), {}
+    uppers: dict = {}  # (direction, twist) -> (R_up, upper within limits, its matrix)
+    hinges: dict = {}  # bend -> (hinge rotation, lower within limits)
 
-    def evaluate(d, twist, bend):
-        R_up, R_lo = limb_rotations(c_up, R_W_up, d, twist, bend, hinge, turns)
-        local = (W_par_inv * R_up).as_rotvec()
-        if not (_within_limits(up_name, local) and _within_limits(lo_name, np.asarray(hinge)
-                                                                  * bend)):
+    def evaluate(d, twist, bend, above: float = math.inf):
+        # the same products as limb_rotations, each computed once per direction and twist
+        # (and per bend): the grid repeats them
+        key = (np.asarray(d, np.float64).tobytes(), float(twist))
+        if key not in uppers:
+            R_up, _ = limb_rotations(c_up, R_W_up, d, twist, 0.0, hinge, turns)
+            uppers[key] = (R_up, _within_limits(up_name, (W_par_inv * R_up).as_rotvec()),
+                           R_up.as_matrix() @ W_up_inv)
+        if bend not in hinges:
+            rotvec = np.asarray(hinge) * bend
+            hinges[bend] = (Rotation.from_rotvec(rotvec), _within_limits(lo_name, rotvec))
+        (R_up, up_ok, M_up), (turn_lo, lo_ok) = uppers[key], hinges[bend]
+        if not (up_ok and lo_ok):
             return math.inf
-        return scorer.score(R_up.as_matrix() @ W_up_inv, R_lo.as_matrix() @ W_lo_inv)
+        return scorer.score(M_up, (R_up * turn_lo).as_matrix() @ W_lo_inv, above)
 
     grid = grid_candidates(twists, bends_deg) if grid is None else grid(c_up)
-    scored = [(evaluate(*c), c) for c in [*grid, *extra]]
+    scored, kept = [], []  # kept: the ``top`` lowest scores so far
+    for c in [*grid, *extra]:  # a candidate that cannot enter the top is not scored fully
+        s = evaluate(*c, above=kept[-1] if len(kept) == top else math.inf)
+        scored.append((s, c))
+        if s < math.inf:
+            kept = sorted([*kept, s])[:top]
     scored.sort(key=lambda t: t[0])
     best = scored[0]
     step = math.radians(15.0)
@@ -222,7 +253,7 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
             if b > 0:
                 moves += [(d, t, b + 2 * h), (d, t, max(b - 2 * h, 0.0))]
             for m in moves:
-                s = evaluate(*m)
+                s = evaluate(*m, above=cur[0])
                 if s < cur[0]:
                     cur = (s, m)
         if cur[0] < best[0]:

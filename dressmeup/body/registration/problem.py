@@ -196,6 +196,7 @@ class FitProblem:
         self.pose = torch.zeros((self.n_joints, 3), dtype=dt, device=dev, requires_grad=True)
         self.transl = torch.zeros(3, dtype=dt, device=dev, requires_grad=True)
         self.log_scale = torch.zeros((), dtype=dt, device=dev, requires_grad=True)
+        self._normals = None  # (shape bytes, rest normals of the body points)
 
     @classmethod
     def from_config(cls, config, model, P: np.ndarray, kp=None) -> FitProblem:
@@ -319,13 +320,20 @@ class FitProblem:
         return out.vertices[0].cpu().numpy().astype(np.float64)
 
     # ------------------------------------------------------------ objective
-    def _rest_normals(self, rest_vertices):
-        """(b, 3) torch normals of the body points on the rest body ``rest_vertices``."""
+    def _rest_normals(self, shape):
+        """(b, 3) torch normals of the body points on the rest body of ``shape`` (s,); the
+        last shape's are kept (the stages that hold the shape ask for the same ones)."""
         import torch  # heavy: loaded when a fit runs
 
-        Vr = rest_vertices[0].detach().cpu().numpy().astype(np.float64)
-        return torch.as_tensor(vertex_normals(Vr, self.model.faces)[self.body_ids],
-                               dtype=self.dt, device=self.dev)
+        key = shape.detach().cpu().numpy().tobytes()
+        if self._normals is None or self._normals[0] != key:
+            with torch.no_grad():
+                rest, _ = self.model.rest(shape.detach()[None])
+            Vr = rest[0].cpu().numpy().astype(np.float64)
+            normals = torch.as_tensor(vertex_normals(Vr, self.model.faces)[self.body_ids],
+                                      dtype=self.dt, device=self.dev)
+            self._normals = (key, normals)
+        return self._normals[1]
 
     def loss(self, objective: Objective, pairs: Correspondences | None = None,
              hold_shape: bool = False):
@@ -350,7 +358,7 @@ class FitProblem:
         Vb = out.vertices[0]
         if pairs.rest_normals is None or (stage == "shape"
                                           and pairs.step % pairs.NORMALS_EVERY == 0):
-            pairs.rest_normals = self._rest_normals(out.rest_vertices)
+            pairs.rest_normals = self._rest_normals(shape)
         with torch.no_grad():
             Rb = torch.einsum("kj,jab->kab", self.W_sub, out.transforms[0, :, :3, :3])
             Nb = (Rb @ pairs.rest_normals[..., None])[..., 0]

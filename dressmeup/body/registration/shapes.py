@@ -43,13 +43,11 @@ BUILD_GRID = tuple((m, w, p) for m in (0.0, 0.5, 1.0) for w in (0.0, 0.5, 1.0)
 
 def statures(model, shapes: np.ndarray) -> np.ndarray:
     """(b,) extents (m) along y of ``model``'s rest bodies with ``shapes`` (b, k): one
-    batched rest body."""
+    batched rest body (:meth:`~dressmeup.body.base.LBSBodyModel.rest_extent`)."""
     import torch  # heavy: loaded when a fit runs
 
     with torch.no_grad():
-        rest, _ = model.rest(torch.as_tensor(np.asarray(shapes, np.float64)))
-    y = rest[:, :, 1]
-    return (y.max(1).values - y.min(1).values).numpy()
+        return model.rest_extent(torch.as_tensor(np.asarray(shapes, np.float64)), 1).numpy()
 
 
 def stature(model, shape: np.ndarray) -> float:
