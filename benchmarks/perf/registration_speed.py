@@ -15,7 +15,7 @@ taken at a load above the machine's cores are not valid for speed claims).
 
     python benchmarks/perf/registration_speed.py --baseline /tmp/base --data DATA_ROOT
     python benchmarks/perf/registration_speed.py --baseline /tmp/base --data DATA_ROOT \\
-        --items 6 --json /tmp/speed.json
+        --items 6 --json /tmp/speed.json --keep /tmp/fits
 
 ``DATA_ROOT``: the edition's generated data (``benchmarks/run_baselines.py`` makes it under
 ``<work>/data/<edition>``).
@@ -84,6 +84,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--edition", default="synth-registration-v3")
     ap.add_argument("--items", type=int, default=0, help="only the first N scans (0: all)")
     ap.add_argument("--json", help="also write the rows to this JSON file")
+    ap.add_argument("--keep", help="keep each fit's arrays in this folder as "
+                    "<version>/<scan>.npz")
     args = ap.parse_args(argv)
     base, data = Path(args.baseline).resolve(), Path(args.data).resolve()
     if not (base / "dressmeup" / "__init__.py").is_file():
@@ -99,6 +101,10 @@ def main(argv: list[str] | None = None) -> int:
             order = ("baseline", "this") if k % 2 == 0 else ("this", "baseline")
             res = {name: fit(trees[name], data, item, Path(tmp) / f"{name}.npz")
                    for name in order}
+            if args.keep:
+                for name, arrays in res.items():
+                    (Path(args.keep) / name).mkdir(parents=True, exist_ok=True)
+                    np.savez(Path(args.keep) / name / f"{item}.npz", **arrays)
             equal = all(np.array_equal(res["baseline"][key], res["this"][key])
                         for key in ("shape", "pose", "transl", "scale"))
             row = {"item": item, "load": os.getloadavg()[0], "equal": equal,
