@@ -2,7 +2,7 @@
 
 :class:`dressmeup.body.registration.limbs.LimbScorer` scores a limb moved rigidly by the
 symmetric capped distance. Its scan -> body term needs, for each scan point near the limb,
-the distance to the moved limb's points; since session 15 it queries only the scan points
+the distance to the moved limb's points; it queries only the scan points
 nearer the limb's bounding box than to the rest of the body (the others cannot change).
 This script scores the same random limb turns both ways in one process, checks that the
 sums are equal bit for bit, and prints the CPU time of each with the load average.
@@ -25,7 +25,7 @@ import numpy as np
 
 
 def every_point_score(scorer, M_up: np.ndarray, M_lo: np.ndarray) -> float:
-    """The score as before session 15: every scan point near the limb queried."""
+    """The score with every scan point near the limb queried (the earlier way)."""
     from scipy.spatial import cKDTree
 
     from dressmeup.body.registration.init import capped_distances

@@ -120,7 +120,7 @@ UP_ROTATIONS: dict[str, np.ndarray] = {
 }
 
 #: A scan whose extent along y is below this share of its largest extent does not look
-#: upright with y up. Measured (session 21): the 24 scans of the edition
+#: upright with y up. Measured: the 24 scans of the edition
 #: synth-registration-v3 and the 136 of the perf suites span at least 0.88 of their largest
 #: extent along y (picking up; 0.79 with a floor kept). Along y a z-up scan shows a
 #: horizontal extent: the edition's z-up copies (bodies facing z) 0.29-0.60, so all are
