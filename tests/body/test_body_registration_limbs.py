@@ -198,7 +198,7 @@ def test_symmetric_score_caps_each_direction_on_its_own(model):
 def test_unseen_body_points_carry_no_body_to_scan_cost():
     import torch
 
-    from dressmeup.body.registration.problem import unseen_free_weights
+    from dressmeup.body.registration.terms import unseen_free_weights
 
     # a flat body: 2 front points (normal +z) and 2 back points (normal -z); the scan only
     # saw the front, so both back points' nearest scan point belongs to the front surface
@@ -211,7 +211,7 @@ def test_unseen_body_points_carry_no_body_to_scan_cost():
 def test_unseen_body_points_need_a_scan_point_nearby_with_the_hit_test():
     import torch
 
-    from dressmeup.body.registration.problem import body_neighbourhoods, unseen_free_weights
+    from dressmeup.body.registration.terms import body_neighbourhoods, unseen_free_weights
 
     # five body points in a row, 1 cm apart, all facing +z; the scan's two points both map
     # to body point 0: with a 1.5 cm neighbourhood, points 0 and 1 are seen, 2-4 are not
@@ -253,7 +253,7 @@ def test_hit_test_frees_the_missing_side_near_the_cut_edge(model):
     the cut edge, whose normals agree), the hit test frees them and keeps the seen back."""
     import torch
 
-    from dressmeup.body.registration.problem import unseen_free_weights
+    from dressmeup.body.registration.terms import unseen_free_weights
 
     truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=np.zeros((model.n_joints, 3)))
     scan = synthetic_scan(model, truth, n_points=8000, noise=0.0, seed=3, missing_side=(0, 0, 1))

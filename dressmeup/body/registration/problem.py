@@ -16,69 +16,21 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from dressmeup.body.params import BodyParams
 from dressmeup.body.registration.terms import (
     CORE_JOINTS,
     JOINT_LIMITS,
     PRIOR_SCALE,
+    body_neighbourhoods,
+    joint_skin_mask,
     one_sided_cost,
     pose_prior,
+    unseen_free_weights,
 )
 from dressmeup.body.skeleton import PHENOTYPE_NAMES
 from dressmeup.geometry.mesh import vertex_normals
 from dressmeup.geometry.neighbors import NearestTree
-
-
-def joint_skin_mask(model, joints, threshold: float = 0.5) -> np.ndarray:
-    """(n,) bool: vertices whose skinning weights on ``joints`` sum above ``threshold``."""
-    ids = [list(model.joint_names).index(n) for n in joints if n in model.joint_names]
-    if not ids:
-        return np.zeros(model.n_vertices, dtype=bool)
-    return np.asarray(model.skinning_weights)[:, ids].sum(1) > threshold
-
-
-def body_neighbourhoods(rest_points: np.ndarray, radius: float, most: int = 16) -> np.ndarray:
-    """(b, most) int64: for each body point, the indices of the body points within ``radius``
-    (m) of it on the rest body (itself included), padded with ``b`` (see
-    :func:`unseen_free_weights`).
-
-    Parameters
-    ----------
-    rest_points : (b, 3) the fit's body points on the rest body (m).
-    radius : neighbourhood radius (m); most : at most this many neighbours (the nearest).
-    """
-    _, idx = cKDTree(rest_points).query(rest_points, k=min(most, len(rest_points)),
-                                        distance_upper_bound=radius, workers=1)
-    return np.asarray(idx, dtype=np.int64).reshape(len(rest_points), -1)
-
-
-def unseen_free_weights(normals, nn_b2s, nn_s2b, neighbourhoods=None):
-    """(b,) float weights of the body -> scan pairs: 0 where the body point's nearest scan
-    point belongs to a surface of the body facing the other way (its own nearest body
-    point's normal opposes this point's), i.e. where the scan did not see this part of the
-    body (a side the capture missed, a hole), else 1.
-
-    With ``neighbourhoods`` (:func:`body_neighbourhoods`), also 0 where no scan point has its
-    nearest body point in the body point's neighbourhood: no scan surface lies over it. This
-    frees the body points of a missing side near the scan's cut edge, whose normals agree with
-    the edge's and which the facing test keeps pulling towards it.
-
-    Parameters
-    ----------
-    normals : (b, 3) body normals (torch); nn_b2s : (b,) scan index of each body point;
-    nn_s2b : (p,) body index of each scan point; neighbourhoods : None or (b, m) int64
-        torch indices into the body points, padded with b.
-    """
-    import torch  # heavy: loaded when a fit runs
-
-    seen = (normals * normals[nn_s2b[nn_b2s]]).sum(-1) > 0
-    if neighbourhoods is not None:
-        hit = torch.zeros(len(normals) + 1, dtype=torch.bool, device=normals.device)
-        hit[nn_s2b] = True  # hit[b], the padding, stays False
-        seen = seen & hit[neighbourhoods].any(1)
-    return seen.to(normals.dtype)
 
 
 @dataclass(frozen=True)
