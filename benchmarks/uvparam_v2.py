@@ -5,8 +5,10 @@ the unseen test garments (and the shape group), scored with seams, per track.
     python benchmarks/uvparam_v2.py --data DATA --tables-only      # re-score / re-tabulate
 
 Submissions and results go to ``<work>/subs/<run>`` and ``<work>/results/<run>``
-(``--work``, default ``$DRESSMEUP_CACHE/bench/uvparam-v2``); tables to
-``benchmarks/results/synth-uvparam-v2.{md,csv,tex,html}`` plus
+(``--work``, default ``$DRESSMEUP_CACHE/bench/uvparam-v2``); each result's summary, per-item
+table and edition are copied to ``benchmarks/results/synth-uvparam-v2/<run>/`` (so that
+``dressmeup leaderboard benchmarks/results/synth-uvparam-v2/*`` rebuilds the table), tables
+to ``benchmarks/results/synth-uvparam-v2.{md,csv,tex,html}`` plus
 ``benchmarks/results/synth-uvparam-v2_groups.md`` (garments vs shapes, Pareto front marked).
 Each run prints the load average beside its time: the machine is shared.
 """
@@ -35,11 +37,13 @@ RUNS = {
     "xatlas": ("xatlas", {}, "xatlas"),
     "neural-pretrained": ("neural", {"pretrained": "category"}, "neural (pretrained)"),
     "neural-general": ("neural", {"pretrained": "general"}, "neural (pretrained, general)"),
+    "lscm-on-charts": ("lscm-on-charts", {"pretrained": "category"},
+                       "lscm on the neural charts"),
 }
 
 
 def run(name: str, data: Path, work: Path) -> Path:
-    from dressmeup.bench import runs
+    from dressmeup import runs
     from dressmeup.bench.score import score_submission
 
     method, params, display = RUNS[name]
@@ -123,6 +127,16 @@ def main(argv=None) -> int:
     from dressmeup.bench.leaderboard import write_leaderboard
 
     RESULTS.mkdir(parents=True, exist_ok=True)
+    committed = RESULTS / EDITION
+    if committed.exists():
+        shutil.rmtree(committed)
+    copies = []
+    for r in results:
+        (committed / r.name).mkdir(parents=True)
+        for f in ("summary.json", "per_sample.parquet", "edition.json"):
+            shutil.copyfile(r / f, committed / r.name / f)
+        copies.append(committed / r.name)
+    results = copies
     for fmt, ext in (("md", "md"), ("csv", "csv"), ("latex", "tex"), ("html", "html")):
         write_leaderboard(results, fmt, RESULTS / f"{EDITION}.{ext}")
     text = (f"# {EDITION}: garments vs shapes\n\nMeans over the test garments (unseen by the "

@@ -27,6 +27,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from dressmeup.viz.site import write_site
+
 DEMO_EDITION = "synth-retarget-mini-v3"
 QUICK_EDITION = "synth-retarget-tiny-v3"
 UV_EDITION = "synth-uvparam-mini-v1"
@@ -48,7 +50,8 @@ def _run_folder(out: Path) -> Path:
 def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
              quick: bool = False, log: Callable[[str], Any] = lambda s: None,
              retarget_methods: list[str] | None = None, with_uv: bool = True,
-             with_fusion: bool = True, train_steps: int = 0) -> dict[str, Any]:
+             with_fusion: bool = True, train_steps: int = 0,
+             serve: bool = False) -> dict[str, Any]:
     """Run the demo journey; return a dict with the paths and leaderboards it made.
 
     Parameters
@@ -61,13 +64,18 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     with_uv, with_fusion : include the UV and capture/fusion parts when installed.
     train_steps : self-supervised training steps for trainable baselines without shipped
         weights (0: such baselines are skipped with a line saying how to train them).
+    serve : also start an evaluation server on 127.0.0.1 with the edition's private part,
+        submit the baselines to it over HTTP and publish them; the running server is
+        returned as ``report["server"]`` (a :class:`~dressmeup.server.local.LocalServer`:
+        the caller stops it with ``report["server"].__exit__()``).
 
     Returns
     -------
     dict with ``run`` (folder), ``results`` (list of result folders), ``leaderboard`` (the
     retargeting table in Markdown), ``ok``.
     """
-    from dressmeup.bench import runs
+    # start-up time: the stage loads when the command runs
+    from dressmeup import runs
     from dressmeup.bench.leaderboard import write_leaderboard
 
     t0 = time.perf_counter()
@@ -76,23 +84,24 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     report: dict[str, Any] = {"run": run, "results": [], "ok": True}
     edition = QUICK_EDITION if quick else DEMO_EDITION
     log(f"[1/4] synthetic dataset for edition {edition} -> {out / 'data' / edition}")
-    data = runs.build_data(edition, out / "data" / edition, log=log)
+    parts = runs.build_parts(edition, out / "data" / edition, log=log,
+                             allow_other_data=True)
+    other = runs.data_differs(edition, parts.full) is not None
 
-    log("[2/4] retargeting baselines -> submissions")
+    log("[2/4] retargeting baselines on the public part -> submissions")
     kw = {"train_steps": train_steps}
-    subs = runs.run_baselines(edition, data, run / "submissions" / edition,
+    subs = runs.run_baselines(edition, parts.public, run / "submissions" / edition,
                               methods=retarget_methods, log=log, **kw)
     if not subs:
         log("no retargeting baseline produced a submission; nothing to score")
         report["ok"] = False
         return report
 
-    log(f"[3/4] scoring {len(subs)} submissions (validated first)")
+    log(f"[3/4] scoring {len(subs)} submissions against the private part (validated first)")
     # data this machine generated differently from the pin: the demo still ends in a
     # leaderboard, its rows marked not comparable (build_data has said why)
-    results = runs.score_many(subs, edition, data, run / "results" / edition,
-                              workers=workers, log=log,
-                              allow_other_data=runs.data_differs(edition, data) is not None)
+    results = runs.score_many(subs, edition, parts.private, run / "results" / edition,
+                              workers=workers, log=log, allow_other_data=other)
     report["results"] += results
     md = write_leaderboard(results, "md", run / f"leaderboard-{edition}.md")
     write_leaderboard(results, "html", run / f"leaderboard-{edition}.html")
@@ -100,12 +109,14 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     log("")
     log(f"Leaderboard {edition}:")
     log(md)
+    if serve:
+        _serve_part(edition, parts.private, list(subs.values()), run, log, report)
 
     log("[4/4] other stages")
     if with_uv:
         _uv_part(run, out, workers, quick, log, report)
     if with_fusion:
-        _fusion_part(data, run, quick, log, report)
+        _fusion_part(parts.private, run, quick, log, report)
     _site_part(run, log, report)
     log(f"done in {time.perf_counter() - t0:.0f} s; everything is under {run}")
     if report.get("site"):
@@ -114,7 +125,8 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
 
 
 def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report) -> None:
-    from dressmeup.bench import runs
+    # start-up time: the stage loads when the command runs
+    from dressmeup import runs
     from dressmeup.bench.leaderboard import write_leaderboard
 
     available = runs.uvparam_methods()
@@ -140,9 +152,21 @@ def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report
     log(md)
 
 
+def _serve_part(edition: str, private: Path, subs: list[Path], run: Path, log,
+                report) -> None:
+    """Start an evaluation server, submit the baselines over HTTP, publish them."""
+    # start-up time: the server stack (FastAPI, SQLAlchemy) loads only with --serve
+    from dressmeup.server.local import LocalServer, submit_all
+
+    local = LocalServer(run / "server").__enter__()
+    log(f"evaluation server on {local.url}: submitting {len(subs)} baselines as team 'demo'")
+    submit_all(local, edition, private, subs, log)
+    report["server"] = local
+    log(f"public leaderboard: {local.url}/leaderboard/ (team page: {local.url}/team)")
+
+
 def _site_part(run: Path, log, report) -> None:
     """Write the report site of every result of this run (``run/site/index.html``)."""
-    from dressmeup.viz.site import write_site
 
     if not report["results"]:
         return
@@ -157,6 +181,7 @@ def _site_part(run: Path, log, report) -> None:
 def _fusion_part(data: Path, run: Path, quick: bool, log, report) -> None:
     """Render one synthetic capture of a test sample, fuse it, score it against the scan."""
     try:
+        # optional dependency (ImportError handled)
         from dressmeup.data.sample_capture import fuse_synthetic_sample
     except ImportError as exc:
         log(f"capture/fusion stage not available ({exc}): fusion part skipped")

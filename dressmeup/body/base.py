@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from dressmeup.body.lbs import axis_angle_to_matrix, forward_kinematics, skin_points
 from dressmeup.body.params import BodyParams
 from dressmeup.errors import InputError
 
@@ -124,6 +125,7 @@ class LBSBodyModel:
         """
         cached = self.__dict__.get("_skin")
         if cached is None:
+            # heavy: scipy (~0.5 s to import)
             from dressmeup.geometry.topology import largest_component
 
             cached = self.__dict__["_skin"] = largest_component(self.faces, self.n_vertices,
@@ -158,6 +160,7 @@ class LBSBodyModel:
 
     def _buffer(self, name: str, dtype, device) -> torch.Tensor:
         """Return numpy attribute ``name`` as a tensor (cached per dtype/device)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         cache = self.__dict__.setdefault("_tensor_cache", {})
@@ -173,6 +176,7 @@ class LBSBodyModel:
                           pose=np.zeros((self.n_joints, 3)))
 
     def _prepare(self, shape, pose, transl, scale):
+        # heavy: torch (~1.1 s to import)
         import torch
 
         ref = next((x for x in (pose, shape, transl, scale) if isinstance(x, torch.Tensor)), None)
@@ -243,7 +247,6 @@ class LBSBodyModel:
         -------
         BodyOutput of torch tensors (dtype of the first tensor input, else float32).
         """
-        from dressmeup.body.lbs import axis_angle_to_matrix, forward_kinematics, skin_points
 
         shape_t, pose_t, transl_t, scale_t = self._prepare(shape, pose, transl, scale)
         W = self._buffer("skinning_weights", pose_t.dtype, pose_t.device)
@@ -252,7 +255,8 @@ class LBSBodyModel:
         if vertex_ids is None:
             rest_v, rest_j = self.rest(shape_t)
         else:
-            import torch  # heavy: loaded when a model runs
+            # heavy: torch (~1.1 s to import)
+            import torch
 
             ids = torch.as_tensor(vertex_ids, dtype=torch.long, device=pose_t.device)
             rest_v, rest_j = self.rest_subset(shape_t, ids)
@@ -277,6 +281,7 @@ class LBSBodyModel:
         ``joints (j, 3)``, ``transforms (j, 4, 4)``, ``rest_vertices (n, 3)``,
         ``rest_joints (j, 3)``.
         """
+        # heavy: torch (~1.1 s to import)
         import torch
 
         if not isinstance(params, BodyParams):

@@ -15,6 +15,8 @@ shift of the float32 frame changes which face the BVH returns; docs/synthetic-da
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 
 from dressmeup.geometry.mesh import as_arrays, as_points
@@ -143,6 +145,7 @@ def closest_points(
     ValueError
         Bad mesh or query arrays.
     """
+    # heavy: open3d (~0.8 s to import)
     import open3d as o3d
 
     V, F = as_arrays(V, F, name="surface")
@@ -197,7 +200,6 @@ _RINGS_KEEP = 4
 def _ring_of(F: np.ndarray, n_vertices: int) -> np.ndarray:
     """``faces_around_faces``, remembered for the last few face arrays (the drape asks about
     the same body every iteration)."""
-    import hashlib
 
     key = hashlib.blake2b(np.ascontiguousarray(F).tobytes(), digest_size=16,
                           person=int(n_vertices).to_bytes(8, "little")).digest()

@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import http.server
+import os
 import shutil
 import threading
 from collections.abc import Iterator
@@ -36,6 +37,8 @@ def chromium(width: int = 1280, height: int = 900) -> Iterator:
     binary, driver_path, why = chromium_paths()
     if why:
         raise RuntimeError(why)
+    # Selenium Manager sends usage statistics unless told not to (and the network is closed)
+    os.environ["SE_AVOID_STATS"] = "true"
     opts = webdriver.ChromeOptions()
     opts.binary_location = binary
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",

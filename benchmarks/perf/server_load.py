@@ -1,0 +1,211 @@
+"""Load on the evaluation server: concurrent clients on 127.0.0.1 mixing leaderboard reads,
+status polls and uploads for a fixed time; then every accepted submission must be scored
+exactly once.
+
+    python benchmarks/perf/server_load.py --clients 50 --seconds 60 [--max-uploads 20]
+
+Builds the tiny retargeting edition's parts and the ``rigid`` baseline's submission (in the
+toolkit cache), starts ``dressmeup serve`` in a subprocess with a fresh folder, one team per
+client and two published results, then runs the clients as threads. Prints, with the load
+average: requests and errors per kind, p50/p95/max latency per kind, uploads accepted, and
+after the queue drained how many were scored, failed, and scored more than once.
+Goals: 0 errors, p95 of a leaderboard page <= 200 ms, every accepted upload scored once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import os
+import random
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import urllib.error
+import urllib.request
+import zipfile
+from pathlib import Path
+
+
+def _zip(folder: Path) -> bytes:
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        for p in sorted(folder.iterdir()):
+            z.write(p, p.name)
+    return buf.getvalue()
+
+
+def _prepare(work: Path, clients: int) -> tuple[Path, dict[str, str], bytes]:
+    from dressmeup import runs
+    from dressmeup.bench import load_edition
+    from dressmeup.bench.parts import export_parts
+    from dressmeup.cache import cache_dir
+    from dressmeup.server.accounts import add_team
+    from dressmeup.server.config import ServerConfig
+    from dressmeup.server.editions import add_edition
+    from dressmeup.server.service import EvaluationServer
+
+    ed = load_edition("synth-retarget-tiny-v3")
+    full = runs.build_data(ed, cache_dir("e2e") / f"{ed.name}-{ed.hash[:10]}")
+    other = runs.data_differs(ed, full) is not None
+    export_parts(ed, full, work / "public", work / "private", allow_other_data=other)
+    sub = runs.run_retarget_baseline("rigid", ed, work / "public", work / "sub")
+    root = work / "server"
+    srv = EvaluationServer(ServerConfig(root, daily_limit=100_000))
+    tokens = {}
+    with srv.sessions() as s:
+        for i in range(clients):
+            tokens[f"team-{i:03d}"] = add_team(s, f"team-{i:03d}")[1]
+        add_edition(s, ed.name, work / "private")
+    srv.engine.dispose()
+    return root, tokens, _zip(sub)
+
+
+def _start(root: Path, port: int) -> subprocess.Popen:
+    proc = subprocess.Popen([sys.executable, "-m", "dressmeup", "serve", "--root", str(root),
+                             "--port", str(port), "--daily-limit", "100000"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    for _ in range(600):
+        try:
+            urllib.request.urlopen(f"http://127.0.0.1:{port}/api/editions", timeout=1)
+            return proc
+        except OSError:
+            time.sleep(0.1)
+    raise SystemExit("the server did not start")
+
+
+def _call(url: str, token: str | None = None, data: bytes | None = None) -> tuple[int, float]:
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    req = urllib.request.Request(url, data=data, headers=headers,
+                                 method="POST" if data is not None else "GET")
+    t0 = time.perf_counter()
+    try:
+        with urllib.request.urlopen(req, timeout=60) as r:
+            r.read()
+            code = r.status
+    except urllib.error.HTTPError as exc:
+        code = exc.code
+    except OSError:
+        code = 0
+    return code, time.perf_counter() - t0
+
+
+def _pct(xs: list[float], q: float) -> float:
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(q * len(xs)))] * 1000 if xs else float("nan")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--clients", type=int, default=50)
+    ap.add_argument("--seconds", type=float, default=60.0)
+    ap.add_argument("--max-uploads", type=int, default=20)
+    ap.add_argument("--drain-timeout", type=float, default=1800.0)
+    args = ap.parse_args(argv)
+    work = Path(tempfile.mkdtemp(prefix="dressmeup-load-"))
+    root, tokens, body = _prepare(work, args.clients)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    base = f"http://127.0.0.1:{port}"
+    proc = _start(root, port)
+    names = list(tokens)
+    # two published results so that the leaderboard has rows
+    for team in names[:2]:
+        code, _ = _call(f"{base}/api/submissions?edition=synth-retarget-tiny-v3",
+                        tokens[team], body)
+        assert code == 201, code
+    while True:
+        states = [json.loads(urllib.request.urlopen(urllib.request.Request(
+            f"{base}/api/submissions", headers={"Authorization": f"Bearer {tokens[t]}"}))
+            .read()) for t in names[:2]]
+        if all(s and s[0]["status"] == "scored" for s in states):
+            break
+        time.sleep(0.5)
+    for t, st in zip(names[:2], states, strict=True):
+        req = urllib.request.Request(f"{base}/api/submissions/{st[0]['id']}/publish",
+                                     data=json.dumps({"method": f"rigid-{t}"}).encode(),
+                                     headers={"Authorization": f"Bearer {tokens[t]}",
+                                              "Content-Type": "application/json"})
+        urllib.request.urlopen(req).read()
+    stats: dict[str, list] = {k: [] for k in ("leaderboard", "status", "upload")}
+    errors: dict[str, int] = {k: 0 for k in stats}
+    lock = threading.Lock()
+    uploads = {"n": 2}
+    stop = time.monotonic() + args.seconds
+
+    def client(i: int) -> None:
+        rng = random.Random(i)
+        token = tokens[names[i % len(names)]]
+        while time.monotonic() < stop:
+            r = rng.random()
+            if r < 0.05:
+                with lock:
+                    go = uploads["n"] < args.max_uploads
+                    uploads["n"] += go
+                kind = "upload" if go else "status"
+            else:
+                kind = "leaderboard" if r < 0.75 else "status"
+            if kind == "upload":
+                code, dt = _call(f"{base}/api/submissions?edition=synth-retarget-tiny-v3",
+                                 token, body)
+                ok = code == 201
+            elif kind == "status":
+                code, dt = _call(f"{base}/api/submissions", token)
+                ok = code == 200
+            else:
+                code, dt = _call(f"{base}/leaderboard/", None)
+                ok = code == 200
+            with lock:
+                stats[kind].append(dt)
+                errors[kind] += not ok
+
+    threads = [threading.Thread(target=client, args=(i,)) for i in range(args.clients)]
+    t0 = time.monotonic()
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    wall = time.monotonic() - t0
+    load = os.getloadavg()
+    print(f"{args.clients} clients for {wall:.0f} s on 127.0.0.1 (load average "
+          f"{load[0]:.2f} {load[1]:.2f} {load[2]:.2f}, {os.cpu_count()} cores)")
+    for kind, xs in stats.items():
+        print(f"  {kind:12s} {len(xs):6d} requests, {errors[kind]} errors, p50 "
+              f"{_pct(xs, 0.5):.0f} ms, p95 {_pct(xs, 0.95):.0f} ms, max "
+              f"{max(xs) * 1000 if xs else float('nan'):.0f} ms")
+    t_drain = time.monotonic()
+    from dressmeup.server.config import ServerConfig
+    from dressmeup.server.db import Submission
+    from dressmeup.server.service import EvaluationServer
+
+    srv = EvaluationServer(ServerConfig(root))
+    while True:
+        with srv.sessions() as s:
+            subs = list(s.query(Submission))
+        pending = [x for x in subs if x.status in ("queued", "scoring")]
+        if not pending or time.monotonic() - t_drain > args.drain_timeout:
+            break
+        time.sleep(2)
+    results = [p for p in (root / "results").iterdir() if not p.name.startswith(".")]
+    scored = [x for x in subs if x.status == "scored"]
+    print(f"  accepted {len(subs)} uploads; scored {len(scored)}, failed "
+          f"{sum(x.status == 'failed' for x in subs)}, pending {len(pending)}; result folders "
+          f"{len(results)}; scored more than once: "
+          f"{sum(x.attempts > 1 for x in scored)} (drained in {time.monotonic() - t_drain:.0f} s)")
+    os.killpg(proc.pid, signal.SIGTERM)
+    proc.wait(timeout=60)
+    ok = (sum(errors.values()) == 0 and _pct(stats["leaderboard"], 0.95) <= 200
+          and len(scored) == len(subs) == len(results))
+    print("goals met" if ok else "goals NOT met")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
