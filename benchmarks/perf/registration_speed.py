@@ -5,8 +5,9 @@ scans) with the default registrar of this source tree and of a baseline source t
 earlier commit, e.g. ``git archive <commit> | tar -x -C /tmp/base``), alternating which
 goes first scan by scan, so both see the same machine load. Each fit runs in a fresh
 Python process importing its own tree (two versions of one package cannot share a
-process) and calls the edition runner's own job, ``dressmeup.bench.runs.RegisterJob``,
-which reports the CPU seconds of the fit alone (not the imports or the model build).
+process) and calls the edition runner's own job, ``dressmeup.runs.registration.RegisterJob``
+(``dressmeup.bench.runs`` in older trees), which reports the CPU seconds of the fit alone
+(not the imports or the model build).
 
 Per scan: CPU seconds of each version and their ratio, whether the fitted parameters are
 equal bit for bit, and V2V (mean vertex distance to the true body, mm, as the edition
@@ -37,7 +38,10 @@ HERE = Path(__file__).resolve().parents[2]  # this source tree
 CHILD = """
 import sys
 import numpy as np
-from dressmeup.bench.runs import RegisterJob
+try:
+    from dressmeup.runs.registration import RegisterJob
+except ImportError:  # a tree from before the runners left dressmeup.bench
+    from dressmeup.bench.runs import RegisterJob
 data, item, out = sys.argv[1:4]
 arrays, cpu = RegisterJob(data, {"verbose": False})(item)
 np.savez(out, cpu_s=np.float64(cpu), **arrays)

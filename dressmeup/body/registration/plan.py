@@ -201,8 +201,7 @@ def build_plan(config: RegistrationConfig, start: str = "search",
     Parameters
     ----------
     config : a :class:`~dressmeup.body.registration.config.RegistrationConfig`.
-    start : ``"given"`` (``init`` passed: the searches that need no start are left out and
-        no size is handed over), ``"keypoints"`` (at least 4 keypoints, passed or detected),
+    start : ``"given"`` (``init`` passed: no limb or shape search, no size handover), ``"keypoints"`` (at least 4 keypoints, passed or detected),
         ``"search"`` (the multi-hypothesis search, or the rest pose when ``hypotheses`` is
         empty) or ``"auto"`` (detected keypoints compete with the search).
     detected : the keypoints were detected on the scan (their weight drops after the start
