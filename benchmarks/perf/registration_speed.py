@@ -38,13 +38,14 @@ HERE = Path(__file__).resolve().parents[2]  # this source tree
 CHILD = """
 import sys
 import numpy as np
+import dressmeup
 try:
     from dressmeup.runs.registration import RegisterJob
 except ImportError:  # a tree from before the runners left dressmeup.bench
     from dressmeup.bench.runs import RegisterJob
 data, item, out = sys.argv[1:4]
 arrays, cpu = RegisterJob(data, {"verbose": False})(item)
-np.savez(out, cpu_s=np.float64(cpu), **arrays)
+np.savez(out, cpu_s=np.float64(cpu), source=np.array(dressmeup.__file__), **arrays)
 """
 
 
@@ -54,10 +55,14 @@ def fit(tree: Path, data: Path, item: str, out: Path) -> dict:
     import numpy as np
 
     env = {**os.environ, "PYTHONPATH": str(tree), "DRESSMEUP_NO_PROGRESS": "1"}
+    # run in the tree: ``python -c`` puts the working folder first on the import path
     subprocess.run([sys.executable, "-c", CHILD, str(data), item, str(out)], env=env,
-                   check=True)
+                   cwd=tree, check=True)
     with np.load(out) as z:
-        return {k: z[k] for k in z.files}
+        arrays = {k: z[k] for k in z.files}
+    if not str(arrays["source"]).startswith(str(tree)):  # the other tree's package was used
+        raise SystemExit(f"a fit meant for {tree} imported {arrays['source']}")
+    return arrays
 
 
 def v2v_mm(data: Path, item: str, arrays: dict) -> float:
