@@ -88,10 +88,10 @@ def _speed(frames, rig, repeats=3):
             cpu.append(time.process_time() - c0)
         return min(wall), min(cpu)
 
-    prepared = prepare_frames(frames, rig)
-    tsdf = best(lambda: integrate_tsdf(prepared, rig, voxel_size=0.004))
+    prepared = prepare_frames(frames)  # they carry the rendering rig's cameras
+    tsdf = best(lambda: integrate_tsdf(prepared, voxel_size=0.004))
     whole = best(lambda: fuse_frames(frames, rig, FusionConfig(voxel_size=0.004)))
-    pts = [backproject(f, rig) for f in prepared]
+    pts = [backproject(f) for f in prepared]
     P = np.concatenate([p for p, _ in pts])
 
     def poisson():
@@ -172,7 +172,7 @@ def make_figures(out_dir, scale=1.0) -> None:
     rig = ring_rig(7, name="default-7").scaled(scale)
     subject, _ = place_subject(make_mannequin(), rig)
     frames = render_frames(subject, rig, NoiseModel(), seed=0)
-    prepared = prepare_frames(frames, rig)
+    prepared = prepare_frames(frames)
     crop = np.s_[60:520, 200:440] if scale == 1.0 else np.s_[:, :]
 
     # 1. depth views: raw noisy vs filtered

@@ -365,13 +365,14 @@ def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]
     if not isinstance(pairs, dict):
         problems.append(f"pairs must be an object, got {type(pairs).__name__}")
         return tuple(tracks), primary, {}
-    for key in sorted(set(pairs) - {"seed", "per_track", "categories"}):
-        problems.append(f"unknown field pairs.{key} (known: seed, per_track, categories)")
-    cats = pairs.get("categories")
-    if cats is not None and (not isinstance(cats, list) or not cats
-                             or not all(isinstance(c, str) and c for c in cats)):
-        problems.append(f"pairs.categories must be a non-empty list of category names, "
-                        f"got {cats!r}")
+    for key in sorted(set(pairs) - {"seed", "per_track", "categories", "source_poses"}):
+        problems.append(f"unknown field pairs.{key} (known: seed, per_track, categories, "
+                        "source_poses)")
+    for key in ("categories", "source_poses"):
+        vals = pairs.get(key)
+        if vals is not None and (not isinstance(vals, list) or not vals
+                                 or not all(isinstance(c, str) and c for c in vals)):
+            problems.append(f"pairs.{key} must be a non-empty list of names, got {vals!r}")
     if pairs:
         seed = pairs.get("seed")
         if not isinstance(seed, int) or isinstance(seed, bool):

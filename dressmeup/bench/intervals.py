@@ -19,8 +19,9 @@ weight ``W ~ Poisson(1)``, an item's weight is the product of its levels' weight
 statistic is the weighted item mean ``sum(w x) / sum(w)``. Poisson weights (variance 1) do
 not shrink a factor's variance by ``(n - 1) / n`` as multinomial resampling does, which
 matters with 3 poses or 4 bodies. The interval is the 2.5 and 97.5 % percentiles of the
-resampled means, moved away from the mean by ``t(df, 0.975) / z(0.975)``: with so few
-levels the variance itself is uncertain, and ``df`` is the Satterthwaite degrees of freedom
+resampled means, moved away from the mean by ``t(df, 0.975) / z(0.975)`` (and kept inside
+the range of the item values, where every weighted mean lies): with so few levels the
+variance itself is uncertain, and ``df`` is the Satterthwaite degrees of freedom
 ``(sum v_f)^2 / sum(v_f^2 / (n_f - 1))`` of the per-factor variance contributions ``v_f``
 (resampled means when only factor ``f`` is reweighted). ``tests/bench/test_bench_intervals.py``
 checks by simulation (1,000 editions with known garment, subject and pose effects) that the
@@ -162,7 +163,9 @@ def _interval(x: np.ndarray, codes: Mapping[str, tuple[np.ndarray, int]], resamp
     df = num / den if den > 0 else math.inf
     k = float(stdtrit(df, 1.0 - a) / ndtri(1.0 - a)) if math.isfinite(df) else 1.0
     lo, hi = mean - k * (mean - min(lo, mean)), mean + k * (max(hi, mean) - mean)
-    return mean, lo, hi, df
+    # no weighting of these items can give a mean outside their range: the widened ends stay
+    # inside it (a distance's interval never goes below 0)
+    return mean, max(lo, float(x.min())), min(hi, float(x.max())), df
 
 
 def _factor_codes(n: int, factors: Mapping[str, Sequence], keep: np.ndarray

@@ -37,6 +37,9 @@ from dressmeup.bench.edition import Edition, load_edition
 from dressmeup.bench.tasks import get_task
 from dressmeup.bench.tasks.common import open_dataset, other_data_reason
 from dressmeup.bench.tasks.retarget.data import edition_pairs
+from dressmeup.capture.rig import ring_rig
+from dressmeup.capture.synthetic import NoiseModel, subject_from_sample, synth_capture
+from dressmeup.capture.synthetic.ground_truth import load_ground_truth
 from dressmeup.data import layout
 from dressmeup.data.manifest import read_manifest
 from dressmeup.data.parts import VOLATILE_KEYS, PartsReport, Withheld, write_parts
@@ -137,10 +140,6 @@ def render_captures(root: Path, sample_ids: list[str], out: Path, seed: int = 0)
     ``sample_to_world.json`` (the 4 x 4 placement of the sample's scan in the rig's world, in
     metres). Returns the written files relative to ``out.parent``."""
     # heavy: the capture stage loads open3d (~0.8 s to import)
-    from dressmeup.capture.rig import ring_rig
-    from dressmeup.capture.synthetic import NoiseModel, subject_from_sample, synth_capture
-    from dressmeup.capture.synthetic.ground_truth import load_ground_truth
-
     written = []
     for sid in sample_ids:
         sample = open_dataset(str(root.resolve()))[sid]

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import pyarrow.parquet as pq
 
 from dressmeup import __version__
 from dressmeup.bench.edition import Edition, load_edition
@@ -29,6 +30,8 @@ from dressmeup.bench.tasks import get_task
 from dressmeup.bench.tasks.base import STATUS_ERROR
 from dressmeup.bench.tasks.common import other_data_reason
 from dressmeup.bench.validate import ValidationReport, validate_submission
+from dressmeup.data import layout
+from dressmeup.data.integrity import verify_checksums, verify_listed_files
 from dressmeup.data.parts import part_of, withheld_message
 from dressmeup.errors import InputError
 from dressmeup.executors import require_shared
@@ -179,11 +182,6 @@ def _verify_data(data_root: Path, items: list[Any]) -> int:
     without a manifest (a task not scored on a dataset) has nothing to verify.
     """
     # heavy: pyarrow (~0.3 s to import)
-    import pyarrow.parquet as pq
-
-    from dressmeup.data import layout
-    from dressmeup.data.integrity import verify_checksums, verify_listed_files
-
     if not (data_root / layout.MANIFEST).is_file():
         return 0
     ids = set()

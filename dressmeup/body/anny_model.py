@@ -360,7 +360,8 @@ class AnnyBody(LBSBodyModel):
         frame. A shape without a gradient takes the (cached) whole rest body; one with a
         gradient blends only those vertices' rows of anny's blendshapes (the same values
         and gradients, a third of the work for registration's 5,000 points)."""
-        import torch  # heavy: loaded when a model runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         if not shape.requires_grad:
             V, J = self.rest(shape)
@@ -384,7 +385,8 @@ class AnnyBody(LBSBodyModel):
         """(b,) extent (m) of the rest skin along SMPL axis ``axis`` for shape (b, 6). The
         frame turn maps that axis onto one of anny's, so only that coordinate is blended
         (the same values as from :meth:`rest`, a quarter of the work)."""
-        import torch  # heavy: loaded when a model runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         row = np.asarray(self._frame)[axis]
         src = int(np.flatnonzero(row)[0])

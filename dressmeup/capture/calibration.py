@@ -48,6 +48,7 @@ class BoardSpec:
 
 def make_board(spec: BoardSpec) -> Any:
     """The OpenCV ``CharucoBoard`` of a spec (InputError on an unknown dictionary name)."""
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     name = spec.dictionary
@@ -95,6 +96,7 @@ def render_board_view(spec: BoardSpec, camera: Camera, board_center_to_world: np
     -------
     (h, w) uint8
     """
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     board = make_board(spec)
@@ -130,6 +132,7 @@ def detect_board_pose(image: np.ndarray, camera: Camera, spec: BoardSpec, min_co
     (4, 4) float64 mapping board coordinates (origin at the board's first corner) to camera
     coordinates, or None.
     """
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     board = make_board(spec)
@@ -220,6 +223,7 @@ def calibrate_rig(images_dir: str | os.PathLike, rig: Rig, spec: BoardSpec) -> t
     ------
     InputError for unreadable images (naming the file) or unconnected cameras.
     """
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     root = Path(images_dir)

@@ -33,6 +33,7 @@ log = logging.getLogger(__name__)
 def require_pyk4a() -> Any:
     """Import ``pyk4a`` or raise a clear error saying how to get it."""
     try:
+        # optional dependency (ImportError handled)
         import pyk4a
     except ImportError as exc:
         raise DressmeupError(
@@ -82,6 +83,7 @@ def mkv_frames(mkv: str | os.PathLike, n_frames: int = 1, skip_frames: int = 30)
     -------
     list of RGBDFrame with colour in the depth camera's geometry and depth in metres.
     """
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     pyk4a = require_pyk4a()

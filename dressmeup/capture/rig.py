@@ -21,6 +21,7 @@ SDK's ``transformed_color`` gives them.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 from dataclasses import dataclass, field, replace
@@ -29,12 +30,18 @@ from typing import Any
 
 import numpy as np
 
+# Camera and the pose rule live in capture.camera; re-exported here, where rigs are read
+from dressmeup.capture.camera import Camera, PoseRepair, camera_pose_repair, check_rigid
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.jsonio import parse_json_file
 
 __all__ = [
     "Camera",
     "Rig",
+    "RigReading",
+    "read_rig",
+    "parse_rig",
     "load_rig",
     "save_rig",
     "ring_rig",
@@ -45,176 +52,8 @@ __all__ = [
 ]
 
 RIG_FORMAT = "dressmeup-rig"
-_RIGID_TOL = 1e-4
 
-
-def check_rigid(matrix: Any, name: str = "camera_to_world", tol: float = _RIGID_TOL) -> np.ndarray:
-    """Check that ``matrix`` is a 4x4 rigid transform and return it as float64.
-
-    Parameters
-    ----------
-    matrix : (4, 4) array_like of float
-    name : str
-        Used in error messages (for example ``"rig.json: cameras[2].camera_to_world"``).
-    tol : float
-        Tolerance on ``R^T R = I``, ``det R = 1`` and the last row ``[0, 0, 0, 1]``.
-
-    Returns
-    -------
-    (4, 4) float64 ndarray
-
-    Raises
-    ------
-    InputError
-        Wrong shape, non-finite values, a rotation that is not orthonormal (scale, shear) or
-        a reflection.
-    """
-    try:
-        m = np.asarray(matrix, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name}: expected a 4x4 matrix of numbers, got {matrix!r:.80}") from exc
-    if m.shape != (4, 4):
-        raise InputError(f"{name}: expected shape (4, 4), got {m.shape}")
-    if not np.all(np.isfinite(m)):
-        raise InputError(f"{name}: contains NaN or inf")
-    if np.abs(m[3] - [0, 0, 0, 1]).max() > tol:
-        raise InputError(f"{name}: last row must be [0, 0, 0, 1], got {m[3].tolist()}")
-    r = m[:3, :3]
-    err = np.abs(r.T @ r - np.eye(3)).max()
-    if err > tol:
-        raise InputError(
-            f"{name}: not a rigid transform (rotation part is not orthonormal, "
-            f"max |R^T R - I| = {err:.2e}); extrinsics must be rotation + translation in metres")
-    if np.linalg.det(r) < 0:
-        raise InputError(f"{name}: rotation part has determinant < 0 (a reflection)")
-    return m
-
-
-@dataclass
-class Camera:
-    """One RGBD camera of a rig.
-
-    Attributes
-    ----------
-    serial : str
-        Device serial number or any unique name (used as the frame folder name).
-    width, height : int
-        Depth (and registered colour) image size in pixels.
-    fx, fy, cx, cy : float
-        Pinhole intrinsics in pixels (OpenCV convention, pixel centres at integers).
-    distortion : (8,) float64
-        OpenCV rational model ``k1, k2, p1, p2, k3, k4, k5, k6`` (zeros: no distortion).
-    camera_to_world : (4, 4) float64
-        Rigid transform from the camera frame (x right, y down, z forward) to the world, metres.
-    depth_scale : float
-        Metres per depth unit (0.001: 16-bit PNG depth in millimetres).
-    """
-
-    serial: str
-    width: int
-    height: int
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    camera_to_world: np.ndarray = field(default_factory=lambda: np.eye(4))
-    distortion: np.ndarray = field(default_factory=lambda: np.zeros(8))
-    depth_scale: float = 0.001
-
-    @property
-    def K(self) -> np.ndarray:  # noqa: N802 - the usual name of the matrix
-        """(3, 3) float64 intrinsic matrix."""
-        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
-
-    @property
-    def world_to_camera(self) -> np.ndarray:
-        """(4, 4) float64 inverse of ``camera_to_world``."""
-        r = self.camera_to_world[:3, :3]
-        t = self.camera_to_world[:3, 3]
-        out = np.eye(4)
-        out[:3, :3] = r.T
-        out[:3, 3] = -r.T @ t
-        return out
-
-    @property
-    def center(self) -> np.ndarray:
-        """(3,) float64 camera centre in world coordinates."""
-        return self.camera_to_world[:3, 3].copy()
-
-    @property
-    def has_distortion(self) -> bool:
-        """True when any distortion coefficient is non-zero."""
-        return bool(np.any(np.abs(self.distortion) > 0))
-
-    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Project world points with the pinhole model (no distortion: use undistorted images).
-
-        Parameters
-        ----------
-        points : (n, 3) float world points.
-
-        Returns
-        -------
-        uv : (n, 2) float64 pixel coordinates (x, y).
-        z : (n,) float64 depth along the optical axis (metres; <= 0 behind the camera).
-        """
-        p = np.asarray(points, dtype=np.float64)
-        pc = p @ self.world_to_camera[:3, :3].T + self.world_to_camera[:3, 3]
-        z = pc[:, 2]
-        zs = np.where(np.abs(z) < 1e-12, 1e-12, z)
-        uv = np.stack([self.fx * pc[:, 0] / zs + self.cx, self.fy * pc[:, 1] / zs + self.cy], axis=1)
-        return uv, z
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary (the rig.json camera entry)."""
-        return {
-            "serial": self.serial, "width": int(self.width), "height": int(self.height),
-            "fx": float(self.fx), "fy": float(self.fy), "cx": float(self.cx), "cy": float(self.cy),
-            "distortion": [float(x) for x in self.distortion],
-            "camera_to_world": [[float(x) for x in row] for row in self.camera_to_world],
-            "depth_scale": float(self.depth_scale),
-        }
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any], where: str = "camera") -> Camera:
-        """Build and validate a camera from its rig.json entry; errors name ``where``."""
-        if not isinstance(d, dict):
-            raise InputError(f"{where}: expected an object, got {type(d).__name__}")
-        missing = [k for k in ("serial", "width", "height", "fx", "fy", "cx", "cy", "camera_to_world")
-                   if k not in d]
-        if missing:
-            raise InputError(f"{where}: missing field(s) {', '.join(missing)}")
-        try:
-            width, height = int(d["width"]), int(d["height"])
-            fx, fy, cx, cy = (float(d[k]) for k in ("fx", "fy", "cx", "cy"))
-            scale = float(d.get("depth_scale", 0.001))
-        except (TypeError, ValueError) as exc:
-            raise InputError(f"{where}: intrinsics must be numbers ({exc})") from exc
-        if width <= 0 or height <= 0:
-            raise InputError(f"{where}: resolution must be positive, got {width}x{height}")
-        if not (fx > 0 and fy > 0 and math.isfinite(fx) and math.isfinite(fy)):
-            raise InputError(f"{where}: focal lengths must be positive, got fx={fx}, fy={fy}")
-        if not (0 <= cx <= width and 0 <= cy <= height):
-            raise InputError(f"{where}: principal point ({cx}, {cy}) outside the {width}x{height} image")
-        if not (scale > 0 and math.isfinite(scale)):
-            raise InputError(f"{where}: depth_scale must be a positive number of metres per unit, got {scale}")
-        dist = np.zeros(8)
-        raw = d.get("distortion", [])
-        try:
-            raw = np.asarray(raw, dtype=np.float64).ravel()
-        except (TypeError, ValueError) as exc:
-            raise InputError(f"{where}: distortion must be a list of numbers") from exc
-        if raw.size not in (0, 4, 5, 8) or not np.all(np.isfinite(raw)):
-            raise InputError(
-                f"{where}: distortion must have 4, 5 or 8 finite OpenCV coefficients "
-                f"(k1 k2 p1 p2 [k3 [k4 k5 k6]]), got {raw.size}")
-        dist[: raw.size] = raw
-        c2w = check_rigid(d["camera_to_world"], f"{where}.camera_to_world")
-        serial = str(d["serial"])
-        if not serial or any(ch in serial for ch in "/\\") or serial in (".", ".."):
-            raise InputError(f"{where}: serial {serial!r} cannot be used as a folder name")
-        return cls(serial=serial, width=width, height=height, fx=fx, fy=fy, cx=cx, cy=cy,
-                   camera_to_world=c2w, distortion=dist, depth_scale=scale)
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -269,23 +108,24 @@ class Rig:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], source: str = "rig.json") -> Rig:
-        """Build and validate a rig from a rig.json dictionary; errors name ``source``."""
-        if not isinstance(d, dict) or not isinstance(d.get("cameras"), list):
-            raise InputError(f"{source}: expected an object with a 'cameras' list")
-        if d.get("format", RIG_FORMAT) != RIG_FORMAT:
-            raise InputError(f"{source}: format {d.get('format')!r} is not {RIG_FORMAT!r}")
-        cams = [Camera.from_dict(c, f"{source}: cameras[{i}]") for i, c in enumerate(d["cameras"])]
-        up = np.asarray(d.get("up", [0, 1, 0]), dtype=np.float64)
-        if up.shape != (3,) or not np.isfinite(up).all() or np.linalg.norm(up) == 0:
-            raise InputError(f"{source}: 'up' must be a non-zero 3-vector, got {d.get('up')!r}")
-        target = np.asarray(d.get("target", [0, 0, 0]), dtype=np.float64)
-        if target.shape != (3,):
-            raise InputError(f"{source}: 'target' must be a 3-vector, got {d.get('target')!r}")
-        try:
-            return cls(cameras=cams, name=str(d.get("name", "rig")), up=up / np.linalg.norm(up),
-                       target=target, reference=d.get("reference"))
-        except InputError as exc:
-            raise InputError(f"{source}: {exc}") from exc
+        """Build and validate a rig from a rig.json dictionary.
+
+        Raises
+        ------
+        InputError
+            Listing every problem (each camera named by its index in ``source``).
+        """
+        return parse_rig(d, source).unwrap(source)
+
+    def with_cameras(self, cameras: list[Camera]) -> Rig:
+        """The same rig (name, up, target, reference) with other cameras.
+
+        The reference is kept when one of ``cameras`` has its serial, else it becomes the
+        first camera's.
+        """
+        serials = [c.serial for c in cameras]
+        return Rig(cameras=list(cameras), name=self.name, up=self.up.copy(), target=self.target.copy(),
+                   reference=self.reference if self.reference in serials else None)
 
     def copy(self) -> Rig:
         """Deep copy."""
@@ -306,22 +146,112 @@ class Rig:
         return out
 
 
+@dataclass
+class RigReading:
+    """What reading a rig.json found.
+
+    Attributes
+    ----------
+    rig : Rig, or None when there were problems.
+    problems : list of str, every problem, each naming the file and the camera.
+    repairs : dict serial -> PoseRepair, the cameras whose rotation was re-orthonormalised.
+    """
+
+    rig: Rig | None
+    problems: list[str] = field(default_factory=list)
+    repairs: dict[str, PoseRepair] = field(default_factory=dict)
+
+    def unwrap(self, source: str) -> Rig:
+        """The rig, or an InputError listing every problem."""
+        if self.rig is not None:
+            return self.rig
+        if len(self.problems) == 1:
+            raise InputError(self.problems[0])
+        raise InputError(f"{source}: {len(self.problems)} problems:\n  " + "\n  ".join(self.problems))
+
+
+def parse_rig(d: Any, source: str = "rig.json") -> RigReading:
+    """Validate a rig.json dictionary, collecting every problem rather than the first.
+
+    Parameters
+    ----------
+    d : the parsed JSON.
+    source : str, named in messages.
+
+    Returns
+    -------
+    RigReading
+    """
+    if not isinstance(d, dict) or not isinstance(d.get("cameras"), list):
+        return RigReading(None, [f"{source}: expected an object with a 'cameras' list"])
+    if d.get("format", RIG_FORMAT) != RIG_FORMAT:
+        return RigReading(None, [f"{source}: format {d.get('format')!r} is not {RIG_FORMAT!r}"])
+    problems: list[str] = []
+    cams, repairs = [], {}
+    for i, c in enumerate(d["cameras"]):
+        where = f"{source}: cameras[{i}]" + (f" ({c['serial']})" if isinstance(c, dict) and "serial" in c else "")
+        try:
+            cam = Camera.from_dict(c, where)
+        except InputError as exc:
+            problems.append(str(exc))
+            continue
+        cams.append(cam)
+        repair = camera_pose_repair(c)
+        if repair is not None:
+            repairs[cam.serial] = repair
+    up = np.asarray(d.get("up", [0, 1, 0]), dtype=np.float64)
+    if up.shape != (3,) or not np.isfinite(up).all() or np.linalg.norm(up) == 0:
+        problems.append(f"{source}: 'up' must be a non-zero 3-vector, got {d.get('up')!r}")
+    target = np.asarray(d.get("target", [0, 0, 0]), dtype=np.float64)
+    if target.shape != (3,):
+        problems.append(f"{source}: 'target' must be a 3-vector, got {d.get('target')!r}")
+    if problems:
+        return RigReading(None, problems, repairs)
+    try:
+        rig = Rig(cameras=cams, name=str(d.get("name", "rig")), up=up / np.linalg.norm(up),
+                  target=target, reference=d.get("reference"))
+    except InputError as exc:
+        return RigReading(None, [f"{source}: {exc}"], repairs)
+    return RigReading(rig, [], repairs)
+
+
+def read_rig(path: str | os.PathLike) -> RigReading:
+    """Read a rig.json (or the rig.json in a folder), collecting every problem.
+
+    Returns
+    -------
+    RigReading (a missing or unparsable file is one problem).
+    """
+    path = Path(path)
+    if path.is_dir():
+        path = path / "rig.json"
+    if not path.is_file():
+        return RigReading(None, [f"{path}: file is missing"])
+    try:
+        d = parse_json_file(path)
+    except InputError as exc:
+        return RigReading(None, [str(exc)])
+    return parse_rig(d, str(path))
+
+
 def load_rig(path: str | os.PathLike) -> Rig:
-    """Read and validate a rig.json file.
+    """Read and validate a rig.json file (rotations repaired by the pose rule are logged).
 
     Raises
     ------
     FileNotFoundError, InputError
-        Naming the file and the field at fault.
+        Naming the file and every camera at fault.
     """
     path = Path(path)
     if path.is_dir():
         path = path / "rig.json"
     if not path.is_file():
         raise FileNotFoundError(f"rig file not found: {path}")
-    from dressmeup.io.jsonio import parse_json_file
-
-    return Rig.from_dict(parse_json_file(path), source=str(path))
+    reading = read_rig(path)
+    rig = reading.unwrap(str(path))
+    for serial, repair in reading.repairs.items():
+        log.warning("%s: camera %s: %s", path, serial, repair.describe())
+    return rig
 
 
 def save_rig(rig: Rig, path: str | os.PathLike) -> Path:

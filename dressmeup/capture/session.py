@@ -25,17 +25,32 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.capture.rig import Camera, Rig, load_rig, save_rig
+# frames and their PNG files have their own homes; re-exported here, where sessions are read
+from dressmeup.capture.frame import RGBDFrame, frame_camera, with_rig_cameras
+from dressmeup.capture.images import (
+    frame_name,
+    read_color_png,
+    read_depth_png,
+    read_label_png,
+    write_color_png,
+    write_depth_png,
+    write_png,
+)
+from dressmeup.capture.rig import Rig, read_rig, save_rig
 from dressmeup.errors import InputError
-from dressmeup.io.atomic import atomic_path, atomic_write_text
+from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.jsonio import validate_json
 
 __all__ = [
     "GarmentInfo",
     "SessionInfo",
     "RGBDFrame",
     "frame_camera",
+    "with_rig_cameras",
     "Session",
+    "SessionCheck",
     "open_session",
+    "check_session",
     "validate_session",
     "write_session",
     "write_frame",
@@ -100,8 +115,6 @@ class SessionInfo:
     @classmethod
     def from_dict(cls, d: dict[str, Any], source: str = "session.json") -> SessionInfo:
         """Build and validate from a session.json dictionary; errors name ``source``."""
-        from dressmeup.io.jsonio import validate_json
-
         validate_json(d, "session", source)
         if d.get("format", SESSION_FORMAT) != SESSION_FORMAT:
             raise InputError(f"{source}: format {d.get('format')!r} is not {SESSION_FORMAT!r}")
@@ -138,148 +151,21 @@ class SessionInfo:
 
 
 @dataclass
-class RGBDFrame:
-    """One camera's images at one time.
-
-    Attributes
-    ----------
-    serial : str
-    index : int, frame number.
-    color : (h, w, 3) uint8 RGB.
-    depth : (h, w) float32 metres, 0 where there is no measurement.
-    labels : (h, w) uint8 label mask, or None.
-    camera : the calibrated camera that took it, or None (then :func:`frame_camera` looks it
-        up in a rig by serial). Set by ``Session.load_frame`` (the session's rig),
-        ``render_frames`` (the rendering rig) and ``fusion.prepare_frames`` (the rig it is
-        given; after ICP, ``fuse_frames`` attaches the refined cameras).
-    """
-
-    serial: str
-    index: int
-    color: np.ndarray
-    depth: np.ndarray
-    labels: np.ndarray | None = None
-    camera: Camera | None = None
-
-
-def frame_camera(frame: RGBDFrame, rig: Rig | None = None) -> Camera:
-    """The camera of a frame: the one it carries, else ``rig``'s camera of its serial.
-
-    Raises
-    ------
-    InputError
-        When the frame carries no camera and no rig is given.
-    """
-    if frame.camera is not None:
-        return frame.camera
-    if rig is None:
-        raise InputError(f"frame {frame.serial}/{frame.index} carries no camera and no rig was given")
-    return rig.camera(frame.serial)
-
-
-def _frame_name(index: int) -> str:
-    return f"{index:06d}.png"
-
-
-def _imread(path: Path) -> np.ndarray:
-    import cv2
-
-    if not path.is_file():
-        raise InputError(f"{path}: file is missing")
-    data = np.fromfile(str(path), dtype=np.uint8)
-    img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
-    if img is None:
-        raise InputError(f"{path}: not a readable PNG image (corrupt or truncated file)")
-    return img
-
-
-def read_depth_png(path: str | os.PathLike, width: int | None = None, height: int | None = None,
-                   depth_scale: float = 0.001) -> np.ndarray:
-    """Read a 16-bit depth PNG into metres.
-
-    Parameters
-    ----------
-    path : the PNG file.
-    width, height : expected size (checked when given).
-    depth_scale : metres per stored unit.
-
-    Returns
-    -------
-    (h, w) float32 depth in metres (0 = no measurement).
-
-    Raises
-    ------
-    InputError naming the file (missing, corrupt, not 16-bit single channel, wrong size).
-    """
-    path = Path(path)
-    img = _imread(path)
-    if img.ndim != 2 or img.dtype != np.uint16:
-        raise InputError(f"{path}: depth must be a single-channel 16-bit PNG, got "
-                         f"{img.dtype} with shape {img.shape}")
-    _check_size(path, img, width, height)
-    return img.astype(np.float32) * np.float32(depth_scale)
-
-
-def read_color_png(path: str | os.PathLike, width: int | None = None,
-                   height: int | None = None) -> np.ndarray:
-    """Read an 8-bit colour PNG as RGB.
-
-    Returns
-    -------
-    (h, w, 3) uint8 RGB.
-
-    Raises
-    ------
-    InputError naming the file.
-    """
-    import cv2
-
-    path = Path(path)
-    img = _imread(path)
-    if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] not in (3, 4):
-        raise InputError(f"{path}: colour must be an 8-bit RGB(A) PNG, got {img.dtype} with shape {img.shape}")
-    _check_size(path, img, width, height)
-    return cv2.cvtColor(img[:, :, :3], cv2.COLOR_BGR2RGB)
-
-
-def read_label_png(path: str | os.PathLike, width: int | None = None,
-                   height: int | None = None) -> np.ndarray:
-    """Read an 8-bit single-channel label mask.
-
-    Returns
-    -------
-    (h, w) uint8 labels.
-
-    Raises
-    ------
-    InputError naming the file.
-    """
-    path = Path(path)
-    img = _imread(path)
-    if img.dtype != np.uint8 or img.ndim != 2:
-        raise InputError(f"{path}: label mask must be a single-channel 8-bit PNG, got "
-                         f"{img.dtype} with shape {img.shape}")
-    _check_size(path, img, width, height)
-    return img
-
-
-def _check_size(path: Path, img: np.ndarray, width: int | None, height: int | None) -> None:
-    if width is not None and height is not None and img.shape[:2] != (height, width):
-        raise InputError(f"{path}: image is {img.shape[1]}x{img.shape[0]}, but rig.json says "
-                         f"this camera is {width}x{height}")
-
-
-@dataclass
 class Session:
-    """An opened, validated capture session (see :func:`open_session`)."""
+    """An opened, validated capture session (see :func:`open_session`).
+
+    ``notes``: what validation corrected (rotations re-orthonormalised by the pose rule of
+    :mod:`dressmeup.capture.camera`), one line each, naming the file and camera.
+    """
 
     root: Path
     rig: Rig
     info: SessionInfo
+    notes: list[str] = field(default_factory=list)
 
     def path(self, serial: str, kind: str, index: int = 0) -> Path:
         """Path of one image: ``kind`` is ``color``, ``depth`` or ``labels``."""
-        return self.root / serial / kind / _frame_name(index)
+        return self.root / serial / kind / frame_name(index)
 
     def has_labels(self, index: int = 0) -> bool:
         """True when every camera has a label mask for this frame."""
@@ -308,12 +194,26 @@ class Session:
         return p if p.is_dir() else None
 
 
-def validate_session(root: str | os.PathLike, check_images: bool = True) -> list[str]:
-    """List every problem of a session folder (empty list: valid).
+@dataclass
+class SessionCheck:
+    """What checking a session folder found.
 
-    Checks rig.json and session.json fields, that every camera has every frame's colour and
-    depth image, and (``check_images``) that each image decodes with the right type and size
-    and that label values are declared in session.json.
+    Attributes
+    ----------
+    problems : list of str, every problem, each naming the file (and camera and frame).
+    notes : list of str, what reading corrects (re-orthonormalised rotations), each naming
+        the file and camera.
+    rig, info : the parsed rig.json and session.json (None when they have problems).
+    """
+
+    problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    rig: Rig | None = None
+    info: SessionInfo | None = None
+
+
+def check_session(root: str | os.PathLike, check_images: bool = True) -> SessionCheck:
+    """Check a session folder, collecting every problem at once (see :func:`validate_session`).
 
     Parameters
     ----------
@@ -322,59 +222,79 @@ def validate_session(root: str | os.PathLike, check_images: bool = True) -> list
 
     Returns
     -------
-    list of str, one message per problem, each naming the file.
+    SessionCheck
     """
     root = Path(root)
-    problems: list[str] = []
     if not root.is_dir():
-        return [f"{root}: session folder not found"]
-    try:
-        rig = load_rig(root / "rig.json")
-    except (InputError, FileNotFoundError) as exc:
-        problems.append(str(exc))
-        rig = None
+        return SessionCheck([f"{root}: session folder not found"])
+    reading = read_rig(root / "rig.json")
+    out = SessionCheck(list(reading.problems), rig=reading.rig)
+    out.notes = [f"{root / 'rig.json'}: camera {serial}: {r.describe()}" for serial, r in reading.repairs.items()]
     sj = root / "session.json"
-    info = None
     if not sj.is_file():
-        problems.append(f"{sj}: file is missing")
+        out.problems.append(f"{sj}: file is missing")
     else:
         try:
-            info = SessionInfo.from_dict(json.loads(sj.read_text(encoding="utf-8")), str(sj))
+            out.info = SessionInfo.from_dict(json.loads(sj.read_text(encoding="utf-8")), str(sj))
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            problems.append(f"{sj}: not valid JSON ({exc})")
+            out.problems.append(f"{sj}: not valid JSON ({exc})")
         except InputError as exc:
-            problems.append(str(exc))
-    if rig is None or info is None:
-        return problems
+            out.problems.append(str(exc))
+    if out.rig is not None and out.info is not None:
+        for cam in out.rig.cameras:
+            out.problems.extend(_camera_problems(root, cam, out.info, check_images))
+    return out
+
+
+def _camera_problems(root: Path, cam: Any, info: SessionInfo, check_images: bool) -> list[str]:
+    """Every problem of one camera's folder: missing files, images of the wrong kind or size."""
+    if not (root / cam.serial).is_dir():
+        return [f"{root / cam.serial}: folder of camera {cam.serial!r} (listed in rig.json) is missing"]
+    problems = []
     known = set(info.label_names())
-    for cam in rig.cameras:
-        if not (root / cam.serial).is_dir():
-            problems.append(f"{root / cam.serial}: folder of camera {cam.serial!r} (listed in rig.json) is missing")
-            continue
-        for i in range(info.n_frames):
-            for kind in ("color", "depth", "labels"):
-                p = root / cam.serial / kind / _frame_name(i)
-                if kind == "labels" and not p.exists():
-                    continue
-                if not p.is_file():
-                    problems.append(f"{p}: file is missing (camera {cam.serial}, frame {i})")
-                    continue
-                if not check_images:
-                    continue
-                try:
-                    if kind == "color":
-                        read_color_png(p, cam.width, cam.height)
-                    elif kind == "depth":
-                        read_depth_png(p, cam.width, cam.height, cam.depth_scale)
-                    else:
-                        lab = read_label_png(p, cam.width, cam.height)
-                        extra = sorted(set(np.unique(lab).tolist()) - known)
-                        if extra:
-                            problems.append(f"{p}: label value(s) {extra} are not declared in session.json "
-                                            f"(known: {sorted(known)})")
-                except InputError as exc:
-                    problems.append(str(exc))
+    for i in range(info.n_frames):
+        for kind in ("color", "depth", "labels"):
+            p = root / cam.serial / kind / frame_name(i)
+            if kind == "labels" and not p.exists():
+                continue
+            if not p.is_file():
+                problems.append(f"{p}: file is missing (camera {cam.serial}, frame {i})")
+                continue
+            if not check_images:
+                continue
+            try:
+                if kind == "color":
+                    read_color_png(p, cam.width, cam.height)
+                elif kind == "depth":
+                    read_depth_png(p, cam.width, cam.height, cam.depth_scale)
+                else:
+                    extra = sorted(set(np.unique(read_label_png(p, cam.width, cam.height)).tolist()) - known)
+                    if extra:
+                        problems.append(f"{p}: label value(s) {extra} are not declared in session.json "
+                                        f"(known: {sorted(known)})")
+            except InputError as exc:
+                problems.append(f"{exc} (camera {cam.serial}, frame {i})")
     return problems
+
+
+def validate_session(root: str | os.PathLike, check_images: bool = True) -> list[str]:
+    """List every problem of a session folder (empty list: valid).
+
+    Checks rig.json (every camera: intrinsics, distortion, the pose rule of
+    :mod:`dressmeup.capture.camera`) and session.json fields, that every camera has every
+    frame's colour and depth image, and (``check_images``) that each image decodes with the
+    right type and size and that label values are declared in session.json.
+
+    Parameters
+    ----------
+    root : session folder.
+    check_images : decode every image (slower) rather than only checking files exist.
+
+    Returns
+    -------
+    list of str, one message per problem, each naming the file (and the camera).
+    """
+    return check_session(root, check_images).problems
 
 
 def open_session(root: str | os.PathLike, check_images: bool = True) -> Session:
@@ -387,24 +307,33 @@ def open_session(root: str | os.PathLike, check_images: bool = True) -> Session:
 
     Returns
     -------
-    Session
+    Session (its ``notes`` say what reading corrected).
 
     Raises
     ------
     InputError listing every problem (each naming its file).
     """
     root = Path(root)
-    problems = validate_session(root, check_images=check_images)
-    if problems:
-        raise InputError(f"invalid capture session {root} ({len(problems)} problem(s)):\n  "
-                         + "\n  ".join(problems))
-    rig = load_rig(root / "rig.json")
-    info = SessionInfo.from_dict(json.loads((root / "session.json").read_text(encoding="utf-8")))
-    return Session(root=root, rig=rig, info=info)
+    check = check_session(root, check_images=check_images)
+    if check.problems or check.rig is None or check.info is None:
+        raise InputError(f"invalid capture session {root} ({len(check.problems)} problem(s)):\n  "
+                         + "\n  ".join(check.problems))
+    return Session(root=root, rig=check.rig, info=check.info, notes=check.notes)
 
 
 def write_session(root: str | os.PathLike, rig: Rig, info: SessionInfo) -> Path:
-    """Create a session folder with rig.json and session.json (frames via :func:`write_frame`)."""
+    """Create a session folder with rig.json and session.json (frames via :func:`write_frame`).
+
+    Parameters
+    ----------
+    root : session folder (created; files already there are replaced).
+    rig : Rig, written as ``rig.json``.
+    info : SessionInfo, written as ``session.json`` (``capture_time`` set to now when empty).
+
+    Returns
+    -------
+    Path of the session folder.
+    """
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     if not info.capture_time:
@@ -414,30 +343,20 @@ def write_session(root: str | os.PathLike, rig: Rig, info: SessionInfo) -> Path:
     return root
 
 
-def _imwrite(path: Path, img: np.ndarray) -> None:
-    import cv2
-
-    with atomic_path(path) as tmp:
-        if not cv2.imwrite(str(tmp), img):
-            raise OSError(f"could not write {path}")
-
-
 def write_frame(root: str | os.PathLike, frame: RGBDFrame, depth_scale: float = 0.001) -> None:
     """Write one camera frame as PNGs (colour RGB, 16-bit depth, optional labels), atomically.
+
+    Files: ``root/<serial>/{color,depth,labels}/<index:06d>.png``.
 
     Parameters
     ----------
     root : session folder.
     frame : RGBDFrame with ``depth`` in metres (values beyond 65535 units are set to 0).
-    depth_scale : metres per stored unit.
+    depth_scale : metres per stored unit (the camera's ``depth_scale`` in rig.json).
     """
-    import cv2
-
     root = Path(root)
-    name = _frame_name(frame.index)
-    units = np.round(np.asarray(frame.depth, dtype=np.float64) / depth_scale)
-    units[(units < 0) | (units > 65535) | ~np.isfinite(units)] = 0
-    _imwrite(root / frame.serial / "depth" / name, units.astype(np.uint16))
-    _imwrite(root / frame.serial / "color" / name, cv2.cvtColor(np.ascontiguousarray(frame.color), cv2.COLOR_RGB2BGR))
+    name = frame_name(frame.index)
+    write_depth_png(root / frame.serial / "depth" / name, frame.depth, depth_scale)
+    write_color_png(root / frame.serial / "color" / name, frame.color)
     if frame.labels is not None:
-        _imwrite(root / frame.serial / "labels" / name, np.ascontiguousarray(frame.labels, dtype=np.uint8))
+        write_png(root / frame.serial / "labels" / name, np.ascontiguousarray(frame.labels, dtype=np.uint8))

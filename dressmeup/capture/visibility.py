@@ -19,6 +19,7 @@ def raycasting_scene(vertices: np.ndarray, faces: np.ndarray) -> Any:
     ----------
     vertices : (n, 3) float (cast to float32), faces : (m, 3) int (cast to uint32).
     """
+    # heavy: open3d (~0.8 s to import)
     import open3d as o3d
 
     scene = o3d.t.geometry.RaycastingScene()

@@ -40,7 +40,7 @@ def register(tasks: argparse._SubParsersAction) -> None:
                     "content, in another split; validation pairs choose the kept step; the test split is "
                     "never read. Seeded; resumes from the checkpoint OUT.ckpt when it exists.")
     t.add_argument("--data", required=True, help="dataset root")
-    t.add_argument("--method", default="isomap-refine", choices=["isomap-refine", "isomap-refine-sup"],
+    t.add_argument("--method", default="isomap-refine", choices=["isomap-refine", "isomap-refine-fast", "isomap-refine-sup"],
                    help="network to train (default isomap-refine)")
     t.add_argument("--split", default="train", help="split to train on (default: train)")
     t.add_argument("--val-split", default="val", help="validation split ('none': no validation; default val)")
@@ -53,6 +53,9 @@ def register(tasks: argparse._SubParsersAction) -> None:
     t.add_argument("--val-every", type=int, default=50, help="steps between validations (default 50)")
     t.add_argument("--checkpoint-every", type=int, default=50, help="steps between checkpoints (default 50)")
     t.add_argument("--half", action="store_true", help="store the weights as float16 (half the file)")
+    t.add_argument("--until-converged", action="store_true",
+                   help="stop when the validation figure improved by less than 1 %% over the last "
+                        "20 %% of the steps (--steps is then the most steps)")
     t.add_argument("--curves", default=None, help="write the learning curves to this PNG")
     t.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's choice)")
     t.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
@@ -103,7 +106,8 @@ def _train(args: argparse.Namespace) -> int:
         val_split=None if args.val_split.lower() == "none" else args.val_split, steps=args.steps,
         max_triplets=args.max_triplets or None, max_val=args.max_val, seed=args.seed,
         wall_minutes=args.wall_minutes, val_every=args.val_every, checkpoint_every=args.checkpoint_every,
-        half=args.half, curves=args.curves, exclude_garments=[g for g in args.exclude_garments.split(",") if g])
+        half=args.half, curves=args.curves, exclude_garments=[g for g in args.exclude_garments.split(",") if g],
+        until_converged=args.until_converged)
     sys.stdout.write(f"trained {args.method} on {info['train_pairs']} pairs of {len(info['train_garments'])} "
                      f"garments: {info['steps_done']} of {info['steps_requested']} steps (stopped by "
                      f"{info['stopped_by']}), {info['wall_seconds']:.0f} s wall, {info['cpu_seconds']:.0f} s CPU; "

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+import tempfile
 from pathlib import Path
 
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_write_text
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -142,14 +145,10 @@ def _export(args: argparse.Namespace) -> int:
 
 def _pack(args: argparse.Namespace) -> int:
     # start-up time: the stage loads when the command runs
-    import json
-    import tempfile
-
     from dressmeup.bench.archive import pack_part, pins_of
     from dressmeup.bench.edition import load_edition
     from dressmeup.bench.parts import export_parts
     from dressmeup.data.parts import part_of
-    from dressmeup.io.atomic import atomic_write_text
 
     ed = load_edition(args.name)
     data = Path(args.data)

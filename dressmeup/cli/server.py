@@ -10,6 +10,8 @@ from pathlib import Path
 
 from dressmeup.cli.executor_args import add_executor_args
 from dressmeup.errors import InputError
+from dressmeup.server.client import submit, wait_for
+from dressmeup.server.config import ServerConfig
 
 
 def _root_args(p: argparse.ArgumentParser) -> None:
@@ -76,7 +78,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _server(args: argparse.Namespace, **kw):
     # start-up time: the stage loads when the command runs
-    from dressmeup.server.config import ServerConfig
     from dressmeup.server.service import EvaluationServer
 
     return EvaluationServer(ServerConfig(Path(args.root), database=args.database, **kw))
@@ -153,8 +154,6 @@ def _list(args: argparse.Namespace) -> int:
 
 def _submit(args: argparse.Namespace) -> int:
     # start-up time: the stage loads when the command runs
-    from dressmeup.server.client import submit, wait_for
-
     sub = Path(args.submission)
     if not (sub / "submission.json").is_file():
         raise InputError(f"{sub} is not a submission folder (no submission.json)")

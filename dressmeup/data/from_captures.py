@@ -135,7 +135,7 @@ def build_session(job: dict[str, Any]) -> dict[str, Any]:
         fusion_done = f"reused {scan_dir}"
     else:
         result = fuse_session(session, job["fusion"])
-        fusion_done = ("fused, extrinsics refined by ICP" if job["fusion"].refine
+        fusion_done = ("fused, extrinsics refined (kept where residuals fell)" if job["fusion"].refine
                        else "fused without ICP refinement")
     ex = extract_garments(result, info, job["extraction"])
     params, T, body_src = body_for_session(session, result.vertices, result.faces,
@@ -177,7 +177,8 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     split : split of the garments written; name : dataset name in dataset.json.
     scans : folder of scans made by ``dressmeup fuse`` (``SCANS/<session folder name>/``
         holding ``scan.ply``); a session whose scan is there is not fused again. Sessions
-        without one are fused with ``fusion_config`` (default: ICP refinement on). What was
+        without one are fused with ``fusion_config`` (default: ``FusionConfig()``, refinement
+        off, as in ``dressmeup fuse``). What was
         done per session is recorded in ``dataset.json`` under ``build``.
     executor : where the per-session jobs (:func:`build_session`) run
         (:mod:`dressmeup.executors`; default: one after the other in this process). This
@@ -194,7 +195,7 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     folders = find_sessions(sessions)
     if not folders:
         raise InputError("sessions: no session folder given")
-    fusion_config = fusion_config or FusionConfig(refine=True)
+    fusion_config = fusion_config or FusionConfig()
     extraction_config = extraction_config or ExtractionConfig()
     writer = DatasetWriter(out, {"name": name, "source": "dressmeup build-dataset",
                                  "body_model": None if body == "none" else body_model})

@@ -32,7 +32,7 @@ def uv_atlas(vertices: np.ndarray, faces: np.ndarray, resolution: int = 1024, pa
     same face order as ``faces``.
     """
     # heavy: scipy (~0.5 s to import)
-    from dressmeup.geometry.uv_atlas import xatlas_atlas
+    from dressmeup.geometry.uv_packing import xatlas_atlas
 
     # Raw xatlas UVs (square_texels=False): they fill the square texture even when xatlas
     # packs a non-square atlas (texels then slightly anisotropic), as extraction always did.

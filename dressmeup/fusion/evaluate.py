@@ -12,9 +12,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dressmeup.capture.frame import RGBDFrame
 from dressmeup.capture.rig import Rig
+from dressmeup.capture.visibility import raycasting_scene, visible_from
+from dressmeup.fusion.tsdf import integrate_grid
+from dressmeup.geometry.sampling import sample_surface
+from dressmeup.metrics.distance import distances_to
 
-__all__ = ["score_surface", "face_label_accuracy", "extrinsic_errors", "SurfaceScore"]
+__all__ = ["score_surface", "face_label_accuracy", "extrinsic_errors", "SurfaceScore", "open3d_reference_mesh"]
 
 
 @dataclass
@@ -67,9 +72,6 @@ def score_surface(pred_vertices: np.ndarray, pred_faces: np.ndarray, gt_vertices
     -------
     SurfaceScore
     """
-    from dressmeup.capture.visibility import raycasting_scene
-    from dressmeup.geometry.sampling import sample_surface
-    from dressmeup.metrics.distance import distances_to
 
     GV = np.asarray(gt_vertices, dtype=np.float64)
     GF = np.asarray(gt_faces, dtype=np.int64)
@@ -82,7 +84,6 @@ def score_surface(pred_vertices: np.ndarray, pred_faces: np.ndarray, gt_vertices
     fn_all /= np.maximum(np.linalg.norm(fn_all, axis=1, keepdims=True), 1e-20)
     cp = scene.compute_closest_points(pts.astype(np.float32))
     nrm = fn_all[cp["primitive_ids"].numpy().astype(np.int64)]
-    from dressmeup.capture.visibility import visible_from
 
     vis = np.zeros(len(pts), dtype=bool)
     for cam in rig.cameras:
@@ -115,7 +116,6 @@ def face_label_accuracy(pred_vertices: np.ndarray, pred_faces: np.ndarray, pred_
     -------
     float in [0, 1]
     """
-    from dressmeup.capture.visibility import raycasting_scene
 
     PV = np.asarray(pred_vertices, dtype=np.float64)
     PF = np.asarray(pred_faces, dtype=np.int64)
@@ -141,3 +141,29 @@ def extrinsic_errors(estimated: Rig, truth: Rig, points: np.ndarray) -> dict[str
         E = c.camera_to_world @ truth.camera(c.serial).world_to_camera
         out[c.serial] = float(np.linalg.norm(P @ E[:3, :3].T + E[:3, 3] - P, axis=1).mean())
     return out
+
+
+def open3d_reference_mesh(frames: list[RGBDFrame], voxel_size: float = 0.004, trunc_voxels: float = 5.0,
+                          depth_max: float = 5.0, color: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Open3D's own TSDF integration of frames as they are: the reference fusion is compared to.
+
+    The raw depth of every frame (no undistortion, no filtering) is integrated with its
+    camera into an open3d ``t.geometry.VoxelBlockGrid`` as Open3D's integration example
+    does, and every voxel observed at least once is meshed (``weight_threshold=0``, as the
+    legacy ``ScalableTSDFVolume`` meshes).
+
+    Parameters
+    ----------
+    frames : RGBDFrame list, each carrying its camera; depth in metres.
+    voxel_size : float, metres. trunc_voxels : float, truncation in voxels.
+    depth_max : float, metres. color : bool, integrate colour too (as a coloured scan needs;
+    the geometry is the same).
+
+    Returns
+    -------
+    vertices : (n, 3) float64, faces : (m, 3) int64.
+    """
+    mesh = integrate_grid(frames, voxel_size, trunc_voxels, depth_max, color=color).extract_triangle_mesh(
+        weight_threshold=0.0)
+    return (mesh.vertex.positions.numpy().astype(np.float64),
+            mesh.triangle.indices.numpy().astype(np.int64))

@@ -68,6 +68,7 @@ def undistort_frame(frame: RGBDFrame, camera: Camera) -> RGBDFrame:
     -------
     RGBDFrame
     """
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     if not camera.has_distortion:
@@ -169,6 +170,7 @@ def filter_depth(depth: np.ndarray, config: DepthFilterConfig | None = None,
     ------
     ValueError when ``depth`` is not a 2-D array.
     """
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     cfg = config or DepthFilterConfig()

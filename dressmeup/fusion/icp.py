@@ -1,91 +1,158 @@
-"""Extrinsic refinement: multiway (coloured) ICP between overlapping views + pose graph.
+"""Multiway ICP: pairwise multi-scale registration of overlapping views + a pose graph.
 
-Each camera's back-projected point cloud is registered to every other camera's cloud it
-overlaps (coarse-to-fine point-to-plane ICP, then coloured ICP at the finest scale); the
-pairwise results become edges of a pose graph whose optimisation (open3d's
-Levenberg-Marquardt with line-process pruning of wrong edges) gives a world-frame correction
-per camera, with the reference camera held fixed.
+Each view's depth is back-projected into its own camera frame, downsampled coarse to fine
+(voxel grids, at most ``max_points`` points per scale) with normals facing its camera. Pairs
+of views whose optical axes differ by less than ``max_view_angle_deg`` and whose coarse
+clouds overlap are registered by point-to-plane ICP with a robust (Tukey) kernel, all pairs
+at one scale before the next finer one, within a time limit; the pairwise results become
+edges of an open3d pose graph (Levenberg-Marquardt with line-process pruning of wrong edges)
+whose optimum, the reference camera held fixed, gives each camera a candidate pose.
+:mod:`dressmeup.fusion.refine` decides which candidates to keep.
 """
 
 from __future__ import annotations
 
+import copy
 import logging
+import math
+import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from dressmeup.capture.rig import Rig
-from dressmeup.capture.session import RGBDFrame
+from dressmeup.capture.frame import RGBDFrame, frame_camera
+from dressmeup.geometry.neighbors import NearestTree
 
-__all__ = ["ICPConfig", "ICPReport", "backproject", "refine_extrinsics", "pose_difference"]
+__all__ = ["ICPConfig", "ViewClouds", "PairResult", "backproject", "view_clouds", "candidate_pairs",
+           "register_pairs", "optimize_pose_graph", "pose_difference"]
 
 log = logging.getLogger(__name__)
 
 
-@dataclass
+@dataclass(frozen=True)
 class ICPConfig:
-    """Refinement settings.
+    """Refinement settings (registration here; acceptance in :mod:`dressmeup.fusion.refine`).
 
     Attributes
     ----------
     voxel_sizes : tuple of float, metres, coarse-to-fine downsampling of the clouds.
     max_correspondence : tuple of float, metres, ICP correspondence radius per scale.
+    max_points : int, at most this many points per cloud and scale (a seeded random subset).
     colored : bool, finish with coloured ICP (geometry + photometric terms).
-    min_overlap : float, a pair becomes a graph edge when this share of the smaller cloud has
-        a correspondence after alignment.
+    min_overlap : float, a pair is registered when this share of the smaller coarse cloud
+        lies within the coarse correspondence radius of the other (and kept as a graph edge
+        when it still does after alignment).
+    max_neighbors : int, each view is registered to at most this many others (the ones it
+        overlaps most).
     rounds : int, alternations of pairwise registration and graph optimisation.
     max_iterations : int, ICP iterations per scale.
     max_view_angle_deg : float, only cameras whose optical axes differ by less than this are
         registered to each other (opposite cameras see different sides of the body).
+    time_limit_s : float, wall-clock limit of the registration; finer scales that would not
+        fit are skipped and the pairs keep their coarser result.
+    min_improvement_mm, min_improvement_rel : a camera's refined pose is kept only when its
+        robust view-to-view residual falls by more than ``max(min_improvement_mm,
+        min_improvement_rel * before)``.
+    max_rotation_deg, max_translation_m : a refined pose that moves a camera further than
+        this from its calibration is refused.
+    residual_radius : float, metres, points further than this from the other view have no
+        counterpart there and do not count in the residual.
+    seed : int, seed of the point subsets.
     """
 
     voxel_sizes: tuple[float, ...] = (0.02, 0.01, 0.005)
     max_correspondence: tuple[float, ...] = (0.08, 0.03, 0.006)
+    max_points: int = 20_000
     colored: bool = False
     min_overlap: float = 0.1
+    max_neighbors: int = 4
     rounds: int = 2
-    max_iterations: int = 40
+    max_iterations: int = 30
     max_view_angle_deg: float = 80.0
+    time_limit_s: float = 60.0
+    min_improvement_mm: float = 0.1
+    min_improvement_rel: float = 0.05
+    max_rotation_deg: float = 3.0
+    max_translation_m: float = 0.05
+    residual_radius: float = 0.04
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if len(self.voxel_sizes) != len(self.max_correspondence) or not self.voxel_sizes:
+            raise ValueError("ICPConfig: voxel_sizes and max_correspondence must have the same, non-zero length")
+        if self.time_limit_s <= 0 or self.max_points < 100 or self.rounds < 1:
+            raise ValueError("ICPConfig: time_limit_s > 0, max_points >= 100 and rounds >= 1 are required")
 
 
 @dataclass
-class ICPReport:
-    """What the refinement did.
+class ViewClouds:
+    """One view's point clouds in its own camera frame, one per scale (open3d PointClouds).
 
     Attributes
     ----------
-    edges : list of (serial_a, serial_b, fitness, inlier_rmse) pairwise registrations kept.
-    corrections : dict serial -> (rotation_deg, translation_m) applied to each camera.
+    serial : str
+    clouds : list of open3d.geometry.PointCloud, coarse to fine, with normals facing the camera.
     """
 
-    edges: list[tuple[str, str, float, float]] = field(default_factory=list)
-    corrections: dict[str, tuple[float, float]] = field(default_factory=dict)
+    serial: str
+    clouds: list
+
+    def points(self, scale: int = -1) -> np.ndarray:
+        """(k, 3) float64 points of one scale (camera frame)."""
+        return np.asarray(self.clouds[scale].points)
+
+    def normals(self, scale: int = -1) -> np.ndarray:
+        """(k, 3) float64 unit normals of one scale (camera frame)."""
+        return np.asarray(self.clouds[scale].normals)
 
 
-def backproject(frame: RGBDFrame, rig: Rig, stride: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """World points and colours of a pinhole (undistorted) depth frame.
+@dataclass
+class PairResult:
+    """A pairwise registration: ``T`` maps camera ``i``'s frame into camera ``j``'s.
+
+    Attributes
+    ----------
+    i, j : int, view indices. T : (4, 4) float64. fitness, rmse : open3d's figures at the
+    last scale run. information : (6, 6) float64. scales : int, how many scales ran.
+    overlap : float, the fitness at the coarsest scale (share of view i's points with a
+    counterpart in view j within the coarse radius).
+    """
+
+    i: int
+    j: int
+    T: np.ndarray
+    fitness: float
+    rmse: float
+    information: np.ndarray
+    scales: int
+    overlap: float = 0.0
+
+
+def backproject(frame: RGBDFrame, stride: int = 1, world: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Points and colours of a pinhole (undistorted) depth frame, with the frame's camera.
 
     Parameters
     ----------
-    frame : RGBDFrame, depth in metres.
-    rig : Rig (the frame's camera by serial).
+    frame : RGBDFrame carrying its camera, depth in metres.
     stride : int, take every ``stride``-th pixel in each direction.
+    world : bool, world coordinates (else the camera frame).
 
     Returns
     -------
-    points : (k, 3) float64 world coordinates, colors : (k, 3) float64 in [0, 1].
+    points : (k, 3) float64, colors : (k, 3) float64 in [0, 1].
     """
-    cam = rig.camera(frame.serial)
+    cam = frame_camera(frame)
     d = frame.depth[::stride, ::stride]
     v, u = np.nonzero(d > 0)
     z = d[v, u].astype(np.float64)
     u = u * stride
     v = v * stride
     pc = np.stack([(u - cam.cx) / cam.fx * z, (v - cam.cy) / cam.fy * z, z], axis=1)
-    pw = pc @ cam.camera_to_world[:3, :3].T + cam.camera_to_world[:3, 3]
+    if world:
+        pc = pc @ cam.camera_to_world[:3, :3].T + cam.camera_to_world[:3, 3]
     col = frame.color[v, u].astype(np.float64) / 255.0
-    return pw, col
+    return pc, col
 
 
 def pose_difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
@@ -95,117 +162,193 @@ def pose_difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     return float(ang), float(np.linalg.norm(a[:3, 3] - b[:3, 3]))
 
 
-def _cloud(points: np.ndarray, colors: np.ndarray, voxel: float, center: np.ndarray):
-    import open3d as o3d
+def view_clouds(frame: RGBDFrame, config: ICPConfig) -> ViewClouds:
+    """Coarse-to-fine clouds of one view in its camera frame (see :class:`ViewClouds`)."""
+    import open3d as o3d  # reason: heavy optional dependency
 
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-    pcd.colors = o3d.utility.Vector3dVector(colors)
-    pcd = pcd.voxel_down_sample(voxel)
-    pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=voxel * 3, max_nn=30))
-    # orient normals towards the camera side (the centre of the rig is behind the surface)
-    pcd.orient_normals_towards_camera_location(center)
-    pcd.normals = o3d.utility.Vector3dVector(-np.asarray(pcd.normals))
-    return pcd
-
-
-def _pairwise(cfg: ICPConfig, clouds_by_scale, i: int, j: int):
-    import open3d as o3d
-
-    reg = o3d.pipelines.registration
-    T = np.eye(4)
-    result = None
-    n = len(cfg.voxel_sizes)
-    for s in range(n):
-        src_s, tgt_s = clouds_by_scale[s][i], clouds_by_scale[s][j]
-        crit = reg.ICPConvergenceCriteria(relative_fitness=1e-6, relative_rmse=1e-6, max_iteration=cfg.max_iterations)
-        if cfg.colored and s == n - 1:
-            try:
-                result = reg.registration_colored_icp(src_s, tgt_s, cfg.max_correspondence[s], T,
-                                                      reg.TransformationEstimationForColoredICP(lambda_geometric=0.9), crit)
-            except RuntimeError as exc:  # too few correspondences
-                log.debug("coloured ICP %d-%d failed: %s", i, j, exc)
-                result = reg.registration_icp(src_s, tgt_s, cfg.max_correspondence[s], T,
-                                              reg.TransformationEstimationPointToPlane(), crit)
-        else:
-            result = reg.registration_icp(src_s, tgt_s, cfg.max_correspondence[s], T,
-                                          reg.TransformationEstimationPointToPlane(), crit)
-        T = result.transformation
-    info = reg.get_information_matrix_from_point_clouds(
-        clouds_by_scale[-1][i], clouds_by_scale[-1][j], cfg.max_correspondence[-1], T)
-    return T, result, info
+    h, w = frame.depth.shape
+    stride = max(1, round(math.sqrt(h * w / 80_000)))  # VGA: every 2nd pixel, enough for 5 mm voxels
+    pts, col = backproject(frame, stride, world=False)
+    rng = np.random.default_rng(config.seed)
+    clouds = []
+    for voxel in config.voxel_sizes:
+        pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts))
+        pcd.colors = o3d.utility.Vector3dVector(col)
+        pcd = pcd.voxel_down_sample(voxel)
+        if len(pcd.points) > config.max_points:
+            pcd = pcd.select_by_index(np.sort(rng.choice(len(pcd.points), config.max_points, replace=False)))
+        pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=voxel * 3, max_nn=30))
+        pcd.orient_normals_towards_camera_location(np.zeros(3))
+        clouds.append(pcd)
+    return ViewClouds(frame.serial, clouds)
 
 
-def refine_extrinsics(frames: Sequence[RGBDFrame], rig: Rig, config: ICPConfig | None = None
-                      ) -> tuple[Rig, ICPReport]:
-    """Refine camera-to-world transforms by multiway ICP between overlapping views.
+def candidate_pairs(views: Sequence[ViewClouds], poses: Sequence[np.ndarray], config: ICPConfig
+                    ) -> list[tuple[int, int]]:
+    """Pairs of views worth registering: close viewing directions and overlapping coarse clouds.
 
     Parameters
     ----------
-    frames : one undistorted, filtered RGBDFrame per camera (depth in metres).
-    rig : Rig, the initial calibration.
-    config : ICPConfig (defaults when None).
+    views : the views' clouds. poses : (4, 4) camera-to-world per view.
+    config : ICPConfig (``max_view_angle_deg``, ``min_overlap``, ``max_neighbors``).
 
     Returns
     -------
-    (refined Rig copy, ICPReport). The reference camera (``rig.reference``) does not move.
-
-    Raises
-    ------
-    ValueError when a frame's camera is not in the rig.
+    list of (i, j) with i < j.
     """
-    import open3d as o3d
+    n = len(views)
+    world = [views[k].points(0) @ poses[k][:3, :3].T + poses[k][:3, 3] for k in range(n)]
+    trees = [NearestTree(p) if len(p) else None for p in world]
+    overlap = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1, n):
+            zi, zj = poses[i][:3, 2], poses[j][:3, 2]
+            if np.degrees(np.arccos(np.clip(zi @ zj, -1, 1))) > config.max_view_angle_deg:
+                continue
+            if trees[j] is None or not len(world[i]):
+                continue
+            small, big = (i, j) if len(world[i]) <= len(world[j]) else (j, i)
+            d, _ = trees[big].query(world[small], distance_upper_bound=config.max_correspondence[0])
+            overlap[i, j] = overlap[j, i] = float(np.mean(np.isfinite(d)))
+    keep = set()
+    for i in range(n):
+        order = [j for j in np.argsort(-overlap[i]) if overlap[i, j] >= config.min_overlap]
+        keep.update((min(i, j), max(i, j)) for j in order[: config.max_neighbors])
+    return sorted(keep)
 
-    cfg = config or ICPConfig()
-    if len(cfg.voxel_sizes) != len(cfg.max_correspondence):
-        raise ValueError("config: voxel_sizes and max_correspondence must have the same length")
+
+def _icp_step(clouds: Sequence[Sequence], pair: PairResult, s: int, config: ICPConfig) -> None:
+    """One scale of ICP for one pair, updating ``pair.T`` (here: in the common frame) in place."""
+    import open3d as o3d  # reason: heavy optional dependency
+
     reg = o3d.pipelines.registration
-    out = rig.copy()
-    serials = [f.serial for f in frames]
-    for s in serials:
-        rig.camera(s)
-    if rig.reference not in serials or len(frames) < 2:
-        log.warning("ICP refinement needs the reference camera and >= 2 views; skipped")
-        return out, ICPReport()
-    ref = serials.index(rig.reference)
-    report = ICPReport()
-    for _round in range(cfg.rounds):
-        pts = [backproject(f, out) for f in frames]
-        center = out.target
-        clouds = [[_cloud(p, c, v, center) for p, c in pts] for v in cfg.voxel_sizes]
-        graph = reg.PoseGraph()
-        for _ in frames:
-            graph.nodes.append(reg.PoseGraphNode(np.eye(4)))
-        report.edges = []
-        for i in range(len(frames)):
-            for j in range(i + 1, len(frames)):
-                zi = out.camera(serials[i]).camera_to_world[:3, 2]
-                zj = out.camera(serials[j]).camera_to_world[:3, 2]
-                if np.degrees(np.arccos(np.clip(zi @ zj, -1, 1))) > cfg.max_view_angle_deg:
-                    continue
-                T, res, info = _pairwise(cfg, clouds, i, j)
-                n_small = min(len(clouds[-1][i].points), len(clouds[-1][j].points))
-                overlap = res.fitness * len(clouds[-1][i].points) / max(n_small, 1)
-                if overlap < cfg.min_overlap:
-                    continue
-                report.edges.append((serials[i], serials[j], float(res.fitness), float(res.inlier_rmse)))
-                # edge maps node i's frame into node j's: T ~ inv(P_j) @ P_i
-                graph.edges.append(reg.PoseGraphEdge(i, j, T, info, uncertain=abs(i - j) > 1))
-        if not report.edges:
-            log.warning("no overlapping camera pairs found; extrinsics left unchanged")
+    src, tgt = clouds[pair.i][s], clouds[pair.j][s]
+    dist = config.max_correspondence[s]
+    crit = reg.ICPConvergenceCriteria(relative_fitness=1e-6, relative_rmse=1e-6,
+                                      max_iteration=config.max_iterations)
+    plane = reg.TransformationEstimationPointToPlane(reg.TukeyLoss(k=dist))
+    result = None
+    if config.colored and s == len(config.voxel_sizes) - 1:
+        try:
+            result = reg.registration_colored_icp(
+                src, tgt, dist, pair.T, reg.TransformationEstimationForColoredICP(lambda_geometric=0.9), crit)
+        except RuntimeError as exc:  # too few correspondences
+            log.debug("coloured ICP %d-%d failed: %s", pair.i, pair.j, exc)
+    if result is None:
+        result = reg.registration_icp(src, tgt, dist, pair.T, plane, crit)
+    if result.fitness > 0:
+        pair.T = np.asarray(result.transformation).copy()
+    pair.fitness, pair.rmse, pair.scales = float(result.fitness), float(result.inlier_rmse), s + 1
+    if s == 0:
+        pair.overlap = pair.fitness
+
+
+def register_pairs(views: Sequence[ViewClouds], poses: Sequence[np.ndarray],
+                   pairs: Sequence[tuple[int, int]], config: ICPConfig, deadline: float
+                   ) -> list[PairResult]:
+    """Register every pair coarse to fine, one scale for all pairs at a time.
+
+    The clouds are registered in the world frame shifted to their common centroid (ICP
+    linearises rotations about the origin: about a camera metres away, a rotation and a
+    translation are hard to tell apart and ICP drifts along symmetric shapes). A scale
+    starts only when it is expected to end before ``deadline`` (a ``time.perf_counter()``
+    value; each scale is assumed to take twice the previous one).
+
+    Parameters
+    ----------
+    views : the views' clouds. poses : (4, 4) camera-to-world per view (the initial guess).
+    pairs : (i, j) to register. config : ICPConfig. deadline : float.
+
+    Returns
+    -------
+    list of PairResult, one per pair (``T`` between camera frames), with the information
+    matrix of the last scale run.
+    """
+
+    import open3d as o3d  # reason: heavy optional dependency
+
+    reg = o3d.pipelines.registration
+    centre = np.mean([views[k].points(0).mean(axis=0) @ poses[k][:3, :3].T + poses[k][:3, 3]
+                      for k in range(len(views)) if len(views[k].points(0))], axis=0)
+    shift = np.eye(4)
+    shift[:3, 3] = -centre
+    to_common = [shift @ p for p in poses]
+    clouds = [[copy.deepcopy(c).transform(to_common[k]) for c in v.clouds] for k, v in enumerate(views)]
+    out = [PairResult(i, j, np.eye(4), 0.0, 0.0, np.zeros((6, 6)), 0) for i, j in pairs]
+    last = None
+    for s in range(len(config.voxel_sizes)):
+        t0 = time.perf_counter()
+        if last is not None and t0 + 2.0 * last > deadline:
+            log.info("ICP: time limit, scales from %g m on skipped", config.voxel_sizes[s])
             break
-        opt = reg.GlobalOptimizationOption(max_correspondence_distance=cfg.max_correspondence[-1],
-                                           edge_prune_threshold=0.25, reference_node=ref)
-        with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
-            reg.global_optimization(graph, reg.GlobalOptimizationLevenbergMarquardt(),
-                                    reg.GlobalOptimizationConvergenceCriteria(), opt)
-        gauge = np.linalg.inv(np.asarray(graph.nodes[ref].pose))
-        for k, f in enumerate(frames):
-            cam = out.camera(f.serial)
-            D = gauge @ np.asarray(graph.nodes[k].pose)
-            cam.camera_to_world = D @ cam.camera_to_world
-            # re-orthonormalise against round-off
-            u, _, vt = np.linalg.svd(cam.camera_to_world[:3, :3])
-            cam.camera_to_world[:3, :3] = u @ vt
-    for c in out.cameras:
-        report.corrections[c.serial] = pose_difference(rig.camera(c.serial).camera_to_world, c.camera_to_world)
-    return out, report
+        for pair in out:
+            _icp_step(clouds, pair, s, config)
+        last = time.perf_counter() - t0
+    for pair in out:
+        # common-frame correction -> camera i's frame into camera j's, where the graph needs
+        # the information matrix too
+        pair.T = np.linalg.inv(to_common[pair.j]) @ pair.T @ to_common[pair.i]
+        s = max(pair.scales - 1, 0)
+        pair.information = np.asarray(reg.get_information_matrix_from_point_clouds(
+            views[pair.i].clouds[s], views[pair.j].clouds[s], config.max_correspondence[s], pair.T))
+    return out
+
+
+def optimize_pose_graph(poses: Sequence[np.ndarray], results: Sequence[PairResult], reference: int,
+                        max_correspondence: float) -> list[np.ndarray]:
+    """Camera poses that best agree with the pairwise registrations (reference held fixed).
+
+    Only the views connected to the reference through ``results`` take part; the others keep
+    their poses.
+
+    Parameters
+    ----------
+    poses : (4, 4) camera-to-world per view (the graph's initial nodes).
+    results : pairwise registrations (edges; ``T ~ inv(P_j) @ P_i``).
+    reference : int, the view whose pose does not move.
+    max_correspondence : float, metres, open3d's line-process scale.
+
+    Returns
+    -------
+    list of (4, 4) float64 camera-to-world poses, rotations orthonormal.
+    """
+    import open3d as o3d  # reason: heavy optional dependency
+
+    reg = o3d.pipelines.registration
+    nodes = _connected(len(poses), [(r.i, r.j) for r in results], reference)
+    slot = {k: n for n, k in enumerate(nodes)}
+    out = [np.asarray(p, dtype=np.float64).copy() for p in poses]
+    if len(nodes) < 2:
+        return out
+    graph = reg.PoseGraph()
+    for k in nodes:
+        graph.nodes.append(reg.PoseGraphNode(out[k]))
+    for r in results:
+        if r.i in slot and r.j in slot:
+            graph.edges.append(reg.PoseGraphEdge(slot[r.i], slot[r.j], r.T, r.information,
+                                                 uncertain=abs(r.i - r.j) > 1))
+    opt = reg.GlobalOptimizationOption(max_correspondence_distance=max_correspondence,
+                                       edge_prune_threshold=0.25, reference_node=slot[reference])
+    with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
+        reg.global_optimization(graph, reg.GlobalOptimizationLevenbergMarquardt(),
+                                reg.GlobalOptimizationConvergenceCriteria(), opt)
+    gauge = out[reference] @ np.linalg.inv(np.asarray(graph.nodes[slot[reference]].pose))
+    for k in nodes:
+        p = gauge @ np.asarray(graph.nodes[slot[k]].pose)
+        u, _, vt = np.linalg.svd(p[:3, :3])  # against round-off
+        p[:3, :3] = u @ vt
+        out[k] = p
+    return out
+
+
+def _connected(n: int, edges: Sequence[tuple[int, int]], start: int) -> list[int]:
+    """Sorted nodes reachable from ``start`` through ``edges``."""
+    seen, todo = {start}, [start]
+    while todo:
+        a = todo.pop()
+        for i, j in edges:
+            for b in ((j,) if i == a else (i,) if j == a else ()):
+                if b not in seen:
+                    seen.add(b)
+                    todo.append(b)
+    return sorted(seen)

@@ -1,4 +1,8 @@
-"""The fusion pipeline: session frames -> filtered depth -> (ICP) -> TSDF -> cleaned scan."""
+"""The fusion pipeline: session frames -> filtered depth -> (refinement) -> TSDF -> cleaned scan.
+
+Every step reads the camera each frame carries (``RGBDFrame.camera``); a rig is consulted
+once, at the entry, only when the caller asks to fuse with another calibration.
+"""
 
 from __future__ import annotations
 
@@ -12,15 +16,18 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.capture.frame import RGBDFrame, frame_camera, with_rig_cameras
 from dressmeup.capture.rig import Rig, load_rig, save_rig
-from dressmeup.capture.session import RGBDFrame, Session, open_session
+from dressmeup.capture.session import Session, open_session
 from dressmeup.errors import InputError
 from dressmeup.fusion.cleanup import CleanupConfig, cleanup_mesh
 from dressmeup.fusion.filtering import DepthFilterConfig, filter_depth, undistort_frame
-from dressmeup.fusion.icp import ICPConfig, ICPReport, refine_extrinsics
+from dressmeup.fusion.icp import ICPConfig
+from dressmeup.fusion.refine import ICPReport, refine_extrinsics
 from dressmeup.fusion.tsdf import integrate_tsdf
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonable import json_default
+from dressmeup.io.jsonio import read_json
 from dressmeup.io.mesh import write_ply  # re-exported: its home is io.mesh
 
 __all__ = ["FusionConfig", "FusionResult", "prepare_frames", "fuse_frames", "fuse_session",
@@ -37,8 +44,14 @@ class FusionConfig:
     ----------
     voxel_size : float, TSDF voxel size in metres.
     trunc_voxels : float, TSDF truncation in voxels.
-    min_weight : float, minimum number of observations per voxel (per fused frame set).
-    refine : bool, refine the extrinsics by multiway ICP before fusing.
+    min_weight : float, a voxel is meshed when at least this many fused frames observed it
+        (measured a depth within the truncation band around it); 1: every voxel any frame
+        saw, so surface seen by a single view is kept. Several frames of one camera count
+        one each.
+    refine : bool, refine the extrinsics before fusing (:mod:`dressmeup.fusion.refine`:
+        multiway ICP whose proposals are kept only where they lower view-to-view residuals,
+        within bounds and a time limit). Off by default: a good calibration or a tracker's
+        poses are kept as they are without spending the time; turn it on for a drifted rig.
     device : ``"cpu"`` or ``"cuda[:N]"``.
     filter : DepthFilterConfig
     icp : ICPConfig
@@ -64,8 +77,10 @@ class FusionResult:
     Attributes
     ----------
     vertices : (n, 3) float64, faces : (m, 3) int64, colors : (n, 3) uint8.
-    rig : Rig, the calibration used (refined when ICP ran).
-    frames : list of RGBDFrame, the undistorted, filtered frames that were fused.
+    rig : Rig, the calibration used (refined when ICP ran): one camera per serial of the
+        fused frames (a camera with several frames: the camera of its first frame).
+    frames : list of RGBDFrame, the undistorted, filtered frames that were fused, each
+        carrying the camera it was fused with.
     timings : dict of step -> seconds.
     icp : ICPReport or None.
     """
@@ -79,36 +94,80 @@ class FusionResult:
     icp: ICPReport | None = None
 
 
-def prepare_frames(frames: list[RGBDFrame], rig: Rig, config: DepthFilterConfig | None = None
-                   ) -> list[RGBDFrame]:
-    """Undistort and filter each frame (depth in metres, pinhole model afterwards).
+def prepare_frames(frames: list[RGBDFrame], config: DepthFilterConfig | None = None) -> list[RGBDFrame]:
+    """Undistort and filter each frame with the camera it carries (pinhole model afterwards).
 
     Parameters
     ----------
-    frames : list of RGBDFrame straight from a session.
-    rig : Rig
+    frames : list of RGBDFrame, each carrying its camera (``Session.load_frames`` does;
+        :func:`~dressmeup.capture.frame.with_rig_cameras` attaches another calibration).
     config : DepthFilterConfig
 
     Returns
     -------
-    list of RGBDFrame, each carrying its camera of ``rig``.
+    list of RGBDFrame (new objects; the inputs stay untouched), depth in metres.
+
+    Raises
+    ------
+    InputError when a frame carries no camera.
     """
     out = []
     for fr in frames:
-        cam = rig.camera(fr.serial)  # the rig given here is the calibration used from now on
+        cam = frame_camera(fr)
         und = undistort_frame(fr, cam)
-        out.append(replace(und, depth=filter_depth(und.depth, config, cam), camera=cam))  # inputs stay untouched
+        out.append(replace(und, depth=filter_depth(und.depth, config, cam), camera=cam))
     return out
 
 
-def fuse_frames(frames: list[RGBDFrame], rig: Rig, config: FusionConfig | None = None) -> FusionResult:
-    """Fuse raw session frames into one coloured mesh.
+def _fused_rig(frames: list[RGBDFrame], layout: Rig | None) -> Rig:
+    """The rig of the fused frames: their cameras (first frame per serial), ``layout``'s
+    name, up, target and reference."""
+    cams: dict[str, Any] = {}
+    for fr in frames:
+        cams.setdefault(fr.serial, frame_camera(fr))
+    if layout is None:
+        return Rig(cameras=list(cams.values()), name="fused")
+    return layout.with_cameras(list(cams.values()))
+
+
+def _fuse(frames: list[RGBDFrame], layout: Rig | None, cfg: FusionConfig) -> FusionResult:
+    """Fuse frames with the cameras they carry (``layout``: name, up, target, reference)."""
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    prepared = prepare_frames(frames, cfg.filter)
+    timings["filter"] = time.perf_counter() - t0
+    report = None
+    if cfg.refine:
+        t0 = time.perf_counter()
+        firsts: dict[str, RGBDFrame] = {}
+        for fr in prepared:
+            firsts.setdefault(fr.serial, fr)
+        reference = layout.reference if layout is not None else None
+        cams, report = refine_extrinsics(list(firsts.values()), cfg.icp, reference)
+        prepared = [replace(f, camera=cams[f.serial]) for f in prepared]
+        timings["icp"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    V, F, C = integrate_tsdf(prepared, cfg.voxel_size, cfg.trunc_voxels, depth_max=cfg.filter.max_depth,
+                             min_weight=cfg.min_weight, device=cfg.device)
+    timings["tsdf"] = time.perf_counter() - t0
+    if cfg.cleanup is not None:
+        t0 = time.perf_counter()
+        V, F, C = cleanup_mesh(V, F, C, cfg.cleanup)
+        timings["cleanup"] = time.perf_counter() - t0
+    return FusionResult(V, F, C, _fused_rig(prepared, layout), prepared, timings, report)
+
+
+def fuse_frames(frames: list[RGBDFrame], rig: Rig | None = None, config: FusionConfig | None = None
+                ) -> FusionResult:
+    """Fuse raw frames into one coloured mesh.
 
     Parameters
     ----------
     frames : list of RGBDFrame (any number per camera; the first frame of each camera is used
-        for ICP refinement).
-    rig : Rig
+        for refinement), each carrying its camera unless ``rig`` is given.
+    rig : Rig or None. None: every frame is fused with the camera it carries. A rig: the
+        calibration to fuse with instead (each frame takes the rig's camera of its serial),
+        and the name, up, target and reference camera of the result's rig.
     config : FusionConfig
 
     Returns
@@ -116,34 +175,16 @@ def fuse_frames(frames: list[RGBDFrame], rig: Rig, config: FusionConfig | None =
     FusionResult
     """
     cfg = config or FusionConfig()
-    timings: dict[str, float] = {}
-    t0 = time.perf_counter()
-    prepared = prepare_frames(frames, rig, cfg.filter)
-    timings["filter"] = time.perf_counter() - t0
-    used_rig, report = rig, None
-    if cfg.refine:
-        t0 = time.perf_counter()
-        firsts: dict[str, RGBDFrame] = {}
-        for fr in prepared:
-            firsts.setdefault(fr.serial, fr)
-        used_rig, report = refine_extrinsics(list(firsts.values()), rig, cfg.icp)
-        prepared = [replace(f, camera=used_rig.camera(f.serial)) for f in prepared]
-        timings["icp"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    n_sets = max(sum(1 for f in prepared if f.serial == s) for s in {f.serial for f in prepared})
-    V, F, C = integrate_tsdf(prepared, used_rig, cfg.voxel_size, cfg.trunc_voxels,
-                             depth_max=cfg.filter.max_depth, min_weight=cfg.min_weight * n_sets,
-                             device=cfg.device)
-    timings["tsdf"] = time.perf_counter() - t0
-    if cfg.cleanup is not None:
-        t0 = time.perf_counter()
-        V, F, C = cleanup_mesh(V, F, C, cfg.cleanup)
-        timings["cleanup"] = time.perf_counter() - t0
-    return FusionResult(V, F, C, used_rig, prepared, timings, report)
+    if rig is not None:
+        frames = with_rig_cameras(frames, rig)
+    return _fuse(frames, rig, cfg)
 
 
 def fuse_session(session: Session | str | os.PathLike, config: FusionConfig | None = None) -> FusionResult:
     """Fuse a capture session (all its frames, or ``config.frames``).
+
+    The frames carry the session's cameras; the session's rig gives the result's rig its
+    name, up, target and reference camera.
 
     Parameters
     ----------
@@ -159,7 +200,7 @@ def fuse_session(session: Session | str | os.PathLike, config: FusionConfig | No
         session = open_session(session)
     idx = cfg.frames if cfg.frames is not None else list(range(session.info.n_frames))
     frames = [fr for i in idx for fr in session.load_frames(i)]
-    return fuse_frames(frames, session.rig, cfg)
+    return _fuse(frames, session.rig, cfg)
 
 
 def save_scan(result: FusionResult, out_dir: str | os.PathLike, extra: dict[str, Any] | None = None) -> Path:
@@ -171,9 +212,7 @@ def save_scan(result: FusionResult, out_dir: str | os.PathLike, extra: dict[str,
     save_rig(result.rig, out / "rig.json")
     info = {"vertices": int(len(result.vertices)), "faces": int(len(result.faces)),
             "timings_s": result.timings,
-            "icp": None if result.icp is None else {
-                "edges": [list(e) for e in result.icp.edges],
-                "corrections_deg_m": {k: list(v) for k, v in result.icp.corrections.items()}},
+            "icp": None if result.icp is None else result.icp.as_dict(),
             **(extra or {})}
     atomic_write_text(out / "fusion.json", json.dumps(info, indent=2, default=json_default) + "\n")
     return out
@@ -192,7 +231,6 @@ def reuse_scan(session: Session | str | os.PathLike, scan_dir: str | os.PathLike
     FileNotFoundError
         When ``scan_dir`` holds no ``scan.ply``.
     """
-    from dressmeup.io.jsonio import read_json
 
     cfg = config or FusionConfig()
     if not isinstance(session, Session):
@@ -206,8 +244,7 @@ def reuse_scan(session: Session | str | os.PathLike, scan_dir: str | os.PathLike
     rig = load_rig(scan_dir / "rig.json") if (scan_dir / "rig.json").is_file() else session.rig
     idx = cfg.frames if cfg.frames is not None else list(range(session.info.n_frames))
     frames = [fr for i in idx for fr in session.load_frames(i)]
-    prepared = [replace(f, camera=rig.camera(f.serial))
-                for f in prepare_frames(frames, rig, cfg.filter)]
+    prepared = prepare_frames(with_rig_cameras(frames, rig), cfg.filter)
     if C is None:
         C = np.full((len(V), 3), 200, np.uint8)
     return FusionResult(V, F, C, rig, prepared, {"reused": 0.0}, None)
@@ -215,6 +252,7 @@ def reuse_scan(session: Session | str | os.PathLike, scan_dir: str | os.PathLike
 
 def load_scan(scan_dir: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Read ``scan.ply`` of a scan folder: (V (n,3) float64, F (m,3) int64, colors (n,3) uint8 or None)."""
+    # heavy: trimesh (~0.7 s to import)
     import trimesh
 
     p = Path(scan_dir) / "scan.ply"

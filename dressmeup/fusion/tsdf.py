@@ -12,10 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.capture.rig import Rig
-from dressmeup.capture.session import RGBDFrame, frame_camera
+from dressmeup.capture.frame import RGBDFrame, frame_camera
 
-__all__ = ["resolve_device", "integrate_tsdf"]
+__all__ = ["resolve_device", "integrate_grid", "integrate_tsdf"]
 
 log = logging.getLogger(__name__)
 
@@ -27,7 +26,7 @@ def resolve_device(device: str = "cpu") -> str:
     ------
     ValueError when CUDA is asked for but open3d was built without it or sees no GPU.
     """
-    import open3d as o3d
+    import open3d as o3d  # reason: heavy optional dependency
 
     dev = device.lower()
     if dev in ("cpu", "cpu:0"):
@@ -41,7 +40,76 @@ def resolve_device(device: str = "cpu") -> str:
     raise ValueError(f"device: expected 'cpu' or 'cuda[:N]', got {device!r}")
 
 
-def integrate_tsdf(frames: Sequence[RGBDFrame], rig: Rig, voxel_size: float = 0.004,
+def integrate_grid(frames: Sequence[RGBDFrame], voxel_size: float = 0.004, trunc_voxels: float = 5.0,
+                   depth_max: float = 5.0, device: str = "cpu", color: bool = True, block_count: int = 1000
+                   ) -> Any:
+    """Integrate depth frames (each carrying its camera) into an open3d ``VoxelBlockGrid``.
+
+    The hash map is sized from the blocks the frames touch (a large map is slow to allocate);
+    each frame adds 1 to the weight of every voxel within the truncation band of its depth.
+
+    Parameters
+    ----------
+    frames : sequence of RGBDFrame, depth in metres (pinhole images).
+    voxel_size : float, metres. trunc_voxels : float, truncation in voxels.
+    depth_max : float, metres; deeper measurements are ignored.
+    device : ``"cpu"`` or ``"cuda[:N]"``. color : bool, integrate colour too.
+    block_count : int, minimum hash-map capacity.
+
+    Returns
+    -------
+    open3d.t.geometry.VoxelBlockGrid
+
+    Raises
+    ------
+    ValueError on bad arguments, a depth image whose size differs from its camera, or when
+    no frame has depth.
+    """
+    import open3d as o3d  # reason: heavy optional dependency
+    import open3d.core as o3c
+
+    if voxel_size <= 0:
+        raise ValueError(f"voxel_size: expected > 0 metres, got {voxel_size}")
+    if not frames:
+        raise ValueError("frames: expected at least one frame")
+    dev = o3c.Device(resolve_device(device))
+    names, channels = (("tsdf", "weight", "color"), (1, 1, 3)) if color else (("tsdf", "weight"), (1, 1))
+
+    def grid(count: int) -> Any:
+        return o3d.t.geometry.VoxelBlockGrid(
+            attr_names=names, attr_dtypes=(o3c.float32,) * len(names), attr_channels=channels,
+            voxel_size=float(voxel_size), block_resolution=16, block_count=int(count), device=dev)
+
+    inputs = []
+    for fr in frames:
+        cam = frame_camera(fr)
+        if fr.depth.shape != (cam.height, cam.width):
+            raise ValueError(f"frame {fr.serial}/{fr.index}: depth is {fr.depth.shape}, its camera says "
+                             f"{(cam.height, cam.width)}")
+        depth_m = np.ascontiguousarray(fr.depth, dtype=np.float32)
+        if not (depth_m > 0).any():
+            log.warning("camera %s frame %d has no valid depth; skipped", fr.serial, fr.index)
+            continue
+        rgb = (o3d.t.geometry.Image(o3c.Tensor(np.ascontiguousarray(fr.color, dtype=np.float32) / 255.0, device=dev))
+               if color else None)
+        inputs.append((o3d.t.geometry.Image(o3c.Tensor(depth_m, device=dev)), rgb,
+                       o3c.Tensor(cam.K, o3c.float64), o3c.Tensor(cam.world_to_camera, o3c.float64)))
+    if not inputs:
+        raise ValueError("frames: no frame has valid depth")
+    probe = grid(16)
+    touched = [probe.compute_unique_block_coordinates(d, K, ext, 1.0, depth_max, trunc_voxels).cpu().numpy()
+               for d, _, K, ext in inputs]
+    vbg = grid(max(int(block_count), int(1.3 * len(np.unique(np.concatenate(touched), axis=0))) + 64))
+    for depth, rgb, K, ext in inputs:
+        coords = vbg.compute_unique_block_coordinates(depth, K, ext, 1.0, depth_max, trunc_voxels)
+        if color:
+            vbg.integrate(coords, depth, rgb, K, ext, 1.0, depth_max, trunc_voxels)
+        else:
+            vbg.integrate(coords, depth, K, ext, 1.0, depth_max, trunc_voxels)
+    return vbg
+
+
+def integrate_tsdf(frames: Sequence[RGBDFrame], voxel_size: float = 0.004,
                    trunc_voxels: float = 5.0, depth_max: float = 5.0,
                    min_weight: float = 1.0, device: str = "cpu", block_count: int = 1000
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -50,13 +118,14 @@ def integrate_tsdf(frames: Sequence[RGBDFrame], rig: Rig, voxel_size: float = 0.
     Parameters
     ----------
     frames : sequence of RGBDFrame (pinhole images: see ``filtering.undistort_frame``),
-        depth in metres; several frames of one camera are allowed.
-    rig : Rig giving the intrinsics and camera-to-world transform (by serial) of frames that
-        carry no camera (:func:`~dressmeup.capture.session.frame_camera`).
+        depth in metres, each carrying its camera (intrinsics and camera-to-world); several
+        frames of one camera are allowed.
     voxel_size : float, metres.
     trunc_voxels : float, truncation distance in voxels.
     depth_max : float, metres; deeper measurements are ignored.
-    min_weight : float, voxels observed fewer times are not meshed.
+    min_weight : float, a voxel is meshed when at least this many frames observed it (each
+        frame that measured a depth within the truncation band adds 1 to its weight); 1:
+        everything any frame saw.
     device : ``"cpu"`` or ``"cuda[:N]"``.
     block_count : int, minimum hash-map capacity (sized from the blocks the frames touch).
 
@@ -68,47 +137,11 @@ def integrate_tsdf(frames: Sequence[RGBDFrame], rig: Rig, voxel_size: float = 0.
     ------
     ValueError on bad arguments or when nothing could be fused.
     """
-    import open3d as o3d
-    import open3d.core as o3c
-
-    if voxel_size <= 0:
-        raise ValueError(f"voxel_size: expected > 0 metres, got {voxel_size}")
-    if not frames:
-        raise ValueError("frames: expected at least one frame")
-    dev = o3c.Device(resolve_device(device))
-
-    def grid(count: int) -> Any:
-        return o3d.t.geometry.VoxelBlockGrid(
-            attr_names=("tsdf", "weight", "color"),
-            attr_dtypes=(o3c.float32, o3c.float32, o3c.float32),
-            attr_channels=((1), (1), (3)),
-            voxel_size=float(voxel_size), block_resolution=16, block_count=int(count), device=dev)
-
-    inputs = []
-    for fr in frames:
-        cam = frame_camera(fr, rig)
-        if fr.depth.shape != (cam.height, cam.width):
-            raise ValueError(f"frame {fr.serial}/{fr.index}: depth is {fr.depth.shape}, rig says "
-                             f"{(cam.height, cam.width)}")
-        depth_m = np.ascontiguousarray(fr.depth, dtype=np.float32)
-        if not (depth_m > 0).any():
-            log.warning("camera %s frame %d has no valid depth; skipped", fr.serial, fr.index)
-            continue
-        depth = o3d.t.geometry.Image(o3c.Tensor(depth_m, device=dev))
-        color = o3d.t.geometry.Image(o3c.Tensor(np.ascontiguousarray(fr.color, dtype=np.float32) / 255.0, device=dev))
-        inputs.append((depth, color, o3c.Tensor(cam.K, o3c.float64), o3c.Tensor(cam.world_to_camera, o3c.float64)))
-    if not inputs:
-        raise ValueError("frames: no frame has valid depth")
-    # size the hash map from the blocks the frames touch (a large map is slow to allocate)
-    probe = grid(16)
-    touched = [probe.compute_unique_block_coordinates(d, K, ext, 1.0, depth_max, trunc_voxels).cpu().numpy()
-               for d, _, K, ext in inputs]
-    n_blocks = len(np.unique(np.concatenate(touched, axis=0), axis=0))
-    vbg = grid(max(int(block_count), int(1.3 * n_blocks) + 64))
-    for depth, color, K, ext in inputs:
-        coords = vbg.compute_unique_block_coordinates(depth, K, ext, 1.0, depth_max, trunc_voxels)
-        vbg.integrate(coords, depth, color, K, ext, 1.0, depth_max, trunc_voxels)
-    mesh = vbg.extract_triangle_mesh(weight_threshold=float(min_weight))
+    if not min_weight >= 1:
+        raise ValueError(f"min_weight: expected >= 1 observation, got {min_weight}")
+    vbg = integrate_grid(frames, voxel_size, trunc_voxels, depth_max, device, True, block_count)
+    # open3d meshes voxels whose weight is strictly above the threshold; weights count frames
+    mesh = vbg.extract_triangle_mesh(weight_threshold=float(min_weight) - 0.5)
     if "indices" not in mesh.triangle or mesh.triangle.indices.shape[0] == 0:
         raise ValueError("TSDF fusion produced an empty mesh: check the extrinsics, depth scale and "
                          "depth range (are the cameras looking at the same place?)")

@@ -58,13 +58,15 @@ from dressmeup.metrics.richness import RichnessResult, richness, richness_detail
 from dressmeup.metrics.uv import (
     ASEResult,
     QCEResult,
-    UVSeams,
-    UVValidity,
     ase,
     ase_details,
     qce,
     qce_details,
     uv_jacobian_singular_values,
+)
+from dressmeup.metrics.uv_layout import (
+    UVSeams,
+    UVValidity,
     uv_seams,
     uv_validity,
 )

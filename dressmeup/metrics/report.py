@@ -25,7 +25,8 @@ from dressmeup.metrics._common import (
 from dressmeup.metrics.distance import DEFAULT_FSCORE_THRESHOLDS, chamfer_details, euclidean
 from dressmeup.metrics.normals import normal_consistency_details
 from dressmeup.metrics.penetration import interpenetration_ratio, penetrating_vertex_fraction
-from dressmeup.metrics.uv import ase_details, qce_details, uv_validity
+from dressmeup.metrics.uv import ase_details, qce_details
+from dressmeup.metrics.uv_layout import uv_validity
 
 __all__ = ["MetricValue", "compare_meshes", "uv_report"]
 

@@ -48,7 +48,9 @@ def test_interval_resamples_units_not_items():
     assert iv.n_units == 3 and iv.n_items == 60 and iv.distinct_resamples == 10
     assert iv.df == pytest.approx(2.0)
     assert iv.lo <= iv.mean <= iv.hi and iv.mean == pytest.approx(3.0)
-    assert iv.lo < 1.0 and iv.hi > 6.0          # wider than the range of the 3 unit means
+    # widened for 3 levels to the whole range of the item values (never beyond it)
+    assert iv.lo == pytest.approx(1.0) and iv.hi == pytest.approx(6.0)
+    assert bootstrap_mean(values + 0.0, units, resamples=50).lo >= values.min()
     assert bootstrap_mean(values, units) == iv
     items = bootstrap_mean(values, [str(i) for i in range(60)])
     assert items.hi - items.lo < (iv.hi - iv.lo) / 3

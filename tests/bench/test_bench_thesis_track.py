@@ -18,6 +18,7 @@ def test_the_thesis_edition_scores_re_pose_of_topwear_and_bottomwear():
     assert ed.dataset == v3.dataset                 # the same data, another protocol
     assert ed.tracks == ("re-pose",) and "p2s_body" in ed.metrics
     assert ed.pairs["categories"] == ["topwear", "bottomwear"]
+    assert ed.pairs["source_poses"] == ["P1"]
 
 
 class _S:
@@ -43,6 +44,11 @@ def test_pair_sampling_keeps_the_named_categories_only():
                                "categories": ["topwear", "bottomwear"]})
     assert {p.source.category for p in got} == {"topwear", "bottomwear"}
     assert all(p.track == "re-pose" for p in got) and len(got) == 8
+    held = sample_pairs(pairs, {"seed": 0, "per_track": {"re-pose": 10},
+                                "source_poses": ["P1"]})
+    assert {p.source.pose_id for p in held} == {"P1"} and {p.target.pose_id for p in held} \
+        == {"P2"}
+    assert not {p.source.sample_id for p in held} & {p.target.sample_id for p in held}
 
 
 def test_p2s_body_is_the_distance_of_garment_vertices_to_the_body():

@@ -158,7 +158,7 @@ def test_get_config_validates_overrides():
     assert get_config(data=DataTerm(cloth_max=0.05)).data.cloth_max == 0.05
     assert get_config(config) is not config and get_config(config) == config
     assert OptimizationRegistrar("fast", seed=2).config == get_config("fast", seed=2)
-    with pytest.raises(InputError, match="preset: expected one of default, naked, clothed"):
+    with pytest.raises(InputError, match="registration preset: expected one of the presets"):
         get_config("slow")
     with pytest.raises(InputError, match=r"unknown option\(s\) \['colour'\]; known: .*cloth_max"):
         get_config(colour="red")
@@ -172,7 +172,8 @@ def test_get_config_validates_overrides():
 @pytest.mark.parametrize("setting, bad, message", [
     ("far_cloth", "loose", "far_cloth: expected one of free, pull"),
     ("init_route", "psychic", "init_route: expected one of hypotheses, keypoints, auto"),
-    ("limb_aim", True, "limb_aim: expected one of none, arms, all"),
+    ("limb_aim", "legs", "limb_aim: expected one of none, arms, all"),
+    ("limb_aim", True, "limbs.limb_aim: expected a string"),
     ("iterations", (60, 160), "iterations: expected three step counts"),
     ("iterations", (60, -1, 160), "iterations: expected three step counts"),
     ("hypothesis_steps", "20,15,40", "hypothesis_steps: expected three step counts"),
@@ -182,11 +183,13 @@ def test_get_config_validates_overrides():
     ("unseen_hit_radius", "0.03", "unseen_hit_radius: expected None or a distance"),
     ("unseen_hit_radius", float("nan"), "unseen_hit_radius: expected None or a distance"),
     ("unseen_hit_radius", True, "unseen_hit_radius: expected None or a distance"),
-    ("cloth_max", None, "cloth_max: expected a number >= 0"),
+    ("cloth_max", None, "data.cloth_max: expected a number"),
+    ("cloth_max", -0.1, "cloth_max: expected a number >= 0"),
     ("n_scan_points", 0, "n_scan_points: expected a whole number >= 1"),
-    ("yaw_candidates", 2.5, "yaw_candidates: expected a whole number >= 1"),
+    ("yaw_candidates", 2.5, "start.yaw_candidates: expected an integer"),
+    ("yaw_candidates", 0, "yaw_candidates: expected a whole number >= 1"),
     ("up", "w", "up: expected one of"),
-    ("limb_search", 1, "limb_search: expected True or False"),
+    ("limb_search", 1, "limbs.limb_search: expected true or false"),
     ("num_threads", 0, "num_threads: expected None or a whole number >= 1"),
     ("seed", -1, "seed: expected a whole number >= 0"),
 ] + [("limb_first_knee_bends", bad, "limb_first_knee_bends: expected a non-empty list")

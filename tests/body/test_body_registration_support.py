@@ -198,8 +198,11 @@ def test_keypoints_are_detected_on_the_scan_without_the_seat(monkeypatch):
         return kp.ScanKeypoints(joints=np.full((model.n_joints, 3), np.nan), views=8,
                                 detections=0, inliers={})
 
-    monkeypatch.setattr(kp, "keypoints_available", lambda: True)
-    monkeypatch.setattr(kp, "detect_keypoints", detect)
+    import dressmeup.body.registration.optimizer as opt
+
+    for mod in (kp, opt):   # the optimizer binds both names when imported
+        monkeypatch.setattr(mod, "keypoints_available", lambda: True)
+        monkeypatch.setattr(mod, "detect_keypoints", detect)
     res = register(scan, model, return_result=True, init_route="keypoints", iterations=(1, 1, 1),
                    n_scan_points=2000, verbose=False, hypotheses=(), limb_search=False,
                    shape_search=False)

@@ -99,3 +99,29 @@ def test_scaled_rig_keeps_the_field_of_view():
     c0, c1 = rig.cameras[0], small.cameras[0]
     assert (c1.width, c1.height) == (320, 288)
     assert c1.width / c1.fx == pytest.approx(c0.width / c0.fx)
+
+
+def test_pose_rule_repairs_tracker_round_off_and_lists_every_camera_beyond(tmp_path):
+    from dressmeup.capture.rig import read_rig
+
+    rng = np.random.default_rng(1)
+    d = ring_rig(3).to_dict()
+    for c in d["cameras"][1:]:
+        m = np.asarray(c["camera_to_world"])
+        m[:3, :3] += rng.normal(scale=1e-4, size=(3, 3))  # |R^T R - I| of a few 1e-4
+        c["camera_to_world"] = m.tolist()
+    (tmp_path / "rig.json").write_text(json.dumps(d))
+    reading = read_rig(tmp_path)
+    assert reading.rig is not None and sorted(reading.repairs) == ["cam1", "cam2"]
+    for cam in reading.rig.cameras:
+        R = cam.camera_to_world[:3, :3]
+        np.testing.assert_allclose(R.T @ R, np.eye(3), atol=1e-12)
+    assert all(0 < r.correction_mm < 1 for r in reading.repairs.values())
+    np.testing.assert_array_equal(reading.rig.cameras[0].camera_to_world, ring_rig(3).cameras[0].camera_to_world)
+    for c in d["cameras"][1:]:
+        c["camera_to_world"][0][0] += 0.01  # beyond 2e-3
+    (tmp_path / "rig.json").write_text(json.dumps(d))
+    with pytest.raises(InputError) as err:
+        load_rig(tmp_path / "rig.json")
+    assert "2 problems" in str(err.value)
+    assert "cameras[1] (cam1)" in str(err.value) and "cameras[2] (cam2)" in str(err.value)

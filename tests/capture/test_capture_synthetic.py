@@ -37,7 +37,7 @@ def test_distorted_camera_depth_is_still_the_plane_after_undistortion():
     subj = SyntheticSubject(V, np.array([[0, 1, 2], [0, 2, 3]]), np.array([2, 2], np.uint8), [])
     fr = render_frames(subj, rig, None)[0]
     und = undistort_frame(fr, cam)
-    P, _ = backproject(und, rig)
+    P, _ = backproject(und)  # the frame carries the rendering camera
     # plane z = 2 + x / 20 (nearest-neighbour resampling costs up to half a pixel of slope)
     resid = P[:, 2] - (2.0 + P[:, 0] / 20.0)
     assert np.percentile(np.abs(resid), 95) < 0.002

@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from dressmeup.capture.frame import with_rig_cameras
 from dressmeup.capture.rig import perturb_rig, ring_rig
 from dressmeup.capture.synthetic import SyntheticSubject, render_frames
 from dressmeup.fusion.cleanup import CleanupConfig, cleanup_mesh
 from dressmeup.fusion.evaluate import extrinsic_errors
 from dressmeup.fusion.filtering import DepthFilterConfig, filter_depth, remove_flying_pixels
-from dressmeup.fusion.icp import refine_extrinsics
 from dressmeup.fusion.pipeline import FusionConfig, fuse_frames, prepare_frames
+from dressmeup.fusion.refine import refine_extrinsics
 
 
 def _sphere(radius=0.3, center=(0, 0.9, 0)):
@@ -62,16 +63,20 @@ def test_tsdf_of_a_sphere_is_accurate_without_noise():
 
 def test_icp_restores_a_drifted_calibration(mannequin):
     rig = ring_rig(7).scaled(0.5)
-    frames = prepare_frames(render_frames(mannequin, rig, None, seed=1), rig)
+    frames = prepare_frames(render_frames(mannequin, rig, None, seed=1))
     drifted = perturb_rig(rig, 1.0, 0.01, seed=2)
     pts = mannequin.vertices[::25]
     before = max(extrinsic_errors(drifted, rig, pts).values())
-    refined, report = refine_extrinsics(frames, drifted)
-    after = extrinsic_errors(refined, rig, pts)
+    cams, report = refine_extrinsics(with_rig_cameras(frames, drifted), reference=rig.reference)
+    after = extrinsic_errors(drifted.with_cameras(list(cams.values())), rig, pts)
     assert before > 0.02
     assert max(after.values()) < 0.25 * before
     assert after[rig.reference] < 1e-9
     assert len(report.edges) >= 6
+    assert not report.refused  # every camera's residual fell
+    for s in rig.serials:
+        if s != rig.reference:
+            assert report.residual_after_mm[s] < 0.5 * report.residual_before_mm[s]
 
 
 def test_cleanup_removes_specks_and_closes_small_holes():

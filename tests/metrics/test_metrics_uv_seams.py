@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dressmeup.metrics.uv import seam_edges, uv_seams
+from dressmeup.metrics.uv_layout import seam_edges, uv_seams
 
 
 def slow_seams(V, F, UV, UF):

@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.data import Dataset
 from dressmeup.errors import InputError
 from dressmeup.io.hashing import sha256_file
 from dressmeup.io.jsonio import parse_json_file, schema_problems
@@ -26,8 +27,6 @@ def open_dataset(root: str):
     root : dataset root as a resolved path string (the cache key).
     """
     # heavy: pyarrow (~0.3 s to import)
-    from dressmeup.data import Dataset
-
     return Dataset(root)
 
 

@@ -27,6 +27,7 @@ from dressmeup.body.registration.hypotheses import CANONICAL_POSES, DEFAULT_HYPO
 from dressmeup.body.registration.limbs import FIRST_KNEE_BENDS
 from dressmeup.body.registration.scan import UP_ROTATIONS
 from dressmeup.errors import InputError
+from dressmeup.hyperparameters import resolve_config
 
 
 @dataclass(frozen=True)
@@ -284,18 +285,16 @@ def get_config(preset: str | RegistrationConfig = "default", **overrides: Any
                ) -> RegistrationConfig:
     """The configuration of ``preset`` (a name of :data:`PRESETS` or a configuration) with
     ``overrides``: settings by name (``seed=3``) or whole groups (``data=DataTerm(...)``).
+    Each group's overrides go through the toolkit's preset rule
+    (:func:`dressmeup.hyperparameters.resolve_config`: ints, floats, booleans and strings
+    typed), then the ranges are checked (:func:`check_config`).
 
     Raises
     ------
     InputError
         Unknown preset, unknown or removed setting, or a value out of its range.
     """
-    if isinstance(preset, RegistrationConfig):
-        config = preset
-    elif isinstance(preset, str) and preset in PRESETS:
-        config = PRESETS[preset]
-    else:
-        raise InputError(f"preset: expected one of {', '.join(PRESETS)}, got {preset!r}")
+    config = resolve_config(PRESETS, preset, {}, what="registration preset")
     unknown = sorted(set(overrides) - set(SETTING_GROUP) - set(GROUPS))
     if unknown:
         gone = "".join(f" ({k}: removed; {REMOVED[k]})" for k in unknown if k in REMOVED)
@@ -310,8 +309,9 @@ def get_config(preset: str | RegistrationConfig = "default", **overrides: Any
     for name, value in overrides.items():
         if name in SETTING_GROUP:
             per_group.setdefault(SETTING_GROUP[name], {})[name] = _normalised(name, value)
-    config = replace(config, **{g: replace(getattr(config, g), **kw)
-                                for g, kw in per_group.items()})
+    for g, kw in per_group.items():  # typed per field by the toolkit's one preset rule
+        part = getattr(config, g)
+        config = replace(config, **{g: resolve_config({g: part}, part, kw, what=g)})
     check_config(config)
     return config
 
@@ -380,10 +380,6 @@ def check_config(config: RegistrationConfig) -> None:
     threads = s["num_threads"]
     if threads is not None and not (_count(threads) and threads >= 1):
         raise InputError(f"num_threads: expected None or a whole number >= 1, got {threads!r}")
-    for name in ("limb_search", "limb_search_after_pose", "limb_search_final", "shape_search",
-                 "remove_support", "verbose"):
-        if not isinstance(s[name], bool):
-            raise InputError(f"{name}: expected True or False, got {s[name]!r}")
     if not _count(s["seed"]):
         raise InputError(f"seed: expected a whole number >= 0, got {s['seed']!r}")
 

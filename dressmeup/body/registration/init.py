@@ -36,7 +36,8 @@ logger = logging.getLogger(__name__)
 
 def place_on_scan(problem, size_init: bool) -> None:
     """Translate (and with ``size_init`` scale) the current body onto the scan's centre."""
-    import torch  # heavy: loaded when a fit runs
+    # heavy: torch (~1.1 s to import)
+    import torch
 
     V = problem.posed_numpy()
     scale = float(torch.exp(problem.log_scale.detach()))
@@ -67,7 +68,8 @@ def yaw_search(problem, objective: Objective, n_steps: int, rates,
     Candidates are compared on the torso, hips and head only: with the limbs, a wrong yaw
     can win (A-pose arms sideways match a walking scan's legs seen from the side).
     """
-    import torch  # heavy: loaded when a fit runs
+    # heavy: torch (~1.1 s to import)
+    import torch
 
     rigid = replace(objective, stage="global", core_only=True)
 
@@ -155,7 +157,8 @@ def hypothesis_search(problem, spec, objective: Objective, verbose: bool = False
     info : dict with the ranked hypotheses (name, yaw in degrees, symmetric score) and the
     step count.
     """
-    import torch  # heavy: loaded when a fit runs
+    # heavy: torch (~1.1 s to import)
+    import torch
 
     model, rates = problem.model, spec.rates
     n_yaw, n_rigid, n_pose = spec.steps
@@ -257,7 +260,8 @@ def keypoint_start(problem, spec, objective: Objective, verbose: bool = False) -
 
     Returns info like :func:`hypothesis_search`.
     """
-    import torch  # heavy: loaded when a fit runs
+    # heavy: torch (~1.1 s to import)
+    import torch
 
     model, rates = problem.model, spec.rates
     ids, targets = problem.kp

@@ -43,7 +43,8 @@ MEDIAPIPE_TO_SMPL: dict[int, str] = {
 def keypoints_available() -> bool:
     """True when mediapipe's legacy pose solution can be imported (``[keypoints]`` extra)."""
     try:
-        import mediapipe as mp  # optional [keypoints] extra
+        # optional dependency (ImportError handled)
+        import mediapipe as mp
 
         return hasattr(mp, "solutions") and hasattr(mp.solutions, "pose")
     except Exception:  # noqa: BLE001 - any import failure means "not available"
@@ -135,7 +136,8 @@ def render_views(scan, cameras: list[Camera]) -> list[np.ndarray]:
 
 
 def _raycast(V: np.ndarray, F: np.ndarray, cam: Camera) -> np.ndarray:
-    import open3d as o3d  # heavy optional dependency
+    # heavy: open3d (~0.8 s to import)
+    import open3d as o3d
 
     scene = o3d.t.geometry.RaycastingScene()
     scene.add_triangles(o3d.core.Tensor(V.astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32)))
@@ -185,7 +187,8 @@ def detect_2d(images: list[np.ndarray], model_complexity: int = 1) -> list[dict 
     ImportError : mediapipe (the ``[keypoints]`` extra) is not installed.
     """
     try:
-        import mediapipe as mp  # optional [keypoints] extra
+        # optional dependency (ImportError handled)
+        import mediapipe as mp
     except ImportError as exc:
         raise ImportError("keypoints from scans need the [keypoints] extra: pip install "
                           "'dressmeup[keypoints]' && pip install --no-deps mediapipe==0.10.14 "

@@ -96,7 +96,8 @@ class FitProblem:
 
     def __init__(self, model, P: np.ndarray, kp, data, priors, seed: int = 0,
                  device: str = "cpu"):
-        import torch  # heavy: loaded when a fit runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         self.model, self.P, self.kp, self.data, self.priors = model, P, kp, data, priors
         self.dev = torch.device(device)
@@ -161,7 +162,8 @@ class FitProblem:
     def set_params(self, shape: np.ndarray | None = None, pose: np.ndarray | None = None,
                    transl: np.ndarray | None = None, scale: float | None = None) -> None:
         """Overwrite some parameters (numpy, float64 ok); ``shape`` in model units."""
-        import torch  # heavy: loaded when a fit runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         with torch.no_grad():
             if shape is not None:
@@ -179,7 +181,8 @@ class FitProblem:
 
     def shape_value(self):
         """The shape in model units (sigmoid of ``shape_z`` for phenotype models)."""
-        import torch  # heavy: loaded when a fit runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         return torch.sigmoid(self.shape_z) if self.phenotype else self.shape_z
 
@@ -190,7 +193,8 @@ class FitProblem:
 
     def restore(self, snap: dict[str, Any]) -> None:
         """Set the free parameters back to a :meth:`snapshot`."""
-        import torch  # heavy: loaded when a fit runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         with torch.no_grad():
             for k, v in snap.items():
@@ -199,7 +203,8 @@ class FitProblem:
     def body_params(self) -> BodyParams:
         """The current parameters as :class:`BodyParams` (``scale`` 1: a fit ends with its
         size in the shape)."""
-        import torch  # heavy: loaded when a fit runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         with torch.no_grad():
             shape = self.shape_value().cpu().numpy().astype(np.float64)
@@ -223,7 +228,8 @@ class FitProblem:
         -------
         rms : float, remaining rest-shape mismatch (m) after the handover.
         """
-        import torch  # heavy: loaded when a fit runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         with torch.no_grad():
             scale = torch.exp(self.log_scale)
@@ -256,7 +262,8 @@ class FitProblem:
         """The value (float) of ``objective`` at the current parameters, with fresh
         correspondences: what a stage's first step would see, without the shape stage's
         pull of the temporary scale back to 1 (it grows over a stage from zero weight)."""
-        import torch  # heavy: loaded when a fit runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         with torch.no_grad():
             loss, _ = self.loss(objective)
@@ -264,7 +271,8 @@ class FitProblem:
 
     def posed_numpy(self) -> np.ndarray:
         """(n, 3) float64 vertices of the whole body at the current parameters."""
-        import torch  # heavy: loaded when a fit runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         with torch.no_grad():
             out = self.model.forward(self.shape_value()[None], self.pose[None], self.transl[None],
@@ -275,7 +283,8 @@ class FitProblem:
     def _rest_normals(self, shape):
         """(b, 3) torch normals of the body points on the rest body of ``shape`` (s,); the
         last shape's are kept (the stages that hold the shape ask for the same ones)."""
-        import torch  # heavy: loaded when a fit runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         key = shape.detach().cpu().numpy().tobytes()
         if self._normals is None or self._normals[0] != key:
@@ -300,7 +309,8 @@ class FitProblem:
             cached rest body is reused (the same values, and the same gradients for the
             other parameters); for steps that do not move the shape.
         """
-        import torch  # heavy: loaded when a fit runs
+        # heavy: torch (~1.1 s to import)
+        import torch
 
         pairs = Correspondences() if pairs is None else pairs
         o, stage = self.data, objective.stage

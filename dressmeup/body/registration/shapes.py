@@ -44,7 +44,8 @@ BUILD_GRID = tuple((m, w, p) for m in (0.0, 0.5, 1.0) for w in (0.0, 0.5, 1.0)
 def statures(model, shapes: np.ndarray) -> np.ndarray:
     """(b,) extents (m) along y of ``model``'s rest bodies with ``shapes`` (b, k): one
     batched rest body (:meth:`~dressmeup.body.base.LBSBodyModel.rest_extent`)."""
-    import torch  # heavy: loaded when a fit runs
+    # heavy: torch (~1.1 s to import)
+    import torch
 
     with torch.no_grad():
         return model.rest_extent(torch.as_tensor(np.asarray(shapes, np.float64)), 1).numpy()
@@ -99,7 +100,8 @@ def shape_search(problem, spec, keypoints: float = 0.0, verbose: bool = False
     losses : the kept start's loss terms, prefixed ``search_`` (none when the fitted body
         stays).
     """
-    import torch  # heavy: loaded when a fit runs
+    # heavy: torch (~1.1 s to import)
+    import torch
 
     shapes = stature_matched_shapes(problem.model, problem.body_params().shape, BUILD_GRID)
     if not shapes:

@@ -83,7 +83,8 @@ def one_sided_cost(res, diff, weight, sigma_out: float, sigma_in: float, inside_
         ``cloth_max`` does: no excess cost, and the point-to-point term is capped at
         ``cloth_max`` (loose cloth a dress's width off the legs stops bending them into it).
     """
-    import torch  # heavy: loaded when a fit runs
+    # heavy: torch (~1.1 s to import)
+    import torch
 
     inside = inside_weight * geman_mcclure(res * res, sigma_in)
     dist2 = (diff * diff).sum(-1)
@@ -103,7 +104,8 @@ def pose_prior(pose, prior_scale, lim_ids, lim_lo, lim_hi, prior_weight: float,
                limit_weight: float):
     """Squared joint rotations (root excluded, per-joint ``prior_scale`` (j-1, 1)) plus
     squared violations of the soft joint limits (``lim_*``: limited joints and bounds)."""
-    import torch  # heavy: loaded when a fit runs
+    # heavy: torch (~1.1 s to import)
+    import torch
 
     prior = prior_weight * (prior_scale * pose[1:] ** 2).sum()
     if len(lim_ids):
@@ -153,7 +155,8 @@ def unseen_free_weights(normals, nn_b2s, nn_s2b, neighbourhoods=None):
     nn_s2b : (p,) body index of each scan point; neighbourhoods : None or (b, m) int64
         torch indices into the body points, padded with b.
     """
-    import torch  # heavy: loaded when a fit runs
+    # heavy: torch (~1.1 s to import)
+    import torch
 
     seen = (normals * normals[nn_s2b[nn_b2s]]).sum(-1) > 0
     if neighbourhoods is not None:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dressmeup.capture.rig import Rig, save_rig
+from dressmeup.capture.rig import Rig, load_rig, save_rig
 from dressmeup.io.atomic import atomic_path, atomic_write_text
 
 __all__ = ["GroundTruth", "load_ground_truth", "write_ground_truth"]
@@ -48,7 +48,6 @@ def load_ground_truth(session_root: str | os.PathLike) -> GroundTruth:
     ------
     FileNotFoundError when the session has no ground truth (a real capture).
     """
-    from dressmeup.capture.rig import load_rig
 
     gt = Path(session_root) / "ground_truth"
     if not (gt / "scan.npz").is_file():

@@ -63,6 +63,7 @@ class NoiseModel:
         -------
         (h, w) uint8
         """
+        # heavy: cv2 (~0.3 s to import)
         import cv2
 
         out = labels.copy()

@@ -95,6 +95,7 @@ def make_mannequin(n_around: int = 160, n_up: int = 240, seed: int = 0) -> Synth
     -------
     SyntheticSubject
     """
+    # heavy: scipy (~0.5 s to import)
     from scipy.interpolate import PchipInterpolator
 
     py, pa, pb = _profile()
@@ -188,6 +189,7 @@ def label_faces_by_garments(vertices: np.ndarray, faces: np.ndarray,
     -------
     (m,) uint8 face labels.
     """
+    # heavy: open3d (~0.8 s to import)
     import open3d as o3d
 
     cent = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)].mean(axis=1)
@@ -204,6 +206,7 @@ def label_faces_by_garments(vertices: np.ndarray, faces: np.ndarray,
 
 
 def _read_mesh(path: Path) -> Any:
+    # heavy: trimesh (~0.7 s to import)
     import trimesh
 
     try:
@@ -243,6 +246,7 @@ def subject_from_sample(sample_dir: str | os.PathLike, tolerance: float = 0.004,
     manifest = subject_dir.parent.parent / "manifest.parquet"
     if manifest.is_file():
         try:
+            # optional dependency (ImportError handled)
             import pandas as pd
 
             df = pd.read_parquet(manifest)

@@ -29,7 +29,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from dressmeup.geometry.mesh import edges
+from dressmeup.geometry.mesh import edges, face_areas, face_normals
+from dressmeup.geometry.proximity import closest_points
+from dressmeup.geometry.winding import winding_number
 
 
 @dataclass
@@ -80,8 +82,6 @@ def hinge_pairs(F: np.ndarray) -> np.ndarray:
 
 
 def _vertex_areas(V, F):
-    from dressmeup.geometry.mesh import face_areas
-
     a = face_areas(V, F) / 3.0
     out = np.zeros(len(V))
     for k in range(3):
@@ -92,9 +92,6 @@ def _vertex_areas(V, F):
 def _body_query(body_V, body_F, x, exact_faces=False):
     """Signed distance (positive outside), closest points and outward unit directions
     (``exact_faces``: see :func:`dressmeup.geometry.proximity.closest_points`)."""
-    from dressmeup.geometry.mesh import face_normals
-    from dressmeup.geometry.proximity import closest_points
-    from dressmeup.geometry.winding import winding_number
 
     d, p, fid = closest_points(body_V, body_F, x, exact_faces=exact_faces)
     inside = winding_number(body_V, body_F, x) > 0.5
@@ -134,6 +131,7 @@ def drape(rest_V: np.ndarray, faces: np.ndarray, skinned: np.ndarray, support: n
     skinned and draped vertices), ``min_signed_distance_m`` (to the body, after draping),
     ``stretch_mean`` (mean |l/L - 1| over edges), ``energy_start`` / ``energy_end``.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     threads = torch.get_num_threads()
@@ -147,6 +145,7 @@ def drape(rest_V: np.ndarray, faces: np.ndarray, skinned: np.ndarray, support: n
 
 def _self_pairs(x: np.ndarray, rest_V: np.ndarray, thickness: float) -> np.ndarray:
     """Vertex pairs ``(k, 2)`` closer than ``2 thickness`` in ``x`` but far apart on the cloth."""
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial import cKDTree
 
     P = cKDTree(x).query_pairs(2.0 * thickness, output_type="ndarray")
@@ -159,6 +158,7 @@ def _self_pairs(x: np.ndarray, rest_V: np.ndarray, thickness: float) -> np.ndarr
 
 def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=None,
            exact_faces=False):
+    # heavy: torch (~1.1 s to import)
     import torch
 
     s = settings or DrapeSettings()

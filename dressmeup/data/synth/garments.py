@@ -19,6 +19,11 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.geometry.mesh import face_areas, face_normals
+from dressmeup.geometry.proximity import closest_points
+from dressmeup.geometry.sampling import sample_surface
+from dressmeup.geometry.winding import winding_number
+
 log = logging.getLogger(__name__)
 
 ARM_JOINTS = ("left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist",
@@ -123,12 +128,9 @@ def _grid_sdf(body_V, body_F, lo, hi, h, level):
     border. Grid points within ``2 h`` of the level set are then recomputed exactly: the
     distance by a k-d tree over the surface samples, the sign by the winding number.
     """
+    # heavy: scipy (~0.5 s to import)
     from scipy import ndimage
     from scipy.spatial import cKDTree
-
-    from dressmeup.geometry.mesh import face_areas
-    from dressmeup.geometry.sampling import sample_surface
-    from dressmeup.geometry.winding import winding_number
 
     area = face_areas(body_V, body_F).sum()
     n_samples = int(min(max(area / (h / 3) ** 2, 20000), 400000))
@@ -156,6 +158,7 @@ def _grid_sdf(body_V, body_F, lo, hi, h, level):
 
 
 def _largest_component(F: np.ndarray, n: int) -> np.ndarray:
+    # heavy: scipy (~0.5 s to import)
     from dressmeup.geometry.topology import largest_component_faces
 
     return F[largest_component_faces(F, n)]
@@ -208,6 +211,7 @@ def _smooth_boundary(V, F, planes, h, iterations=6):
 
 
 def _remesh(V, F, edge_length, iterations=6):
+    # heavy: pymeshlab (~0.3 s to import)
     import pymeshlab
 
     ms = pymeshlab.MeshSet()
@@ -238,7 +242,8 @@ def _remesh(V, F, edge_length, iterations=6):
 
 
 def _uv(V, F):
-    from dressmeup.geometry.uv_atlas import xatlas_atlas
+    # heavy: scipy (~0.5 s to import)
+    from dressmeup.geometry.uv_packing import xatlas_atlas
 
     # xatlas' defaults and raw (not square-texel) UVs: the released synthetic datasets were
     # made this way, so the garments' UVs and the dataset hashes stay as they are.
@@ -277,6 +282,7 @@ def build_garment(garment_type: str, params: dict[str, Any], body_V: np.ndarray,
     off = params["offset"]
     hip_h = 0.5 * (frame.h(J["left_hip"]) + frame.h(J["right_hip"]))
     ankle_h = 0.5 * (frame.h(J["left_ankle"]) + frame.h(J["right_ankle"]))
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial import cKDTree
 
     body_tree = cKDTree(body_V)
@@ -347,6 +353,7 @@ def build_garment(garment_type: str, params: dict[str, Any], body_V: np.ndarray,
         cone = (rr - 1.0) * np.minimum(a_lat, a_fwd)
         cone = np.where(frame.h(GV) > hip_h + 0.02, np.inf, cone)
         S = np.minimum(S, cone)
+    # heavy: igl (~0.4 s to import)
     import igl
 
     MV, MF, _ = igl.marching_cubes(S, GV, int(n[0]), int(n[1]), int(n[2]), 0.0)
@@ -367,9 +374,6 @@ def build_garment(garment_type: str, params: dict[str, Any], body_V: np.ndarray,
     F = _largest_component(F, len(V))
     V, F = _compact(V, F)
     # orient outward (away from the body)
-    from dressmeup.geometry.mesh import face_normals
-    from dressmeup.geometry.proximity import closest_points
-
     cen = V[F].mean(1)
     _, p, _ = closest_points(body_V, body_F, cen)
     if np.sum(face_normals(V, F) * (cen - p)) < 0:

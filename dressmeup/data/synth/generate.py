@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.body import BodyParams, get_body_model
+from dressmeup.body.skinning import lbs
 from dressmeup.data.splits import split_by_garment
 from dressmeup.data.synth.drape import DrapeSettings, drape
 from dressmeup.data.synth.dressing import garment_weights
@@ -38,9 +40,11 @@ from dressmeup.data.synth.garments import (
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
 from dressmeup.data.synth.stats import summarize_stats
 from dressmeup.data.synth.texture import procedural_texture
+from dressmeup.data.synth.wardrobe import VERSION, generate_v3
 from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.mesh import save_mesh
 from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
@@ -141,11 +145,8 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
     -------
     Path of the dataset root.
     """
-    from dressmeup.body import BodyParams, get_body_model
 
     if str(version).startswith("2."):
-        from dressmeup.data.synth.wardrobe import VERSION, generate_v3
-
         if version != VERSION:
             retired = (" (2.0.0's drapes depended on the CPU's float32 rounding; "
                        "docs/synthetic-data.md, Reproducibility)" if version == "2.0.0" else "")
@@ -238,7 +239,6 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                                 edge_length=edge)
         W = garment_weights(garment, rest_V, skin_F, np.asarray(model.skinning_weights)[keep],
                              names, frame)
-        from dressmeup.io.mesh import save_mesh
 
         save_mesh(out / "generator" / "rest" / f"{gid}.ply", garment.vertices, garment.faces,
                   uv=garment.uv, uv_faces=garment.uv_faces)
@@ -255,7 +255,6 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
             bp = BodyParams(model=model.name, shape=shape, pose=pose,
                             gender=getattr(model, "gender", "neutral"))
             posed = model.posed(bp)
-            from dressmeup.body.skinning import lbs
 
             skinned = lbs(garment.vertices, W, posed.transforms)
             res = drape(garment.vertices, garment.faces, skinned, garment.support,

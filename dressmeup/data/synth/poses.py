@@ -79,6 +79,7 @@ def pose_axis_angle(name: str, joint_names: tuple[str, ...], frame: Any,
     rng : random generator for the jitter; None gives the exact library pose.
     jitter_deg : std of the per-rotation perturbation (default: the library's).
     """
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial.transform import Rotation
 
     if jitter_deg is None:

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dressmeup.geometry.mesh import vertex_normals
+
 SCAN_BODY = ("whole", "uncovered")
 #: how far along the skin normal a garment still covers it (metres): a loose dress stands
 #: up to ~20 cm off the legs when sitting
@@ -40,7 +42,6 @@ def covered_vertices(body_V: np.ndarray, body_F: np.ndarray, garment_V: np.ndarr
     -------
     (n,) bool array.
     """
-    from dressmeup.geometry.mesh import vertex_normals
 
     V = np.asarray(body_V, np.float64)
     N = vertex_normals(V, body_F)

@@ -45,20 +45,34 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import multiprocessing
 import os
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from dressmeup.body import BodyParams, get_body_model
+from dressmeup.body.skinning import lbs
 from dressmeup.data.synth.drape import DrapeSettings, drape
 from dressmeup.data.synth.dressing import garment_weights
 from dressmeup.data.synth.garments import BodyFrame, build_garment, sample_params
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
 from dressmeup.data.synth.scans import SCAN_BODY, clothed_scan
 from dressmeup.data.synth.stats import summarize_stats
+from dressmeup.data.synth.texture import procedural_texture
+from dressmeup.data.writer import DatasetWriter
+from dressmeup.executors import LocalExecutor, in_order
+from dressmeup.executors.local import die_with_parent
+from dressmeup.geometry.mesh import edges, face_areas
+from dressmeup.geometry.proximity import closest_points
+from dressmeup.geometry.winding import winding_number
+from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.mesh import save_mesh
+from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
 
@@ -134,9 +148,11 @@ def canonical_numerics():
 @contextlib.contextmanager
 def single_threaded():
     """Hold torch (and numpy's BLAS when threadpoolctl is installed) at one thread."""
+    # heavy: torch (~1.1 s to import)
     import torch
 
     try:  # optional: numpy's BLAS pool (its gemm results do not depend on it)
+        # optional dependency (ImportError handled)
         from threadpoolctl import threadpool_limits
     except ImportError:
         threadpool_limits = None
@@ -273,7 +289,6 @@ def transfer_to_body(points: np.ndarray, from_V: np.ndarray, to_V: np.ndarray,
     -------
     (p, 3) float64 points near ``to_V``.
     """
-    from dressmeup.geometry.proximity import closest_points
 
     F = np.asarray(faces, np.int64)
     _, p, fid = closest_points(from_V, F, points, exact_faces=True)
@@ -308,11 +323,8 @@ def drape_stats(V: np.ndarray, F: np.ndarray, rest_V: np.ndarray, body_V: np.nda
     ``strain_mean`` / ``strain_p99`` (|l / L - 1| over edges), ``self_intersecting_faces``
     (pymeshlab).
     """
+    # heavy: pymeshlab (~0.3 s to import)
     import pymeshlab
-
-    from dressmeup.geometry.mesh import edges, face_areas
-    from dressmeup.geometry.proximity import closest_points
-    from dressmeup.geometry.winding import winding_number
 
     d, _, _ = closest_points(body_V, body_F, V, exact_faces=True)
     inside = winding_number(body_V, body_F, V) > 0.5
@@ -343,7 +355,6 @@ class PoseDraper:
 
     def posed(self, pose: np.ndarray):
         """(posed skin vertices (n, 3) rounded, LBS transforms (j, 4, 4) rounded)."""
-        from dressmeup.body import BodyParams
 
         out = self.model.posed(BodyParams(model=self.model.name, shape=self.shape, pose=pose))
         return (quantize(np.asarray(out.vertices)[self.keep], BODY_DECIMALS),
@@ -351,7 +362,6 @@ class PoseDraper:
 
     def __call__(self, pose: np.ndarray, up: np.ndarray):
         """Drape at ``pose``; returns ``(DrapeResult of the last step, posed skin vertices)``."""
-        from dressmeup.body.skinning import lbs
 
         prev, prev_skin, res, body_V = self.fitted, self.fitted, None, None
         for k in range(1, self.steps + 1):
@@ -421,9 +431,6 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     -------
     Path of the dataset root.
     """
-    from dressmeup.data.writer import DatasetWriter
-    from dressmeup.executors import LocalExecutor
-    from dressmeup.progress import progress
 
     gps = tuple(int(x) for x in garments_per_split)
     if len(gps) != 3:
@@ -481,9 +488,6 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     if todo and executor is not None:
         _run_on(executor, setup, todo, writer, out, bar)
     elif todo:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
         # the numbers are computed in fresh worker processes whose libraries load with the
         # canonical numerics (CANONICAL_ENV); this process only writes, in plan order
         ctx = multiprocessing.get_context("spawn")
@@ -511,7 +515,6 @@ def _setup(body_model, plan, edge, settings, pose_steps, seed, texture_size, wri
                       texture_size, write_scan, scan_body], sort_keys=True, default=str)
     if _STATE.get("key") == key:
         return
-    from dressmeup.body import BodyParams, get_body_model
     model = get_body_model(body_model)
     keep, skin_F = model.skin()
     names = tuple(model.joint_names)
@@ -544,6 +547,7 @@ class GarmentJob:
         self.setup = setup
 
     def __call__(self, job) -> dict[str, Any]:
+        # heavy: torch (~1.1 s to import)
         import torch
 
         torch.set_num_threads(1)
@@ -554,7 +558,6 @@ class GarmentJob:
 def _run_on(executor: Any, setup: tuple, todo: list, writer: Any, out: Path, bar: Any) -> None:
     """Compute the garments of ``todo`` on ``executor`` (one job per garment; a Dask cluster's
     workers start with :data:`CANONICAL_ENV`) and write them here, in plan order."""
-    from dressmeup.executors import in_order
 
     if hasattr(executor, "worker_env"):  # Dask: the numerics are set at worker start
         executor.worker_env = {**CANONICAL_ENV, **executor.worker_env}
@@ -568,13 +571,13 @@ def _run_on(executor: Any, setup: tuple, todo: list, writer: Any, out: Path, bar
 
 
 def _init_worker(parent_pid: int, *setup) -> None:
+    # heavy: torch (~1.1 s to import)
     import torch
-
-    from dressmeup.executors.local import die_with_parent
 
     die_with_parent(parent_pid)  # a killed generation leaves no worker behind
     torch.set_num_threads(1)
     try:
+        # optional dependency (ImportError handled)
         from threadpoolctl import threadpool_limits
 
         threadpool_limits(limits=1)
@@ -586,7 +589,6 @@ def _init_worker(parent_pid: int, *setup) -> None:
 def _garment_job(job) -> dict[str, Any]:
     """Build one garment on its design body, fit it to the subjects, drape the missing
     samples; returns every array to write (computed in a worker or in the main process)."""
-    from dressmeup.data.synth.texture import procedural_texture
 
     gid, g, missing = job
     S = _STATE
@@ -626,8 +628,6 @@ def _garment_job(job) -> dict[str, Any]:
             Vd = quantize(out.vertices, STORE_DECIMALS)
             scan = None
             if S["write_scan"]:
-                from dressmeup.body import BodyParams
-
                 BV = quantize(model.posed(BodyParams(model=model.name, shape=body.shape,
                                                pose=pose)).vertices, STORE_DECIMALS)
                 scan = clothed_scan(BV, model.faces, Vd, F, S["scan_body"])
@@ -644,9 +644,6 @@ def _garment_job(job) -> dict[str, Any]:
 
 def _write_garment(writer, out: Path, res: dict[str, Any], bar) -> None:
     """Write one garment's files (rest, fitted, stats, then each sample) in plan order."""
-    from dressmeup.body import BodyParams
-    from dressmeup.io.atomic import atomic_write_text
-    from dressmeup.io.mesh import save_mesh
 
     gid, g, F = res["gid"], res["g"], res["F"]
     save_mesh(out / "generator" / "rest" / f"{gid}.ply", res["V0"], F, uv=res["uv"],

@@ -249,8 +249,10 @@ class IsomapRefine(IsomapRetarget):
 
     def fit_samples(self, samples: list[RefineSample], body_model_name: str = "", callback=None,
                     val_samples: list[RefineSample] | None = None, wall_seconds: float | None = None,
-                    checkpoint=None, val_every: int = 50, checkpoint_every: int = 50) -> IsomapRefine:
-        """Train on already prepared samples (:meth:`prepare`); see :meth:`fit`.
+                    checkpoint=None, val_every: int = 50, checkpoint_every: int = 50,
+                    until_converged: bool = False) -> IsomapRefine:
+        """Train on already prepared samples (:meth:`prepare`); see :meth:`fit` (and
+        :func:`~dressmeup.methods.retarget.train.train_network` for ``until_converged``).
 
         The samples must come from the same coarse-stage and input settings (``dim``,
         ``k_neighbors``, ``n_points``, ...) as this object's; the loss settings may differ,
@@ -259,9 +261,10 @@ class IsomapRefine(IsomapRetarget):
 
         if not samples:
             raise ValueError("samples: expected at least one prepared sample")
-        net, history = train_network(self, samples, val_samples, steps=int(self.steps), wall_seconds=wall_seconds,
-                                     val_every=val_every, checkpoint=checkpoint, checkpoint_every=checkpoint_every,
-                                     callback=callback)
+        net, history = train_network(self, samples, val_samples, steps=int(self.steps),
+                                     wall_seconds=wall_seconds, val_every=val_every,
+                                     checkpoint=checkpoint, checkpoint_every=checkpoint_every,
+                                     callback=callback, until_converged=until_converged)
         self.network_ = net
         self.history_ = history
         self.loss_history_ = [(t, terms) for _, t, terms in history.train]

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from dressmeup.io.atomic import atomic_write_bytes
+from dressmeup.methods.nn.convergence import converged
 from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
@@ -100,7 +101,8 @@ def _state_bytes(obj: Any) -> bytes:
 
 def train_network(method, samples: list, val_samples: list | None = None, steps: int = 300,
                   wall_seconds: float | None = None, val_every: int = 50, checkpoint: str | Path | None = None,
-                  checkpoint_every: int = 50, callback=None):
+                  checkpoint_every: int = 50, callback=None, until_converged: bool = False,
+                  tol: float = 0.01):
     """Train ``method``'s network on prepared samples; see the module docstring.
 
     Parameters
@@ -109,8 +111,13 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
         ``features(sample)``, ``lr`` and ``seed``.
     samples : list of RefineSample (training split).
     val_samples : list of RefineSample (validation split), optional.
-    steps : int, total steps (a resumed run continues up to this count).
-    wall_seconds : float, optional wall budget of this invocation.
+    steps : int, total steps (a resumed run continues up to this count); with
+        ``until_converged`` the most steps.
+    wall_seconds : float, optional wall budget of this invocation (a resumed run goes on).
+    until_converged : stop when the validation figure (ED with ground truth, else the loss)
+        has improved by less than ``tol`` over the last 20 % of the steps
+        (:func:`dressmeup.methods.nn.convergence.converged`); ``stopped_by`` says
+        ``converged``. Needs validation samples.
     val_every, checkpoint_every : int, steps between validations / checkpoints.
     checkpoint : path, optional; resumed from when it exists.
     callback : callable(step, total, terms), optional.
@@ -125,6 +132,8 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
     if not samples:
         raise ValueError("samples: expected at least one prepared training sample")
     val_samples = list(val_samples or [])
+    if until_converged and not val_samples:
+        raise ValueError("until_converged: give validation samples (the rule watches them)")
     net = method.new_network()
     opt = torch.optim.Adam(net.parameters(), lr=float(method.lr))
     history = TrainHistory()
@@ -186,9 +195,16 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
             history.stopped_by = "wall budget"
             step += 1
             break
+        if until_converged and val_samples and (step + 1) % int(val_every) == 0:
+            run_validation(step + 1)
+            figure = [(s_, e if np.isfinite(e) else lo) for s_, lo, e in history.val]
+            if converged(figure, tol):
+                history.stopped_by = "converged"
+                step += 1
+                break
     else:
         step = int(steps)
-    if val_samples:
+    if val_samples and not any(v[0] == step for v in history.val):
         run_validation(step)
     history.wall_seconds = wall0 + time.perf_counter() - t_wall
     history.cpu_seconds = cpu0 + time.process_time() - t_cpu

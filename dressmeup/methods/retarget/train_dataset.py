@@ -23,7 +23,8 @@ def train_from_dataset(data, out, method: str = "isomap-refine", params: dict | 
                        val_split: str | None = "val", steps: int = 300, max_triplets: int | None = None,
                        max_val: int = 16, seed: int = 0, wall_minutes: float | None = None,
                        checkpoint=None, val_every: int = 50, checkpoint_every: int = 50, half: bool = False,
-                       curves=None, exclude_garments=(), callback=None) -> dict[str, Any]:
+                       curves=None, exclude_garments=(), callback=None,
+                       until_converged: bool = False) -> dict[str, Any]:
     """Train a refinement network on a dataset's split and save it: the library side of
     ``dressmeup baseline train-retarget``.
 
@@ -44,6 +45,8 @@ def train_from_dataset(data, out, method: str = "isomap-refine", params: dict | 
     checkpoint, val_every, checkpoint_every : see :func:`train_network`.
     half : store the weights as float16; curves : PNG path of the learning curves (None: none).
     exclude_garments : garment ids not to train on.
+    until_converged : stop on the convergence rule (``steps`` is then the most steps; see
+        :func:`~dressmeup.methods.retarget.train.train_network`).
 
     Returns
     -------
@@ -71,7 +74,8 @@ def train_from_dataset(data, out, method: str = "isomap-refine", params: dict | 
     ckpt = Path(checkpoint) if checkpoint else out.with_suffix(out.suffix + ".ckpt")
     m.fit_samples(samples, model.name, callback=callback, val_samples=val_samples,
                   wall_seconds=None if wall_minutes is None else 60.0 * float(wall_minutes),
-                  checkpoint=ckpt, val_every=val_every, checkpoint_every=checkpoint_every)
+                  checkpoint=ckpt, val_every=val_every, checkpoint_every=checkpoint_every,
+                  until_converged=until_converged)
     h = m.history_
     train_ids = sorted({p for p in leakage["train_garments"]} - set(exclude_garments))
     info = {

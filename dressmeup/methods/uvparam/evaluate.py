@@ -6,7 +6,7 @@ import numpy as np
 
 from dressmeup.methods.uvparam.base import UVResult
 from dressmeup.metrics import ase_details, qce_details, uv_validity
-from dressmeup.metrics.uv import uv_seams
+from dressmeup.metrics.uv_layout import uv_seams
 
 __all__ = ["score_uv", "markdown_table"]
 

@@ -7,7 +7,8 @@ import time
 import numpy as np
 
 from dressmeup.geometry.mesh import as_arrays
-from dressmeup.geometry.uv_atlas import pack_charts, parameterize_charts
+from dressmeup.geometry.uv_atlas import parameterize_charts
+from dressmeup.geometry.uv_packing import pack_charts
 from dressmeup.methods.uvparam.base import UVResult
 from dressmeup.methods.uvparam.segmentation import normal_cone_segmentation
 

@@ -16,7 +16,8 @@ from typing import Any
 import numpy as np
 
 from dressmeup.geometry.mesh import as_arrays
-from dressmeup.geometry.uv_atlas import pack_charts, parameterize_charts
+from dressmeup.geometry.uv_atlas import parameterize_charts
+from dressmeup.geometry.uv_packing import pack_charts
 from dressmeup.methods.uvparam.base import UVResult
 from dressmeup.methods.uvparam.lscm import lscm_flatten
 from dressmeup.methods.uvparam.neural.method import NeuralMethod

@@ -16,7 +16,8 @@ from collections import deque
 import numpy as np
 
 from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
-from dressmeup.geometry.uv_atlas import face_adjacency, make_disk_charts, merge_small_charts
+from dressmeup.geometry.topology import face_adjacency
+from dressmeup.geometry.uv_atlas import make_disk_charts, merge_small_charts
 
 __all__ = ["normal_cone_segmentation"]
 

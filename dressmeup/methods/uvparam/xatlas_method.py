@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 
 from dressmeup.geometry.mesh import as_arrays
-from dressmeup.geometry.uv_atlas import uv_components, xatlas_atlas
+from dressmeup.geometry.uv_packing import uv_components, xatlas_atlas
 from dressmeup.methods.uvparam.base import UVResult
 
 __all__ = ["XatlasMethod"]

@@ -9,12 +9,11 @@ from dressmeup.data.shapes import make_test_mesh, parse_mesh_id
 from dressmeup.geometry.uv_atlas import (
     chart_is_disk,
     make_disk_charts,
-    orient_charts,
-    pack_charts,
     parameterize_charts,
     signed_uv_areas,
     split_charts,
 )
+from dressmeup.geometry.uv_packing import orient_charts, pack_charts
 from dressmeup.methods.uvparam import get_method
 from dressmeup.methods.uvparam.lscm import lscm_flatten
 from dressmeup.methods.uvparam.segmentation import normal_cone_segmentation
@@ -142,7 +141,7 @@ def test_test_meshes_are_deterministic_and_sized():
 
 
 def test_shelf_pack_keeps_charts_apart_and_undistorted():
-    from dressmeup.geometry.uv_atlas import shelf_pack, uv_components
+    from dressmeup.geometry.uv_packing import shelf_pack, uv_components
 
     V, F = make_test_mesh("torus-600")
     ids = normal_cone_segmentation(V, F)

@@ -9,7 +9,7 @@ pytest.importorskip("torch")
 
 from dressmeup.data.shapes import make_test_mesh  # noqa: E402
 from dressmeup.methods.uvparam import get_method  # noqa: E402
-from dressmeup.metrics.uv import uv_validity  # noqa: E402
+from dressmeup.metrics.uv_layout import uv_validity  # noqa: E402
 
 
 def test_same_charts_as_the_neural_method_and_a_valid_layout():

@@ -127,7 +127,7 @@ def test_cli_writes_a_submission(tmp_path):
 
 
 def test_converged_rule():
-    from dressmeup.methods.uvparam.neural.train_set import converged
+    from dressmeup.methods.nn.convergence import converged
 
     falling = [(s, 1.0 / s) for s in range(10, 210, 10)]
     assert not converged(falling)                       # still improving a lot

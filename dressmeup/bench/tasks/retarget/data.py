@@ -43,8 +43,10 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     For every source garment and every track of ``pairs_spec["per_track"]`` (track -> n),
     ``n`` pairs are drawn without replacement (all when fewer) by a generator seeded with
     ``(seed, crc32(garment id), track index)``, so the choice for one garment does not
-    depend on the others; tracks not named are dropped, and with ``"categories"`` so are
-    garments of other categories (the thesis protocol: topwear and bottomwear).
+    depend on the others; tracks not named are dropped, with ``"categories"`` so are
+    garments of other categories, and with ``"source_poses"`` every pair whose source is in
+    another pose or whose target is in one of those poses (sources and targets then never
+    overlap: every answer can be withheld; the thesis protocol: held-out poses).
 
     Parameters
     ----------
@@ -64,6 +66,10 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     cats = pairs_spec.get("categories")
     if cats:
         pairs = [p for p in pairs if p.source.category in cats]
+    poses = pairs_spec.get("source_poses")
+    if poses:
+        pairs = [p for p in pairs if p.source.pose_id in poses
+                 and p.target.pose_id not in poses]
     order = sorted(per)
     groups: dict[tuple[str, str], list] = {}
     for p in pairs:

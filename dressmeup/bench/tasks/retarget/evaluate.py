@@ -33,6 +33,7 @@ from dressmeup.bench.tasks.retarget.data import _sample, open_dataset, read_pred
 from dressmeup.body import get_body_model
 from dressmeup.cache import cache_dir, hash_arrays
 from dressmeup.geometry.sampling import sample_surface
+from dressmeup.geometry.topology import largest_component_faces
 from dressmeup.io.atomic import atomic_path
 from dressmeup.metrics import interpenetration_ratio
 from dressmeup.progress import progress
@@ -42,8 +43,6 @@ from dressmeup.progress import progress
 def largest_component(F: np.ndarray, n_vertices: int) -> np.ndarray:
     """Faces ``(k, 3)`` of the largest connected component (by face count) of a mesh."""
     # heavy: scipy (~0.5 s to import)
-    from dressmeup.geometry.topology import largest_component_faces
-
     F = np.asarray(F, dtype=np.int64)
     return F[largest_component_faces(F, n_vertices)]
 

@@ -15,7 +15,8 @@ from dressmeup.bench.tasks.base import STATUS_OK, Item
 from dressmeup.bench.tasks.uvparam.data import read_prediction
 from dressmeup.errors import InputError
 from dressmeup.io.mesh import load_mesh
-from dressmeup.metrics.uv import ase_details, qce_details, uv_seams, uv_validity
+from dressmeup.metrics.uv import ase_details, qce_details
+from dressmeup.metrics.uv_layout import uv_seams, uv_validity
 
 
 def jobs(edition: Any, data_root: Path, files: Mapping[str, Path], items: Sequence[Item],

@@ -16,12 +16,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from dressmeup.geometry.mesh import vertex_normals
-from dressmeup.geometry.uv_atlas import (
-    connected_charts,
-    face_adjacency,
-    make_disk_charts,
-    merge_small_charts,
-)
+from dressmeup.geometry.topology import face_adjacency
+from dressmeup.geometry.uv_atlas import connected_charts, make_disk_charts, merge_small_charts
 from dressmeup.methods.nn.diffusion_net import DiffusionNet
 
 __all__ = ["normalize_vertices", "patchnet_inputs", "build_patchnet", "face_probabilities",

@@ -25,6 +25,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from dressmeup.cache import hash_arrays
 from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
+from dressmeup.methods.nn.convergence import converged
 from dressmeup.methods.nn.diffusion_net import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
 from dressmeup.methods.uvparam.neural.patchnet import (
@@ -56,31 +57,6 @@ def mesh_sha(V: np.ndarray, F: np.ndarray) -> str:
     V, F = as_arrays(V, F)
     return hash_arrays(np.ascontiguousarray(V, dtype=np.float64),
                        np.ascontiguousarray(F, dtype=np.int64))
-
-
-def converged(val: Sequence[tuple[int, float]], tol: float = 0.01, fraction: float = 0.2,
-              min_tail: int = 4) -> bool:
-    """True when the best validation loss improved by less than ``tol`` (relative) over the
-    last ``fraction`` of the steps so far.
-
-    Parameters
-    ----------
-    val : ``[(step, loss), ...]`` in step order.
-    tol : relative improvement threshold (0.01 = 1 %).
-    fraction : the trailing share of the steps compared (0.2 = the last fifth).
-    min_tail : the last fifth must hold at least this many evaluations (so at least
-        ``min_tail / fraction`` evaluations in all): one noisy evaluation is no plateau.
-    """
-    steps = np.array([s for s, _ in val], dtype=float)
-    loss = np.array([v for _, v in val], dtype=float)
-    if steps.size == 0:
-        return False
-    cut = steps[-1] * (1.0 - fraction)
-    before = loss[steps <= cut]
-    if before.size == 0 or int(np.count_nonzero(steps > cut)) < min_tail:
-        return False
-    best_before, best_now = float(before.min()), float(loss.min())
-    return (best_before - best_now) < tol * abs(best_before)
 
 
 @dataclass
