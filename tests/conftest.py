@@ -34,10 +34,10 @@ os.environ["DRESSMEUP_NO_PROGRESS"] = "1"
 #: for it, {edition: {sha256: machine}}: a known reproducibility bug is then reported as an
 #: expected failure (docs/synthetic-data.md, "Reproducibility"). A manifest neither pinned
 #: nor listed here fails the tests. Generator 2.1.0's pins were made on an AMD EPYC and
-#: regenerate on two AMD machines (with and without AVX-512); an Intel Xeon (session 22)
+#: regenerate on two AMD machines (with and without AVX-512); an Intel Xeon (2026-12-04)
 #: writes other data (2.0.0's tiny data had differed on the second AMD machine:
 #: e829fc7501d1 instead of 46c64a61d5c6).
-_INTEL_XEON = "an Intel Xeon with AVX-512 FP16 and AMX (generator 2.1.0, session 22)"
+_INTEL_XEON = "an Intel Xeon with AVX-512 FP16 and AMX (generator 2.1.0)"
 KNOWN_OTHER_MANIFESTS: dict[str, dict[str, str]] = {
     "synth-retarget-tiny-v3": {
         "34c0776f17ea5daa548fa98851729f54812ffce801169470b6f376f3023bda6f": _INTEL_XEON},

@@ -2,7 +2,7 @@
 
 :class:`dressmeup.body.registration.limbs.LimbScorer` scores a limb moved rigidly by the
 symmetric capped distance. Its scan -> body term needs, for each scan point near the limb,
-the distance to the moved limb's points; since session 15 it queries only the scan points
+the distance to the moved limb's points; it queries only the scan points
 nearer the limb's bounding box than to the rest of the body (the others cannot change).
 This script scores the same random limb turns both ways in one process, checks that the
 sums are equal bit for bit, and prints the CPU time of each with the load average.
@@ -25,7 +25,7 @@ import numpy as np
 
 
 def every_point_score(scorer, M_up: np.ndarray, M_lo: np.ndarray) -> float:
-    """The score as before session 15: every scan point near the limb queried."""
+    """The score with every scan point near the limb queried (the earlier way)."""
     from scipy.spatial import cKDTree
 
     from dressmeup.body.registration.init import capped_distances
@@ -44,7 +44,7 @@ def scorers(model_name: str, seed: int = 0) -> list:
 
     from dressmeup.body import get_body_model
     from dressmeup.body.registration import limbs
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    from dressmeup.body.registration.config import get_config
     from dressmeup.body.registration.problem import FitProblem
     from dressmeup.body.registration.scan import prepare_scan
     from dressmeup.body.synthetic import synthetic_scan
@@ -63,8 +63,9 @@ def scorers(model_name: str, seed: int = 0) -> list:
     low = np.flatnonzero(V[:, 1] < np.median(V[:, 1]))  # a loose shell round the lower body
     pick = rng.choice(low, 2000)
     P = np.r_[P, V[pick] + n[pick] * rng.uniform(0.02, 0.06, (len(pick), 1))]
-    reg = OptimizationRegistrar(verbose=False)
-    problem = FitProblem(reg, model, prepare_scan(P, reg.n_scan_points, seed), None)
+    config = get_config(seed=seed)
+    problem = FitProblem.from_config(config, model,
+                                     prepare_scan(P, config.data.n_scan_points, seed))
     problem.set_params(pose=params.pose, transl=params.transl)
     names = list(model.joint_names)
     parents = np.asarray(model.joint_parents)

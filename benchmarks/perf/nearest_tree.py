@@ -2,7 +2,7 @@
 
 Every Adam step of a fit asks for the nearest scan point of each body point and the nearest
 body point of each scan point; the hypothesis and limb searches score thousands of poses
-the same way. Since session 18 these queries go through
+the same way. These queries go through
 ``dressmeup.geometry.neighbors.NearestTree``: pykdtree when installed, scipy's cKDTree
 otherwise. This script measures both on the same inputs, alternating:
 
@@ -13,8 +13,7 @@ otherwise. This script measures both on the same inputs, alternating:
    fits' vertices (mm; 0 when the two backends find the same neighbours all along).
 
 Scans: an anny body (default shape, turned by a random yaw) in library poses, 30,000 points
-with 2 mm noise, naked or with a garment shell 1-3 cm off the torso
-(``benchmarks/perf/hypothesis_search.py``'s ``scan_of``).
+with 2 mm noise, naked or with a garment shell 1-3 cm off the torso (:func:`scan_of`).
 
     python benchmarks/perf/nearest_tree.py                       # walking, sitting x naked/clothed
     python benchmarks/perf/nearest_tree.py --poses t-pose --kinds naked
@@ -25,11 +24,30 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
-from pathlib import Path
 
 BACKENDS = ("scipy", "pykdtree")
+
+
+def scan_of(model, pose: str, clothed: bool, seed: int):
+    """(30000, 3) scan points of the default body in library pose ``pose``, turned by a
+    random yaw (seeded)."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from dressmeup.body.synthetic import synthetic_scan
+    from dressmeup.data.synth.garments import BodyFrame
+    from dressmeup.data.synth.poses import pose_axis_angle
+
+    params = model.default_params()
+    frame = BodyFrame.from_joints(model.posed(params).joints, model.joint_names)
+    params.pose[:] = pose_axis_angle(pose, model.joint_names, frame)
+    yaw = np.random.default_rng(seed).uniform(-np.pi, np.pi)
+    params.pose[0] = (Rotation.from_rotvec([0, yaw, 0]) *
+                      Rotation.from_rotvec(params.pose[0])).as_rotvec()
+    return synthetic_scan(model, params, n_points=30000, noise=0.002, n_holes=4,
+                          hole_radius=0.06, seed=seed,
+                          shell=(0.01, 0.03) if clothed else None)
 
 
 def step_queries(P, Vb, rounds: int) -> dict[str, float]:
@@ -75,12 +93,9 @@ def main(argv: list[str] | None = None) -> int:
     import torch
 
     from dressmeup.body import get_body_model
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    from dressmeup.body.registration.config import get_config
     from dressmeup.body.registration.scan import prepare_scan
     from dressmeup.geometry import neighbors
-
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from hypothesis_search import scan_of
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--poses", default="walking,sitting", help="comma list of pose-library names")
@@ -94,13 +109,13 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     torch.set_num_threads(1)  # as the registrar's fits run
     model = get_body_model(args.model)
-    reg = OptimizationRegistrar(verbose=False)
+    data = get_config().data
 
     # a clothed scan and, as the body points, points of the same body naked (a fit near its end)
-    P = prepare_scan(scan_of(model, "walking", True, 0), reg.n_scan_points, 0)
-    Vb = prepare_scan(scan_of(model, "walking", False, 0), reg.n_body_points, 1)
+    P = prepare_scan(scan_of(model, "walking", True, 0), data.n_scan_points, 0)
+    Vb = prepare_scan(scan_of(model, "walking", False, 0), data.n_body_points, 1)
     ms = step_queries(P, Vb, args.rounds)
-    print(f"one step's queries ({reg.n_scan_points} scan, {reg.n_body_points} body points): "
+    print(f"one step's queries ({data.n_scan_points} scan, {data.n_body_points} body points): "
           + ", ".join(f"{be} {ms[be]:.2f} ms" for be in BACKENDS)
           + f", ratio {ms['pykdtree'] / ms['scipy']:.2f}, load {os.getloadavg()[0]:.1f}")
     if args.fits <= 0:

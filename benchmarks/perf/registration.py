@@ -26,7 +26,8 @@ scan (mm; goal <= 15 mm clothed), wall and CPU seconds, with the load average be
 
     python benchmarks/perf/registration.py --suite tuning,hard --subjects 2
     python benchmarks/perf/registration.py --suite hard --scenarios naked-t-pose --subjects 1
-    python benchmarks/perf/registration.py --suite tuning --options '{"hand_weight": 0.3}'
+    python benchmarks/perf/registration.py --suite tuning --options '{"cloth_max": 0.05}'
+    python benchmarks/perf/registration.py --suite hard --preset naked --params /tmp/fits
 """
 
 from __future__ import annotations
@@ -159,9 +160,13 @@ def main() -> None:
     parser.add_argument("--keypoints", choices=("none", "truth", "scan"), default="none",
                         help="none: multi-hypothesis start; truth: the true 3D joints; scan: "
                         "detected on renders of the scan (needs the [keypoints] extra)")
-    parser.add_argument("--options", default="", help="registrar options as JSON, e.g. "
-                        "'{\"hand_weight\": 1.0}'")
+    parser.add_argument("--preset", default="default",
+                        help="registrar preset (default, naked, clothed, fast)")
+    parser.add_argument("--options", default="", help="registrar settings as JSON, e.g. "
+                        "'{\"cloth_max\": 0.05}'")
     parser.add_argument("--json", help="also write the rows to this JSON file")
+    parser.add_argument("--params", help="also write each fit's parameters into this folder "
+                        "as <scenario>-<subject>.npz (shape, pose, transl, scale)")
     parser.add_argument("--pictures", help="write a picture of each fit (body over the scan, "
                         "front and side) into this folder as <scenario>-<subject>.png")
     args = parser.parse_args()
@@ -182,7 +187,7 @@ def main() -> None:
     parts = vertex_parts(model)
     hand = np.isin(parts, [list(BODY_PARTS).index(p) for p in ("left_hand", "right_hand")])
     wanted = {s for s in args.scenarios.split(",") if s}
-    options = dict(verbose=False, **json.loads(args.options or "{}"))
+    options = dict(verbose=False, preset=args.preset, **json.loads(args.options or "{}"))
     rows = []
     print(f"options {options}  keypoints {args.keypoints}")
     print(f"{'scenario':<30}{'vert':>6}{'joint':>6}{'nohand':>7}{'hand':>6}{'out':>6}"
@@ -242,6 +247,13 @@ def main() -> None:
                                 f"{row['support_checked']} points on "
                                 f"{len(row['support_planes'])} planes left out")
             rows.append(row)
+            if args.params:
+                from pathlib import Path
+
+                Path(args.params).mkdir(parents=True, exist_ok=True)
+                np.savez(Path(args.params) / f"{name}-{subject}.npz", shape=res.params.shape,
+                         pose=res.params.pose, transl=res.params.transl,
+                         scale=np.float64(res.params.scale))
             if args.pictures:
                 from pathlib import Path
 

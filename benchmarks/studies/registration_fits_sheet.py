@@ -2,7 +2,7 @@
 columns the subjects.
 
     python benchmarks/studies/registration_fits_sheet.py --submission SUB --result RES \
-        --data DATA --out docs/images/registration/edition-fits-s22.png
+        --data DATA --out docs/images/registration/edition-fits.png
 
 SUB is the submission folder of the run (``<sample_id>.npz`` body parameters), RES the
 folder ``dressmeup score`` wrote for it (``per_sample.parquet``: the captions' V2V), DATA

@@ -137,6 +137,23 @@ class LBSBodyModel:
         """Return shaped rest vertices (b, n, 3) and rest joints (b, j, 3) for shape (b, s)."""
         raise NotImplementedError
 
+    def rest_subset(self, shape: torch.Tensor, vertex_ids: torch.Tensor
+                    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Shaped rest vertices of ``vertex_ids`` (k,) only, (b, k, 3), and the rest joints
+        (b, j, 3): the same values as ``rest(shape)`` selected. Models whose shape is a
+        per-vertex blend may compute only those rows (anny does, when the shape needs a
+        gradient: registration's shape steps)."""
+        V, J = self.rest(shape)
+        return V[:, vertex_ids], J
+
+    def rest_extent(self, shape: torch.Tensor, axis: int = 1) -> torch.Tensor:
+        """(b,) extent (max - min, m) of the shaped rest vertices along ``axis`` for shape
+        (b, s): the same values as from ``rest(shape)`` (models may compute only what the
+        extent needs; anny computes one coordinate)."""
+        V, _ = self.rest(shape)
+        x = V[..., axis]
+        return x.max(1).values - x.min(1).values
+
     def pose_offsets(self, rotations: torch.Tensor) -> torch.Tensor | None:
         """Optional pose-dependent corrective offsets (b, n, 3) added before skinning."""
         return None
@@ -223,8 +240,8 @@ class LBSBodyModel:
         pose : (b, j, 3) or (j, 3) axis-angle per joint, relative to the parent.
         transl : (b, 3) translation, default zeros.
         scale : (b,) uniform scale, default ones.
-        vertex_ids : optional (k,) vertex indices: skin only those vertices (``vertices``
-            is then (b, k, 3); ``rest_vertices`` stays complete). Registration uses it.
+        vertex_ids : optional (k,) vertex indices: shape and skin only those vertices
+            (``vertices`` and ``rest_vertices`` are then (b, k, 3)). Registration uses it.
 
         Returns
         -------
@@ -232,18 +249,21 @@ class LBSBodyModel:
         """
 
         shape_t, pose_t, transl_t, scale_t = self._prepare(shape, pose, transl, scale)
-        rest_v, rest_j = self.rest(shape_t)
+        W = self._buffer("skinning_weights", pose_t.dtype, pose_t.device)
         R = axis_angle_to_matrix(pose_t)
         offsets = self.pose_offsets(R)
-        skinned_in = rest_v if offsets is None else rest_v + offsets
-        joints, A = forward_kinematics(R, rest_j, self.joint_parents)
-        W = self._buffer("skinning_weights", pose_t.dtype, pose_t.device)
-        if vertex_ids is not None:
+        if vertex_ids is None:
+            rest_v, rest_j = self.rest(shape_t)
+        else:
             # heavy: torch (~1.1 s to import)
             import torch
 
             ids = torch.as_tensor(vertex_ids, dtype=torch.long, device=pose_t.device)
-            skinned_in, W = skinned_in[:, ids], W[ids]
+            rest_v, rest_j = self.rest_subset(shape_t, ids)
+            W = W[ids]
+            offsets = None if offsets is None else offsets[:, ids]
+        skinned_in = rest_v if offsets is None else rest_v + offsets
+        joints, A = forward_kinematics(R, rest_j, self.joint_parents)
         verts = skin_points(skinned_in, W, A)
         s = scale_t[:, None, None]
         t = transl_t[:, None, :]

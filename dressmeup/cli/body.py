@@ -36,13 +36,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="with --registrar from-file: npz, easymocap, pamir, smplify (default auto)")
     p.add_argument("--gender", default="neutral", help="SMPL family: neutral, female or male")
     p.add_argument("--model-path", help="SMPL family: the model file or its folder")
+    p.add_argument("--preset", choices=("default", "naked", "clothed", "fast"),
+                   default="default",
+                   help="registrar settings (docs/body-models.md): default (clothed or naked "
+                   "scans), naked (symmetric data term: body inside the scan costs as much as "
+                   "outside), clothed (weaker pull of the body towards the scan surface), fast "
+                   "(fewer samples and steps, a preview)")
     p.add_argument("--iterations", default=None,
-                   help="steps of the global,pose,shape stages, e.g. 60,160,160")
-    p.add_argument("--clothed", action="store_true",
-                   help="scan wears clothes: weaker pull of the body towards the scan surface")
-    p.add_argument("--naked", action="store_true",
-                   help="scan is naked: symmetric data term (body inside the scan costs as much "
-                   "as outside)")
+                   help="steps of the rigid, pose and shape stages, e.g. 60,160,160")
     p.add_argument("--init-route", choices=("hypotheses", "keypoints", "auto"),
                    default="hypotheses",
                    help="how the fit starts without --init/--keypoints: hypotheses (several "
@@ -135,6 +136,7 @@ def _run_register(args: argparse.Namespace) -> int:
         scan = None
     else:
         scan = _load_scan(args.scan)
+        options["preset"] = args.preset
         options["seed"] = args.seed
         options["init_route"] = args.init_route
         options["remove_support"] = not args.keep_support
@@ -148,12 +150,6 @@ def _run_register(args: argparse.Namespace) -> int:
                 raise InputError(f"--iterations: expected three counts like 60,160,160, got "
                                  f"{args.iterations!r}")
             options["iterations"] = its
-        if args.clothed and args.naked:
-            raise InputError("--clothed and --naked exclude each other")
-        if args.clothed:
-            options["inside_weight"] = 0.2
-        if args.naked:
-            options.update(inside_weight=1.0, sigma_in=0.15)
     init = import_body_params(args.init, body_model=model) if args.init else None
     result = fit(scan, model, init=init, keypoints=keypoints, registrar=args.registrar,
                  return_result=True, **options)

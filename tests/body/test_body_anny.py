@@ -70,3 +70,34 @@ def test_shape_gradients_and_height(model):
     tall.shape[4] = 1.0
     h_tall = np.ptp(model.posed(tall).vertices[:, 1])
     assert h_tall > float(height.detach()) + 0.05
+
+
+@pytest.mark.parametrize("name", ["anny", "procedural"])
+def test_rest_of_some_vertices_and_rest_extent_equal_the_whole_rest_body(name):
+    """``rest_subset`` (anny blends only the rows asked for when the shape needs a gradient)
+    and ``rest_extent`` (anny blends one coordinate) give the values and gradients of the
+    whole rest body, bit for bit; ``forward(vertex_ids=...)`` uses the subset."""
+    m = get_body_model(name)
+    rng = np.random.default_rng(0)
+    ids = torch.as_tensor(np.sort(rng.choice(m.n_vertices, 700, replace=False)))
+    w = torch.as_tensor(rng.normal(size=(1, 700, 3)), dtype=torch.float32)
+    for _ in range(3):
+        z = rng.normal(0, 1.5, 6)
+        grads = []
+        for subset in (False, True):
+            shape = torch.tensor(z, dtype=torch.float32, requires_grad=True)
+            value = torch.sigmoid(shape)[None]
+            V, J = m.rest_subset(value, ids) if subset else m.rest(value)
+            V = V if subset else V[:, ids]
+            (V * w).sum().backward()
+            grads.append((V.detach(), J.detach(), shape.grad))
+        for a, b in zip(*grads, strict=True):
+            assert torch.equal(a, b)
+    shapes = torch.as_tensor(rng.uniform(0, 1, (5, 6)))
+    with torch.no_grad():
+        V, _ = m.rest(shapes)
+        extent = V[..., 1].max(1).values - V[..., 1].min(1).values
+        assert torch.equal(m.rest_extent(shapes, 1), extent)
+    out = m.forward(torch.sigmoid(torch.zeros(1, 6, requires_grad=True)), torch.zeros(1, 22, 3),
+                    vertex_ids=ids)
+    assert out.vertices.shape == out.rest_vertices.shape == (1, 700, 3)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 import trimesh
 
 from dressmeup.body import BodyParams, get_body_model
@@ -25,7 +26,7 @@ def test_register_command(tmp_path, capsys):
     trimesh.Trimesh(model.posed(truth).vertices, model.faces, process=False).export(scan)
     out = tmp_path / "body.npz"
     args = ["register", str(scan), "--model", "procedural", "--out", str(out),
-            "--iterations", "10,40,20"]
+            "--preset", "fast", "--iterations", "10,40,20"]
     assert main(args) == 2
     assert "--up z" in capsys.readouterr().err and not out.exists()
     assert main(args + ["--up", "z"]) == 0
@@ -60,9 +61,10 @@ def test_register_command_errors(tmp_path, capsys):
     assert main(["register", str(tmp_path / "p.npy"), "--model", "procedural",
                  "--iterations", "1,2", "--out", str(tmp_path / "b.npz")]) == 2
     assert "--iterations" in capsys.readouterr().err
-    assert main(["register", str(tmp_path / "p.npy"), "--model", "procedural", "--naked",
-                 "--clothed", "--out", str(tmp_path / "b.npz")]) == 2
-    assert "exclude each other" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # argparse names the choices
+        main(["register", str(tmp_path / "p.npy"), "--model", "procedural", "--preset",
+              "slow", "--out", str(tmp_path / "b.npz")])
+    assert "--preset: invalid choice: 'slow'" in capsys.readouterr().err
 
 
 def test_shape_restart_line_names_the_kept_start():

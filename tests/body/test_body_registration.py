@@ -16,9 +16,7 @@ from dressmeup.body.registration import (
 from dressmeup.body.synthetic import named_pose, synthetic_scan, vertex_joint_errors
 from dressmeup.errors import InputError
 
-FAST = dict(iterations=(30, 120, 120), n_scan_points=2500, n_body_points=1500, verbose=False,
-            hypothesis_steps=(10, 8, 20), hypothesis_keep=2, yaw_candidates=4,
-            hypothesis_yaws=2)
+FAST = dict(preset="fast", verbose=False)
 
 
 @pytest.fixture(scope="module")
@@ -163,18 +161,6 @@ def test_fit_metrics_flag_a_body_outside_the_scan(model):
     assert "<- check" in format_metrics(bad) and "mm" in format_metrics(good)
 
 
-def test_hand_weight_down_weights_hand_points(model):
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
-    from dressmeup.body.registration.problem import FitProblem, joint_skin_mask
-
-    P = synthetic_scan(model, _truth(model, "standing", 5), n_points=2000, seed=5)
-    prob = FitProblem(OptimizationRegistrar(hand_weight=0.25, n_body_points=1500), model, P, None)
-    hand = joint_skin_mask(model, ("left_wrist", "right_wrist"))[prob.body_ids]
-    assert hand.any() and np.allclose(prob.point_weight.numpy()[hand], 0.25)
-    assert np.allclose(prob.point_weight.numpy()[~hand], 1.0)
-    assert FitProblem(OptimizationRegistrar(hand_weight=1.0), model, P, None).point_weight is None
-
-
 def test_registration_poses_and_scan_variants(model):
     from dressmeup.data.synth.poses import pose_axis_angle, pose_names
 
@@ -207,12 +193,9 @@ def test_scale_into_shape_keeps_the_body_and_drops_the_scale(model):
     """The temporary size scale becomes shape: the unscaled rest body of the new shape is
     the scaled rest body of the old one (height within 2 %), the posed body stays where it
     was, and with scale 1 nothing happens."""
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
-    from dressmeup.body.registration.problem import FitProblem
-
     truth = _truth(model, "standing", 7)
     P = synthetic_scan(model, truth, n_points=2000, seed=7)
-    prob = FitProblem(OptimizationRegistrar(n_body_points=1500), model, P, None)
+    prob = _problem(model, P)
     prob.set_params(shape=np.full(6, 0.5), pose=truth.pose, transl=[0.1, 0.2, 0.3])
     assert prob.scale_into_shape() == 0.0
     assert float(prob.log_scale.detach()) == 0.0 and np.allclose(prob.shape_value().detach(), 0.5)
@@ -230,46 +213,43 @@ def test_scale_into_shape_keeps_the_body_and_drops_the_scale(model):
     assert rms < 0.01  # metres: the phenotype can make this size
 
 
-def test_stages_that_hold_the_shape_give_the_same_loss_and_pose_gradients(model):
-    """A stage that does not move the shape feeds it to the body model without a gradient
+def _problem(model, P, **settings):
+    from dressmeup.body.registration.config import get_config
+    from dressmeup.body.registration.problem import FitProblem
+
+    return FitProblem.from_config(get_config(n_body_points=1500, **settings), model, P)
+
+
+def test_steps_that_hold_the_shape_give_the_same_loss_and_pose_gradients(model):
+    """A step that does not move the shape feeds it to the body model without a gradient
     (so a cached rest body is reused): the loss and the gradients of the parameters that
-    move are bit for bit those of the full graph; the stages set the flag and reset it."""
+    move are bit for bit those of the full graph. ``run_adam`` holds the shape exactly when
+    it is not among the tensors it moves."""
     import torch
 
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
-    from dressmeup.body.registration.problem import FitProblem
-    from dressmeup.body.registration.stages import run_adam, run_lbfgs
+    from dressmeup.body.registration.problem import Objective
+    from dressmeup.body.registration.stages import run_adam
 
     truth = _truth(model, "standing", 8)
     P = synthetic_scan(model, truth, n_points=2000, seed=8)
-    prob = FitProblem(OptimizationRegistrar(n_body_points=1500), model, P, None)
+    prob = _problem(model, P)
     prob.set_params(shape=np.full(6, 0.4), pose=0.9 * truth.pose, transl=truth.transl + 0.01)
+    pose = Objective("pose")
 
-    def loss_and_grads(moves: bool):
-        prob.reset_correspondences()
-        prob.shape_moves = moves
+    def loss_and_grads(hold: bool):
         for t in (prob.shape_z, prob.pose, prob.transl):
             t.grad = None
-        loss, _ = prob.loss("pose")
+        loss, _ = prob.loss(pose, hold_shape=hold)
         loss.backward()
         return (loss.detach().clone(), prob.pose.grad.clone(), prob.transl.grad.clone(),
                 prob.shape_z.grad)
 
-    full, held = loss_and_grads(True), loss_and_grads(False)
+    full, held = loss_and_grads(False), loss_and_grads(True)
     assert full[3] is not None and torch.any(full[3] != 0) and held[3] is None
     for a, b in zip(full[:3], held[:3], strict=True):
         assert torch.equal(a, b)
-
-    seen = []
-    real = prob.loss
-
-    def spy(stage):
-        seen.append(prob.shape_moves)
-        return real(stage)
-
-    prob.loss = spy
-    prob.shape_moves = True
-    run_adam(prob, "pose", 3, [prob.pose, prob.transl], [0.01, 0.01])
-    run_adam(prob, "shape", 2, [prob.pose, prob.shape_z], [0.01, 0.01])
-    run_lbfgs(prob, 1, [prob.pose, prob.shape_z], max_iter=2)
-    assert seen[:3] == [False] * 3 and all(seen[3:]) and prob.shape_moves
+    shape = prob.shape_z.detach().clone()
+    run_adam(prob, pose, 3, [prob.pose, prob.transl], [0.01, 0.01])
+    assert torch.equal(prob.shape_z, shape) and prob.shape_z.grad is None
+    run_adam(prob, Objective("shape"), 2, [prob.pose, prob.shape_z], [0.01, 0.01])
+    assert not torch.equal(prob.shape_z, shape)

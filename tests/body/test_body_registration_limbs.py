@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from dressmeup.body import BodyParams, get_body_model
+from dressmeup.body.registration.plan import BENDS, LimbSearch, Rates
+from dressmeup.body.registration.problem import Correspondences, Objective
 from dressmeup.body.synthetic import synthetic_scan
 from dressmeup.geometry import neighbors
 
@@ -15,14 +17,22 @@ def model():
     return get_body_model("procedural")
 
 
-def _problem(model, scan, **options):
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+def _problem(model, scan, **settings):
+    from dressmeup.body.registration.config import get_config
     from dressmeup.body.registration.problem import FitProblem
     from dressmeup.body.registration.scan import prepare_scan
 
-    opts = OptimizationRegistrar(n_scan_points=3000, n_body_points=2000, verbose=False,
-                                 **options)
-    return FitProblem(opts, model, prepare_scan(scan, opts.n_scan_points, 0), None)
+    config = get_config(n_scan_points=3000, n_body_points=2000, **settings)
+    return FitProblem.from_config(config, model, prepare_scan(scan, 3000, 0))
+
+
+RATES = Rates(0.015, 0.01, 0.05)
+
+
+def _search(aim: str = "none", pose_steps: int = 0, knees=BENDS) -> LimbSearch:
+    """A limb search stage: arms with every bend, legs with ``knees``."""
+    return LimbSearch(aim=aim, knee_bends=knees, elbow_bends=BENDS, pose_steps=pose_steps,
+                      size=False, far_cloth=False, rates=RATES)
 
 
 def _arm_across_chest(model):
@@ -58,11 +68,11 @@ def test_limb_search_folds_an_arm_the_start_left_hanging(model):
     true_wrist = model.posed(truth).joints[wrist]
 
     def wrist_error():
-        return float(np.linalg.norm(model.posed(problem.body_params(False)).joints[wrist]
+        return float(np.linalg.norm(model.posed(problem.body_params()).joints[wrist]
                                     - true_wrist))
 
     before = wrist_error()
-    info = limb_search(problem, n_pose=40, lr_pose=0.015, lr_transl=0.01, size_init=False)
+    info = limb_search(problem, _search(pose_steps=40), Objective("pose"))
     after = wrist_error()
     assert before > 0.2  # metres: the hanging hand is far from the folded one
     assert "right_shoulder" in info["limbs_moved"] and info["limb_kept"]
@@ -70,27 +80,19 @@ def test_limb_search_folds_an_arm_the_start_left_hanging(model):
     assert info["limb_score"][1] < info["limb_score"][0]
 
 
-def test_leg_bends_replace_the_knee_bends_of_the_legs_only(model, monkeypatch):
-    """``leg_bends_deg`` sets the grid's knee bends; the elbows keep ``bends_deg`` (the
-    first limb search's ``limb_first_knee_bends``)."""
-    import dressmeup.body.registration.limbs as limbs
+def test_limb_search_keeps_a_body_it_cannot_improve(model):
+    """On a scan of the body as it is, no limb moves: the search reports the start's score
+    twice and leaves every parameter as it was, bit for bit."""
+    from dressmeup.body.registration.limbs import limb_search
 
-    scan = synthetic_scan(model, model.default_params(), n_points=3000, noise=0.002, seed=0)
-    problem = _problem(model, scan)
-    seen = {}
-    real = limbs.search_limb
-
-    def spy(problem, scorer, upper, lower, hinge, W, twists, bends_deg, **kwargs):
-        seen[model.joint_names[upper]] = tuple(bends_deg)
-        return real(problem, scorer, upper, lower, hinge, W, 1, bends_deg, **kwargs)
-
-    monkeypatch.setattr(limbs, "search_limb", spy)
-    limbs.limb_search(problem, 0, 0.015, 0.01, False, leg_bends_deg=(0, 60))
-    assert seen == {"left_shoulder": (0, 50, 100, 140), "right_shoulder": (0, 50, 100, 140),
-                    "left_hip": (0, 60), "right_hip": (0, 60)}
-    seen.clear()
-    limbs.limb_search(problem, 0, 0.015, 0.01, False, bends_deg=(0, 30))
-    assert set(seen.values()) == {(0, 30)}
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=_arm_across_chest(model))
+    problem = _problem(model, synthetic_scan(model, truth, n_points=6000, noise=0.0, seed=3))
+    problem.set_params(shape=truth.shape, pose=truth.pose)
+    before = problem.snapshot()
+    info = limb_search(problem, _search(knees=(0.0, 50.0)), Objective("pose"))
+    assert info["limbs_moved"] == [] and not info["limb_kept"]
+    assert info["limb_score"][0] == info["limb_score"][1]
+    assert all(np.array_equal(before[k], v) for k, v in problem.snapshot().items())
 
 
 @pytest.mark.parametrize("scan_cap", [None, 0.03])
@@ -103,7 +105,7 @@ def test_limb_scorer_matches_the_symmetric_score(model, scan_cap):
     truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=_arm_across_chest(model))
     problem = _problem(model, synthetic_scan(model, truth, n_points=6000, seed=1))
     problem.set_params(shape=truth.shape, pose=truth.pose)
-    out = model.posed(problem.body_params(False))
+    out = model.posed(problem.body_params())
     names = list(model.joint_names)
     dom = problem.W_sub.numpy().argmax(1)
     up, lo = names.index("left_shoulder"), names.index("left_elbow")
@@ -136,7 +138,13 @@ def test_limb_scorer_matches_the_symmetric_score(model, scan_cap):
     for k in range(40):
         spread = 0.2 if k % 2 else np.pi
         M_up, M_lo = Rotation.from_rotvec(rng.normal(0, spread, (2, 3))).as_matrix()
-        assert scorer.score(M_up, M_lo) == every_point(M_up, M_lo)
+        full = scorer.score(M_up, M_lo)
+        assert full == every_point(M_up, M_lo)
+        # with a bound the score is the same, or inf when it is above the bound
+        for above in (full * 0.9, full, full * 1.1, np.inf):
+            bounded = scorer.score(M_up, M_lo, above)
+            assert bounded == full or (bounded == np.inf and full > above), (full, above)
+        assert scorer.score(M_up, M_lo, 0.5 * full) == np.inf  # far enough: skipped
 
 
 @pytest.mark.skipif(neighbors._pykdtree_class() is None, reason="pykdtree not installed")
@@ -152,10 +160,11 @@ def test_fit_objective_is_the_same_on_both_nearest_point_backends(model, monkeyp
         monkeypatch.setattr(neighbors, "BACKEND", backend)
         problem = _problem(model, scan)
         problem.set_params(shape=np.full(6, 0.45), pose=truth.pose * 0.8)
-        loss, _ = problem.loss("pose")
+        pairs = Correspondences()
+        loss, _ = problem.loss(Objective("pose"), pairs)
         loss.backward()
         out[backend] = (float(loss.detach()), problem.pose.grad.numpy().copy(),
-                        problem.nn_b2s.numpy(), problem.nn_s2b.numpy(),
+                        pairs.nn_b2s.numpy(), pairs.nn_s2b.numpy(),
                         symmetric_score(problem, scan_cap=0.03))
     a, b = out["scipy"], out["pykdtree"]
     assert a[0] == b[0] and a[4] == b[4]
@@ -189,7 +198,7 @@ def test_symmetric_score_caps_each_direction_on_its_own(model):
 def test_unseen_body_points_carry_no_body_to_scan_cost():
     import torch
 
-    from dressmeup.body.registration.problem import unseen_free_weights
+    from dressmeup.body.registration.terms import unseen_free_weights
 
     # a flat body: 2 front points (normal +z) and 2 back points (normal -z); the scan only
     # saw the front, so both back points' nearest scan point belongs to the front surface
@@ -202,7 +211,7 @@ def test_unseen_body_points_carry_no_body_to_scan_cost():
 def test_unseen_body_points_need_a_scan_point_nearby_with_the_hit_test():
     import torch
 
-    from dressmeup.body.registration.problem import body_neighbourhoods, unseen_free_weights
+    from dressmeup.body.registration.terms import body_neighbourhoods, unseen_free_weights
 
     # five body points in a row, 1 cm apart, all facing +z; the scan's two points both map
     # to body point 0: with a 1.5 cm neighbourhood, points 0 and 1 are seen, 2-4 are not
@@ -232,10 +241,8 @@ def test_hit_test_acts_in_the_shape_stage_only(model):
         problem = _problem(model, scan, unseen_hit_radius=radius)
         problem.set_params(shape=truth.shape, transl=(0.0, 0.0, 0.02))
         for stage in ("pose", "shape"):
-            problem.reset_correspondences()
-            problem.stage_steps, problem.step = 1, 0
             with torch.no_grad():
-                terms[radius, stage] = problem.loss(stage)[1]["data"]
+                terms[radius, stage] = problem.loss(Objective(stage))[1]["data"]
     assert terms[0.03, "pose"] == terms[None, "pose"]
     assert terms[0.03, "shape"] < 0.9 * terms[None, "shape"]
 
@@ -246,7 +253,7 @@ def test_hit_test_frees_the_missing_side_near_the_cut_edge(model):
     the cut edge, whose normals agree), the hit test frees them and keeps the seen back."""
     import torch
 
-    from dressmeup.body.registration.problem import unseen_free_weights
+    from dressmeup.body.registration.terms import unseen_free_weights
 
     truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=np.zeros((model.n_joints, 3)))
     scan = synthetic_scan(model, truth, n_points=8000, noise=0.0, seed=3, missing_side=(0, 0, 1))
@@ -255,13 +262,14 @@ def test_hit_test_frees_the_missing_side_near_the_cut_edge(model):
         problem = _problem(model, scan, unseen_hit_radius=radius)
         problem.set_params(shape=truth.shape)
         with torch.no_grad():
-            problem.loss("pose")
+            pairs = Correspondences()
+            problem.loss(Objective("pose"), pairs)
             out = model.forward(problem.shape_value()[None], problem.pose[None],
                                 problem.transl[None], vertex_ids=problem.body_ids_t)
             Rb = torch.einsum("kj,jab->kab", problem.W_sub, out.transforms[0, :, :3, :3])
-            Nb = (Rb @ problem.rest_normals[..., None])[..., 0].numpy()
-            weights[radius] = unseen_free_weights(torch.as_tensor(Nb), problem.nn_b2s,
-                                                  problem.nn_s2b, problem.neighbourhoods).numpy()
+            Nb = (Rb @ pairs.rest_normals[..., None])[..., 0].numpy()
+            weights[radius] = unseen_free_weights(torch.as_tensor(Nb), pairs.nn_b2s,
+                                                  pairs.nn_s2b, problem.neighbourhoods).numpy()
     front, back = Nb[:, 2] > 0.6, Nb[:, 2] < -0.2  # missing (well inside), seen
     assert weights[None][front].mean() > 0.05  # the facing test alone keeps some pulling
     assert weights[0.03][front].mean() < 0.5 * weights[None][front].mean()
@@ -278,7 +286,8 @@ def test_auto_route_lets_the_better_start_win(model, monkeypatch):
     scan = synthetic_scan(model, truth, n_points=4000, noise=0.002, seed=2)
     tiny = dict(iterations=(5, 5, 5), hypothesis_steps=(5, 5, 10), hypotheses=("a-pose",),
                 yaw_candidates=4, hypothesis_yaws=1, hypothesis_keep=1, n_scan_points=1500,
-                n_body_points=1000, verbose=False, init_route="auto", limb_search=False)
+                n_body_points=1000, verbose=False, init_route="auto", limb_search=False,
+                shape_search=False)
     monkeypatch.setattr(kp, "keypoints_available", lambda: True)
     for offset, winner in ((0.0, None), (1.0, "hypothesis")):
         joints = model.posed(truth).joints + offset
@@ -286,11 +295,18 @@ def test_auto_route_lets_the_better_start_win(model, monkeypatch):
             joints=j, views=8, detections=8))
         res = register(scan, model, return_result=True, **tiny)
         scores = res.info["start_scores"]
-        assert set(scores) == {"hypotheses", "keypoints"}
-        best = min(scores, key=scores.get)
+        assert set(scores) == {"hypotheses", "keypoints", "kept"}
+        best = scores["kept"]
+        assert best == min(("hypotheses", "keypoints"), key=scores.get)
         assert res.info["init"].startswith("keypoints" if best == "keypoints" else "hypothesis")
         if winner:
             assert res.info["init"].startswith(winner)
+
+
+def _scored(entries):
+    from dressmeup.body.registration.search import Scored
+
+    return [Scored(str(k), cost, {"k": k}, {"yaw": yaw}) for cost, k, yaw in entries]
 
 
 def test_kept_yaws_always_keep_the_opposite_of_the_best():
@@ -302,71 +318,54 @@ def test_kept_yaws_always_keep_the_opposite_of_the_best():
 
     yaws = [2 * math.pi * k / 8 for k in range(8)]
     costs = [5.0, 1.0, 2.0, 3.0, 9.0, 8.0, 7.0, 6.0]  # best: yaw index 1, opposite: 5
-    ranked = sorted(((c, {"k": k}, yaws[k]) for k, c in enumerate(costs)), key=lambda t: t[0])
-    assert [s["k"] for _, s, _ in kept_yaws(ranked, 3, keep_opposite=True)] == [1, 2, 3, 5]
-    assert [s["k"] for _, s, _ in kept_yaws(ranked, 3, keep_opposite=False)] == [1, 2, 3]
-    assert [s["k"] for _, s, _ in kept_yaws(ranked, 1, keep_opposite=True)] == [1, 5]
+
+    def ranked():
+        return _scored(sorted(((c, k, yaws[k]) for k, c in enumerate(costs))))
+
+    assert [c.snapshot["k"] for c in kept_yaws(ranked(), 3)] == [1, 2, 3, 5]
+    assert [c.snapshot["k"] for c in kept_yaws(ranked(), 1)] == [1, 5]
     costs[5] = 1.5  # the opposite is already kept: no duplicate
-    ranked = sorted(((c, {"k": k}, yaws[k]) for k, c in enumerate(costs)), key=lambda t: t[0])
-    assert [s["k"] for _, s, _ in kept_yaws(ranked, 3, keep_opposite=True)] == [1, 5, 2]
+    assert [c.snapshot["k"] for c in kept_yaws(ranked(), 3)] == [1, 5, 2]
 
 
 def test_refined_hypotheses_add_the_best_one_facing_away_only_when_missing():
-    """``refine_opposite``: when the kept best all face within 90 degrees of the best, the
-    best rigid hypothesis facing further away is refined too (last); yaws wrap at 360."""
+    """When the kept best all face within 90 degrees of the best, the best rigid hypothesis
+    facing further away is refined too (last); yaws wrap at 360."""
     from dressmeup.body.registration.init import refined_hypotheses
 
-    rigid = [(0.10, "sitting", 175.0, 1), (0.11, "arms-down", 175.0, 2),
-             (0.12, "bending", 250.0, 3), (0.13, "arms-down", 5.0, 4),
-             (0.14, "bending", -4.0, 5)]
-    names = [h[3] for h in refined_hypotheses(rigid, 3, opposite=True)]
-    assert names == [1, 2, 3, 4]  # 250 is 75 degrees from 175: not "away"
-    assert [h[3] for h in refined_hypotheses(rigid, 3, opposite=False)] == [1, 2, 3]
-    rigid[2] = (0.12, "bending", 270.0, 3)  # 95 degrees away: already among the kept
-    assert [h[3] for h in refined_hypotheses(rigid, 3, opposite=True)] == [1, 2, 3]
-    wrapped = [(0.1, "a", 350.0, 1), (0.2, "b", -10.0, 2), (0.3, "c", 200.0, 3)]
-    assert [h[3] for h in refined_hypotheses(wrapped, 2, opposite=True)] == [1, 2, 3]
-    assert [h[3] for h in refined_hypotheses(wrapped[:2], 1, opposite=True)] == [1]
+    rigid = _scored([(0.10, 1, 175.0), (0.11, 2, 175.0), (0.12, 3, 250.0), (0.13, 4, 5.0),
+                     (0.14, 5, -4.0)])
+    assert [h.snapshot["k"] for h in refined_hypotheses(rigid, 3)] == [1, 2, 3, 4]  # 250 is
+    # 75 degrees from 175: not "away"
+    rigid[2].info["yaw"] = 270.0  # 95 degrees away: already among the kept
+    assert [h.snapshot["k"] for h in refined_hypotheses(rigid, 3)] == [1, 2, 3]
+    wrapped = _scored([(0.1, 1, 350.0), (0.2, 2, -10.0), (0.3, 3, 200.0)])
+    assert [h.snapshot["k"] for h in refined_hypotheses(wrapped, 2)] == [1, 2, 3]
+    assert [h.snapshot["k"] for h in refined_hypotheses(wrapped[:2], 1)] == [1]
 
 
-def test_best_per_start_yaw_keeps_each_start_yaws_lowest_cost():
-    """``yaw_postures``: the yaw search runs from every posture; each start yaw keeps the
-    candidate (and its snapshot) with the lowest core cost, best first; one ranking as is."""
-    from dressmeup.body.registration.init import best_per_start_yaw
+def test_yaw_search_ranks_the_yaws_from_one_start_and_keeps_the_best(model):
+    """Every yaw candidate starts from the same parameters (only the root turned), the
+    ranking is by the core data cost of its last step, and the best stays in the problem:
+    on a scan of a body facing +x (yaw 90 degrees), the 90-degree start wins."""
+    import math
 
-    upright = [(1.0, "u0", 0.0), (2.0, "u1", 1.0), (3.0, "u2", 2.0)]
-    bent = [(0.5, "b2", 2.0), (2.5, "b1", 1.0), (4.0, "b0", 0.0)]
-    merged = best_per_start_yaw([upright, bent])
-    assert [(c, s, y) for c, s, y in merged] == [(0.5, "b2", 2.0), (1.0, "u0", 0.0),
-                                                 (2.0, "u1", 1.0)]
-    assert best_per_start_yaw([upright]) is upright
-
-
-def test_yaw_postures_run_the_yaw_search_from_each_posture(model, monkeypatch):
-    from dressmeup.body.registration import init as init_mod
     from dressmeup.body.registration.hypotheses import canonical_pose
+    from dressmeup.body.registration.init import place_on_scan, yaw_search
 
-    truth = BodyParams("procedural", shape=np.full(6, 0.5),
-                       pose=canonical_pose("bending", list(model.joint_names),
-                                           model.posed(model.default_params()).joints))
-    scan = synthetic_scan(model, truth, n_points=3000, noise=0.0, seed=3)
-    problem = _problem(model, scan)
-    spine = list(model.joint_names).index("spine1")
-    starts, real = [], init_mod.yaw_search
-
-    def spy(problem, *args, **kwargs):
-        starts.append(problem.pose.detach().numpy()[spine].copy())
-        return real(problem, *args, **kwargs)
-
-    monkeypatch.setattr(init_mod, "yaw_search", spy)
-    info = init_mod.hypothesis_search(problem, ("a-pose", "bending"), 2, 2, 2, 1, 1, 0.015,
-                                      0.01, True, yaw_candidates=4,
-                                      yaw_postures=("a-pose", "bending"))
-    assert len(starts) == 2 and not starts[0].any() and starts[1].any()
-    assert info["init_steps"] == 2 * 4 * 2 + len(info["hypotheses_rigid"]) * 2 + 1 * 2
-    with pytest.raises(ValueError, match="tilts the root"):
-        init_mod.hypothesis_search(problem, ("a-pose",), 2, 2, 2, 1, 1, 0.015, 0.01, True,
-                                   yaw_candidates=4, yaw_postures=("deep-bend",))
+    rest = model.posed(model.default_params()).joints
+    pose = canonical_pose("a-pose", model.joint_names, rest)
+    pose[0] = (0.0, math.pi / 2, 0.0)
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=pose)
+    problem = _problem(model, synthetic_scan(model, truth, n_points=3000, noise=0.0, seed=3))
+    problem.set_params(pose=canonical_pose("a-pose", model.joint_names, rest))
+    place_on_scan(problem, True)
+    start = problem.snapshot()
+    ranked = yaw_search(problem, Objective("pose"), 4, RATES)
+    assert [c.info["yaw"] for c in ranked][0] == pytest.approx(math.pi / 2)
+    assert sorted(c.score for c in ranked) == [c.score for c in ranked]
+    assert all(np.array_equal(c.snapshot["shape_z"], start["shape_z"]) for c in ranked)
+    assert np.array_equal(problem.pose.detach().numpy(), ranked[0].snapshot["pose"].numpy())
 
 
 def test_deep_bend_tilts_the_root_and_the_search_keeps_its_heading():
@@ -404,114 +403,32 @@ def test_deep_bend_tilts_the_root_and_the_search_keeps_its_heading():
     assert np.allclose(root.apply(up), (np.sin(np.deg2rad(60)), 0.5, 0.0), atol=1e-9)
 
 
-def test_unknown_hypotheses_fail_before_the_fit(model):
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
-    from dressmeup.errors import InputError
-
-    for bad in (("a-pose", "moonwalk"), "a-pose"):
-        with pytest.raises(InputError, match="hypotheses: expected a list of"):
-            OptimizationRegistrar(hypotheses=bad).fit(np.zeros((10, 3)), model)
-    for bad in (("a-pose", "deep-bend"), "a-pose", (), ("moonwalk",)):
-        with pytest.raises(InputError, match="yaw_postures: expected"):
-            OptimizationRegistrar(yaw_postures=bad).fit(np.zeros((10, 3)), model)
-        with pytest.raises(InputError, match="yaw_postures: expected"):  # the search alone
-            OptimizationRegistrar(yaw_postures=bad).search_hypotheses(None)
-
-
-def test_second_limb_search_runs_after_the_pose_stage_only_without_init(model, monkeypatch):
-    """``limb_search_after_pose``: the limb search runs again after the pose stage (its
-    start is the settled body, not the hypothesis'), reported in ``info``; never with a
-    given ``init`` or when switched off; ``limb_aim`` aims the second searches only;
-    ``limb_scan_cap`` reaches every search."""
-    import dressmeup.body.registration.optimizer as optimizer
-    from dressmeup.body.registration import register
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
-
-    starts, aims, caps, knees = [], [], [], []
-    real = optimizer.limb_search
-
-    def spy(problem, *args, **kwargs):
-        starts.append(problem.posed_numpy().copy())
-        aims.append(kwargs.get("aim", "none"))
-        caps.append(kwargs.get("scan_cap"))
-        knees.append(kwargs.get("leg_bends_deg"))
-        return real(problem, *args, **kwargs)
-
-    monkeypatch.setattr(optimizer, "limb_search", spy)
-    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=_arm_across_chest(model),
-                       transl=[0.1, 0.0, 0.2])
-    scan = synthetic_scan(model, truth, n_points=4000, noise=0.002, seed=1)
-    fast = dict(iterations=(10, 30, 10), n_scan_points=1500, n_body_points=1000, verbose=False,
-                hypotheses=("a-pose",), hypothesis_steps=(5, 5, 10), yaw_candidates=2,
-                hypothesis_yaws=1, limb_search_final=False)  # the final search: below
-    res = register(scan, model, return_result=True, far_cloth_branch=False, **fast)
-    assert len(starts) == 2 and not np.allclose(starts[0], starts[1])
-    assert set(res.info["limbs_after_pose"]) >= {"limbs_moved", "limb_score", "limb_kept"}
-    starts.clear()
-    # with the far-cloth branches (the default), each branch has its own second search
-    res = register(scan, model, return_result=True, **fast)
-    assert len(starts) == 3 and not np.allclose(starts[1], starts[2])
-    assert res.info["far_cloth_branches"]["kept"] in ("pull", "free")
-    starts.clear()
-    aims.clear()
-    # ``limb_aim`` reaches the second searches only (the first starts from a rough body)
-    caps.clear()
-    knees.clear()
-    register(scan, model, return_result=True, limb_aim="arms", limb_scan_cap=0.05,
-             limb_first_knee_bends=[0, 70], **fast)
-    assert aims == ["none", "arms", "arms"]
-    assert caps == [0.05, 0.05, 0.05]
-    assert knees == [(0, 70), None, None]  # the knee bends reach the first search only
-    starts.clear()
-    res = register(scan, model, return_result=True, limb_search_after_pose=False, **fast)
-    assert len(starts) == 1 and "limbs_after_pose" not in res.info
-    assert "limbs_final" not in res.info
-    # ``limb_search_final``: a last search from the finished body, aimed like the second
-    starts.clear()
-    aims.clear()
-    assert OptimizationRegistrar().limb_search_final  # on by default since session 16
-    res = register(scan, model, return_result=True, **{**fast, "limb_search_final": True})
-    assert len(starts) == 4 and aims == ["none", "all", "all", "all"]
-    assert not np.allclose(starts[3], starts[1]) and not np.allclose(starts[3], starts[2])
-    assert set(res.info["limbs_final"]) >= {"limbs_moved", "limb_score", "limb_kept"}
-    starts.clear()
-    res = register(scan, model, init=truth, return_result=True, **fast)
-    assert not starts and "limbs_after_pose" not in res.info
-
-
 @pytest.mark.parametrize("kept", [False, True])
-def test_final_limb_search_reruns_the_shape_stage_only_after_a_move(model, monkeypatch, kept):
-    """The last limb search (``limb_search_final``) runs after the far-cloth branches; the
-    shape stage runs once more exactly when it kept a move; the shape search comes last."""
-    import dressmeup.body.registration.optimizer as optimizer
-    from dressmeup.body.registration import register
+def test_a_limb_search_runs_its_then_stage_only_after_a_move(model, kept):
+    """The final limb search's shape stage (``then``) runs exactly when the search kept a
+    move: on a scan with the right arm folded, from a start with it hanging (kept), and
+    from the true pose (nothing to move); its losses are reported as ``final_``."""
+    from dressmeup.body.registration.hypotheses import canonical_pose
+    from dressmeup.body.registration.plan import Plan, Shape
+    from dressmeup.body.registration.runner import run_plan
 
-    calls = []
-    real_shape = optimizer.OptimizationRegistrar._shape_stage
-
-    def limbs(problem, *args, **kwargs):
-        calls.append("limbs")
-        last = calls.count("limbs") == 4  # the first, one per branch, then the final search
-        return {"limbs_moved": ["left_hip"] if kept and last else [],
-                "limb_score": (0.05, 0.04), "limb_kept": kept and last}
-
-    def shape(self, p, fit_size):
-        calls.append("shape")
-        return real_shape(self, p, fit_size)
-
-    monkeypatch.setattr(optimizer, "limb_search", limbs)
-    monkeypatch.setattr(optimizer.OptimizationRegistrar, "_shape_stage", shape)
-    scan = synthetic_scan(model, model.default_params(), n_points=2000, noise=0.002, seed=0)
-    res = register(scan, model, return_result=True, limb_search_final=True,
-                   iterations=(5, 5, 5), n_scan_points=800, n_body_points=600, verbose=False,
-                   hypotheses=("a-pose",), hypothesis_steps=(2, 2, 2), yaw_candidates=2,
-                   hypothesis_yaws=1)
-    # first search; per branch: second search, shape stage; the final search (+ shape); then
-    # the shape search (shape_search): one shape stage per stature-matched start
-    assert calls == ["limbs", "limbs", "shape", "limbs", "shape", "limbs"] + \
-        (["shape"] if kept else []) + ["shape", "shape"]
-    assert res.info["limbs_final"]["limb_kept"] is kept
-    assert any(k.startswith("final_") for k in res.losses) is kept
+    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=_arm_across_chest(model))
+    problem = _problem(model, synthetic_scan(model, truth, n_points=6000, noise=0.0, seed=5))
+    start = truth.pose.copy()
+    if kept:
+        a_pose = canonical_pose("a-pose", model.joint_names,
+                                model.posed(model.default_params()).joints)
+        for j in ("right_shoulder", "right_elbow"):
+            start[list(model.joint_names).index(j)] = a_pose[list(model.joint_names).index(j)]
+    problem.set_params(shape=truth.shape, pose=start)
+    search = LimbSearch(aim="none", knee_bends=(0.0,), elbow_bends=BENDS, pose_steps=5,
+                        size=False, far_cloth=True, rates=RATES, record="limbs_final",
+                        then=Shape(3, False, RATES))
+    state = run_plan(Plan((), (search,)), problem)
+    assert state.info["limbs_final"]["limb_kept"] is kept
+    assert ("right_shoulder" in state.info["limbs_final"]["limbs_moved"]) is kept
+    assert (set(state.losses) == {"final_shape_data", "final_shape_prior", "final_shape_shape"}
+            if kept else state.losses == {})
 
 
 def test_capped_distances_equal_the_capped_full_search():
@@ -535,7 +452,7 @@ def test_capped_distances_equal_the_capped_full_search():
 def test_unexplained_groups_find_the_scan_the_body_leaves_out():
     """Scan points more than the gap from the body form groups (largest first); points
     near the body and groups smaller than ``min_points`` are not reported."""
-    from dressmeup.body.registration.limbs import fibonacci_directions, unexplained_groups
+    from dressmeup.body.registration.aim import fibonacci_directions, unexplained_groups
 
     rng = np.random.default_rng(0)
     body = 0.2 * fibonacci_directions(2000)  # a sphere of radius 0.2 m
@@ -552,12 +469,13 @@ def test_unexplained_groups_find_the_scan_the_body_leaves_out():
 
 def test_aimed_candidates_run_the_bones_through_the_group():
     """Scan points along an arm held ahead and bent: the nearest aimed candidate, posed as
-    the limb search poses it (:func:`_world`), runs its bones within 2 cm of them on
+    the limb search poses it (:func:`limb_rotations`), runs its bones within 2 cm of them on
     average and puts the hand within 6 cm of the true one; a group out of reach gives no
     candidate. Checked against a brute-force point-to-segment distance."""
     from scipy.spatial.transform import Rotation
 
-    from dressmeup.body.registration.limbs import _segment_distances, _world, aimed_candidates
+    from dressmeup.body.registration.aim import aimed_candidates, segment_distances
+    from dressmeup.body.registration.limbs import limb_rotations
 
     J_up, J_lo = np.zeros(3), np.array([0.3, 0.0, 0.0])  # an arm held sideways, 30 cm
     W_up = Rotation.from_rotvec([0.1, 0.2, 0.0]).as_matrix()
@@ -567,7 +485,7 @@ def test_aimed_candidates_run_the_bones_through_the_group():
     c_up = (J_lo - J_up) / 0.3
     # the truth: upper arm ahead and a little up, forearm bent 60 degrees
     d_true = np.array([0.2, 0.3, 0.9]) / np.linalg.norm([0.2, 0.3, 0.9])
-    R_up, R_lo = _world(c_up, W_up, d_true, 0.7, np.radians(60), hinge)
+    R_up, R_lo = limb_rotations(c_up, W_up, d_true, 0.7, np.radians(60), hinge)
     elbow = J_up + 0.3 * d_true
     tip = elbow + R_lo.apply(W_lo.T @ (hand - J_lo))
     s = np.linspace(0, 1, 40)[:, None]
@@ -576,20 +494,20 @@ def test_aimed_candidates_run_the_bones_through_the_group():
     out = aimed_candidates(W_up, W_lo, J_up, J_lo, hand, hinge, [arm])
     assert len(out) == 60
     d, twist, bend = out[0]
-    R_up, R_lo = _world(c_up, W_up, d, twist, bend, hinge)
+    R_up, R_lo = limb_rotations(c_up, W_up, d, twist, bend, hinge)
     e = J_up + 0.3 * R_up.apply(W_up.T @ c_up)
     t = e + R_lo.apply(W_lo.T @ (hand - J_lo))
-    dist = np.minimum(_segment_distances(arm, J_up, e[None]),
-                      _segment_distances(arm, e[None], t[None]))
+    dist = np.minimum(segment_distances(arm, J_up, e[None]),
+                      segment_distances(arm, e[None], t[None]))
     assert dist.mean() < 0.02 and np.linalg.norm(t - tip) < 0.06
     u = np.linspace(0, 1, 20001)[:, None]
     for a_, b_ in ((J_up, e), (e, t)):  # the fast distance equals a brute-force one
         brute = [np.linalg.norm(q - a_ - u * (b_ - a_), axis=1).min() for q in arm[:5]]
-        assert np.allclose(_segment_distances(arm[:5], a_, b_[None])[0], brute, atol=1e-5)
+        assert np.allclose(segment_distances(arm[:5], a_, b_[None])[0], brute, atol=1e-5)
     assert aimed_candidates(W_up, W_lo, J_up, J_lo, hand, hinge, [arm + 2.0]) == []
 
 
-def _search_from(model, truth, start, joint: str, aims, seed: int, monkeypatch):
+def _search_from(model, truth, start, joint: str, aims, seed: int):
     """One limb search (no pose steps) per ``aims`` entry from pose ``start`` on a scan of
     ``truth``, with the cube grid replaced by each limb's current direction; returns the
     distance (m) of ``joint`` to its true position and the search's info, per aim."""
@@ -598,19 +516,18 @@ def _search_from(model, truth, start, joint: str, aims, seed: int, monkeypatch):
     scan = synthetic_scan(model, truth, n_points=8000, noise=0.002, seed=seed)
     j = list(model.joint_names).index(joint)
     true_joint = model.posed(truth).joints[j]
-    monkeypatch.setattr(limbs, "_limb_candidates", lambda c_up, *a: [(c_up, 0.0, 0.0)])
     errors, infos = {}, {}
     for aim in aims:
         problem = _problem(model, scan)
         problem.set_params(shape=truth.shape, pose=start, transl=truth.transl)
-        infos[aim] = limbs.limb_search(problem, n_pose=0, lr_pose=0.015, lr_transl=0.01,
-                                       size_init=False, aim=aim)
+        infos[aim] = limbs.limb_search(problem, _search(aim), Objective("pose"),
+                                       grid=lambda c_up: [(c_up, 0.0, 0.0)])
         errors[aim] = float(np.linalg.norm(
-            model.posed(problem.body_params(False)).joints[j] - true_joint))
+            model.posed(problem.body_params()).joints[j] - true_joint))
     return errors, infos
 
 
-def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):
+def test_aimed_limb_search_finds_an_outstretched_arm(model):
     """An arm held out ahead, from a start with it hanging. The cube grid is replaced by
     the hanging arm alone (on real scans the right configuration's basin can be narrower
     than the grid's spacing): without aim the arm stays lost; aimed at the unexplained
@@ -625,31 +542,12 @@ def test_aimed_limb_search_finds_an_outstretched_arm(model, monkeypatch):
     pose[s] = align_directions(rest[e] - rest[s], np.array([0.55, 0.2, 0.8]))
     pose[e] = (0.0, -np.deg2rad(35), 0.0)
     truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=pose, transl=[0.1, 0.0, 0.2])
-    errors, infos = _search_from(model, truth, a_pose, "left_wrist", ("none", "arms"), 4,
-                                 monkeypatch)
+    errors, infos = _search_from(model, truth, a_pose, "left_wrist", ("none", "arms"), 4)
     assert errors["none"] > 0.3, errors  # the one grid candidate leaves the arm down
     assert errors["arms"] < 0.04 and "left_shoulder" in infos["arms"]["limbs_moved"], errors
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
-    from dressmeup.errors import InputError
-
-    with pytest.raises(InputError, match="limb_aim: expected one of none, arms, all"):
-        OptimizationRegistrar(limb_aim=True).fit(np.zeros((100, 3)), model)
-    for bad in (0, "0.05", float("nan")):  # a string must not pass float() unnoticed
-        with pytest.raises(InputError, match="limb_scan_cap: expected a distance in metres > 0"):
-            OptimizationRegistrar(limb_scan_cap=bad).fit(np.zeros((100, 3)), model)
-    for bad in ((), "0,50", 100, (0, -10), (0, 180), (0, float("nan")), (True,), ("50",),
-                {0: 1}):
-        with pytest.raises(InputError, match=r"limb_first_knee_bends: expected a non-empty list"):
-            OptimizationRegistrar(limb_first_knee_bends=bad).fit(np.zeros((100, 3)), model)
-    for good in ([0, 50], np.array([0, 50, 100]), (0.0, 179.5)):  # numpy numbers are fine
-        OptimizationRegistrar(limb_first_knee_bends=good)._check_options()
-    for bad in (0, 1.5, "0.03", float("nan"), True):
-        with pytest.raises(InputError, match="unseen_hit_radius: expected None or a distance"):
-            OptimizationRegistrar(unseen_hit_radius=bad).fit(np.zeros((100, 3)), model)
-    OptimizationRegistrar(unseen_hit_radius=np.float64(0.03))._check_options()
 
 
-def test_aimed_limb_search_finds_a_raised_knee(model, monkeypatch):
+def test_aimed_limb_search_finds_a_raised_knee(model):
     """One thigh raised ahead with the shin hanging from the knee (a step up), from a start
     standing on both legs. With the cube grid replaced by the standing leg alone, aiming
     only the arms leaves the leg down (42 cm off); aiming the legs too (``"all"``) brings
@@ -665,7 +563,6 @@ def test_aimed_limb_search_finds_a_raised_knee(model, monkeypatch):
     pose[h] = align_directions(rest[k] - rest[h], np.array([0.1, -0.4, 0.9]))
     pose[k] = (np.deg2rad(80), 0.0, 0.0)
     truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=pose, transl=[0.1, 0.0, 0.2])
-    errors, infos = _search_from(model, truth, a_pose, "left_ankle", ("arms", "all"), 5,
-                                 monkeypatch)
+    errors, infos = _search_from(model, truth, a_pose, "left_ankle", ("arms", "all"), 5)
     assert errors["arms"] > 0.3, errors  # the one grid candidate leaves the leg down
     assert errors["all"] < 0.08 and "left_hip" in infos["all"]["limbs_moved"], errors

@@ -15,19 +15,25 @@ def model():
 
 
 def _wrong_shape_problem(model, truth, start, seed):
-    """(registrar, FitProblem) on a scan of the rest body with shape ``truth``, the
-    problem's shape set to ``start``."""
-    from dressmeup.body.registration.optimizer import OptimizationRegistrar
+    """(shape search stage, FitProblem) on a scan of the rest body with shape ``truth``,
+    the problem's shape set to ``start``."""
+    from dressmeup.body.registration.config import get_config
+    from dressmeup.body.registration.plan import build_plan
     from dressmeup.body.registration.problem import FitProblem
     from dressmeup.body.registration.scan import prepare_scan
 
     body = BodyParams("procedural", shape=np.array(truth), pose=np.zeros((model.n_joints, 3)))
     scan = synthetic_scan(model, body, n_points=8000, noise=0.002, seed=seed)
-    opts = OptimizationRegistrar(n_scan_points=3000, n_body_points=2000, verbose=False,
-                                 iterations=(20, 40, 40))
-    problem = FitProblem(opts, model, prepare_scan(scan, opts.n_scan_points, 0), None)
+    config = get_config(n_scan_points=3000, n_body_points=2000, iterations=(20, 40, 40))
+    problem = FitProblem.from_config(config, model, prepare_scan(scan, 3000, 0))
     problem.set_params(shape=np.array(start))
-    return opts, problem
+    return build_plan(config).stages[-1], problem
+
+
+def _objective(problem) -> float:
+    from dressmeup.body.registration.problem import Objective
+
+    return problem.objective(Objective("shape", far_cloth=True))
 
 
 def test_stature_grows_with_the_height_parameter(model):
@@ -80,34 +86,21 @@ def test_shape_search_keeps_the_lowest_objective(model):
     """From a body with the wrong phenotype (the truth's stature reached by age and muscle
     instead of height, the other gender), the search's starts run, the kept body has the
     lowest shape objective of all starts, and it is not worse than the start."""
-    opts, problem = _wrong_shape_problem(model, truth=[1.0, 0.5, 0.3, 0.1, 0.95, 0.5],
+    from dressmeup.body.registration.shapes import shape_search
+
+    spec, problem = _wrong_shape_problem(model, truth=[1.0, 0.5, 0.3, 0.1, 0.95, 0.5],
                                          start=[0.0, 0.9, 0.9, 0.5, 0.75, 0.5], seed=1)
-    before = problem.objective("shape")
-    info: dict = {}
-    opts._shape_search(problem, info)
-    scores = info["shape_search"]
+    before = _objective(problem)
+    scores, losses = shape_search(problem, spec)
     assert len(scores) == 4 and "fitted" in scores
     assert sorted(k.split(" height")[0] for k in scores if k.startswith("gender")) == [
         "gender 0", "gender 1"]
     assert scores["kept"] != "fitted"  # the wrong phenotype's basin is left
     kept = scores["kept"]
     assert scores[kept] == min(v for k, v in scores.items() if k != "kept")
-    assert problem.objective("shape") <= before + 1e-9
-    assert problem.objective("shape") == pytest.approx(scores[kept], rel=1e-3)
-
-
-def test_shape_search_option_off_leaves_no_trace(model):
-    """``shape_search=False``: the fit reports no search (and the option is a plain bool)."""
-    from dressmeup.body.registration import register
-
-    truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=np.zeros((model.n_joints, 3)))
-    scan = synthetic_scan(model, truth, n_points=4000, noise=0.002, seed=2)
-    fast = dict(iterations=(10, 10, 10), hypotheses=("a-pose",), yaw_search=False,
-                limb_search=False, n_scan_points=2000, n_body_points=1000, verbose=False)
-    off = register(scan, model, return_result=True, shape_search=False, **fast)
-    on = register(scan, model, return_result=True, **fast)
-    assert "shape_search" not in off.info
-    assert on.info["shape_search"]["kept"] in on.info["shape_search"]
+    assert _objective(problem) <= before + 1e-9
+    assert _objective(problem) == pytest.approx(scores[kept], rel=1e-3)
+    assert {"search_pose_data", "search_shape_data"} <= set(losses)
 
 
 def test_build_grid_starts_match_the_stature_with_each_build(model):
@@ -134,11 +127,11 @@ def test_shape_search_ranks_the_builds_and_starts_from_the_scan_s(model):
     build whose placed body fits the scan best, which for the truth's gender has the
     truth's muscle and weight (proportions trade off with height); the search leaves the
     wrong build."""
-    opts, problem = _wrong_shape_problem(model, truth=[1.0, 0.5, 0.0, 0.0, 0.5, 0.5],
+    from dressmeup.body.registration.shapes import shape_search
+
+    spec, problem = _wrong_shape_problem(model, truth=[1.0, 0.5, 0.0, 0.0, 0.5, 0.5],
                                          start=[1.0, 0.5, 1.0, 1.0, 0.3, 0.5], seed=3)
-    info: dict = {}
-    opts._shape_search(problem, info)
-    scores = info["shape_search"]
+    scores, _ = shape_search(problem, spec)
     names = [k for k in scores if k.startswith("gender 1")]
     assert len(names) == 1 and " build 0.0 0.0 " in names[0], scores
     assert scores["kept"] != "fitted"

@@ -169,7 +169,7 @@ def test_registrar_leaves_the_seat_out_and_reports_it():
     truth = BodyParams("procedural", shape=np.full(6, 0.5), pose=named_pose("sitting"))
     scan = synthetic_scan(model, truth, n_points=6000, noise=0.002, seed=3, seat_box=True)
     fast = dict(iterations=(1, 1, 1), n_scan_points=2000, verbose=False, hypotheses=(),
-                yaw_search=False)
+                limb_search=False, shape_search=False)
     res = register(scan, model, return_result=True, **fast)
     info = res.info["support"]
     assert info["points_removed"] > 0 and info["points_checked"] == min(8000, len(scan))
@@ -204,7 +204,8 @@ def test_keypoints_are_detected_on_the_scan_without_the_seat(monkeypatch):
         monkeypatch.setattr(mod, "keypoints_available", lambda: True)
         monkeypatch.setattr(mod, "detect_keypoints", detect)
     res = register(scan, model, return_result=True, init_route="keypoints", iterations=(1, 1, 1),
-                   n_scan_points=2000, verbose=False, hypotheses=(), yaw_search=False)
+                   n_scan_points=2000, verbose=False, hypotheses=(), limb_search=False,
+                   shape_search=False)
     assert len(seen) == 1 and res.supports
     from dressmeup.body.registration.support import support_mask
 

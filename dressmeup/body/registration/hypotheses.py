@@ -10,6 +10,7 @@ direction, then knees, elbows and spine get a bend. Directions are in the model 
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 #: name -> directions and bends. ``arm``: left upper-arm direction (x left, y up, z
 #: forward); ``thigh``: left thigh direction; ``knee``, ``elbow``, ``spine`` bends (degrees:
@@ -43,16 +44,12 @@ CANONICAL_POSES["stride-left"] = {"arm": (0.25, -1.0, 0.0), **_FRONT_LEG, "right
 CANONICAL_POSES["stride-right"] = {"arm": (0.25, -1.0, 0.0), **_BACK_LEG, "right": _FRONT_LEG}
 
 #: Hypotheses defined but tried only when asked for (``hypotheses=``): the strides help the
-#: raised-knee tuning fits but make a clothed walking fit 13 mm worse (docs/body-models.md,
-#: "Session 12").
+#: raised-knee tuning fits but make a clothed walking fit 13 mm worse
+#: (benchmarks/results/registration/2026-12-03-folded-legs.md).
 OPT_IN_HYPOTHESES: tuple[str, ...] = ("stride-left", "stride-right")
 #: The hypotheses tried by default: all of :data:`CANONICAL_POSES` but the opt-in ones.
 DEFAULT_HYPOTHESES: tuple[str, ...] = tuple(n for n in CANONICAL_POSES
                                             if n not in OPT_IN_HYPOTHESES)
-#: The hypotheses whose root is untilted (no ``pelvis``): the ones a yaw search can start
-#: from, since their root is the heading alone (``yaw_postures``).
-UPRIGHT_HYPOTHESES: tuple[str, ...] = tuple(n for n, d in CANONICAL_POSES.items()
-                                            if not d.get("pelvis"))
 
 
 def align_directions(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -86,9 +83,6 @@ def canonical_pose(name: str, joint_names, rest_joints: np.ndarray) -> np.ndarra
 
     def idx(n):
         return names.index(n) if n in names else None
-
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial.transform import Rotation
 
     tilt = Rotation.identity()  # the root's forward tilt, which everything inherits
     if spec.get("pelvis"):

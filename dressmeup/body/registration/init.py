@@ -3,25 +3,32 @@
 - :func:`place_on_scan`: centre the body on the scan and (upright scans without
   keypoints) match the vertical extent with a temporary uniform scale, which the shape takes
   over in the last stage (limb lengths then need not be faked by bending the knees).
-- :func:`yaw_search`: from the current pose, try 4 root yaw angles with a short rigid
+- :func:`yaw_search`: from the current pose, try root yaw angles with a short rigid
   stage fitting the torso, hips and head, keep the best.
-- :func:`hypothesis_search`: the multi-hypothesis start without keypoints. The best yaws of
-  the yaw search x the canonical poses of :mod:`.hypotheses` each get a short rigid stage
-  on the whole body; the best few get a short pose stage; the best of those goes on.
-  Cost: ``len(yaw_postures) * yaw_candidates * n_yaw + len(poses) * (yaws_kept + 1) *
-  n_rigid + (keep + 1) * n_pose`` steps at most (the yaw opposite the best,
-  :func:`kept_yaws`; the hypothesis facing away, :func:`refined_hypotheses`).
+- :func:`hypothesis_search`: the multi-hypothesis start without keypoints. From the A-pose,
+  the best yaws of the yaw search x the canonical poses of :mod:`.hypotheses` each get a
+  short rigid stage on the whole body; the best few get a short pose stage; the best of
+  those goes on. Cost: ``yaw_candidates * n_yaw + len(poses) * (yaws_kept + 1) * n_rigid +
+  (keep + 1) * n_pose`` steps at most (the yaw opposite the best, :func:`kept_yaws`; the
+  hypothesis facing away, :func:`refined_hypotheses`).
+- :func:`keypoint_start`: the canonical pose that fits given or detected 3D keypoints.
+
+Every "several candidates, keep the best" here goes through :func:`.search.best_of`.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
-from dressmeup.body.registration.hypotheses import UPRIGHT_HYPOTHESES, canonical_pose
-from dressmeup.body.registration.stages import run_adam
+from dressmeup.body.registration.hypotheses import canonical_pose
+from dressmeup.body.registration.problem import Objective
+from dressmeup.body.registration.search import Candidate, Scored, best_of
+from dressmeup.body.registration.stages import SIZE_RATE, run_adam
 from dressmeup.geometry.neighbors import NearestTree
 
 logger = logging.getLogger(__name__)
@@ -50,12 +57,13 @@ def surface_centroid(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     return (tri.mean(1) * area[:, None]).sum(0) / max(float(area.sum()), 1e-12)
 
 
-def yaw_search(problem, n_steps: int, lr_pose: float, lr_transl: float,
+def yaw_search(problem, objective: Objective, n_steps: int, rates,
                yaws=(0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi),
-               verbose: bool = False) -> list[tuple[float, dict, float]]:
+               verbose: bool = False) -> list[Scored]:
     """Try each root yaw (radians about +y) from the current pose with ``n_steps`` rigid
-    steps on the core joints' skin; keep the best and return every candidate as
-    ``(core data cost, snapshot, start yaw)``, best first.
+    steps on the core joints' skin (``objective`` as the stages', made rigid and core-only);
+    keep the best and return every candidate, best first, scored by the core data cost of
+    its last step (``info["yaw"]``: its start yaw).
 
     Candidates are compared on the torso, hips and head only: with the limbs, a wrong yaw
     can win (A-pose arms sideways match a walking scan's legs seen from the side).
@@ -63,45 +71,40 @@ def yaw_search(problem, n_steps: int, lr_pose: float, lr_transl: float,
     # heavy: torch (~1.1 s to import)
     import torch
 
-    base = problem.snapshot()
-    scored: list[tuple[float, dict]] = []
-    problem.core_only = True
-    try:
-        for yaw in yaws:
-            problem.restore(base)
+    rigid = replace(objective, stage="global", core_only=True)
+
+    def turned(yaw: float) -> Candidate:
+        def run(p) -> dict:
             with torch.no_grad():
-                problem.pose[0] = torch.tensor([0.0, yaw, 0.0], dtype=problem.dt)
+                p.pose[0] = torch.tensor([0.0, yaw, 0.0], dtype=p.dt)
             label = f"yaw {math.degrees(yaw):.0f}"
-            terms = run_adam(problem, "global", n_steps, [problem.pose, problem.transl],
-                             [lr_pose, lr_transl], label=label, verbose=verbose)
+            terms = run_adam(p, rigid, n_steps, [p.pose, p.transl], [rates.pose, rates.transl],
+                             label=label, verbose=verbose)
             logger.info("%s: core data %.4f", label, terms["data"])
-            scored.append((terms["data"], problem.snapshot(), yaw))
-    finally:
-        problem.core_only = False
-    scored.sort(key=lambda t: t[0])
-    problem.restore(scored[0][1])
-    return scored
+            return {"yaw": yaw, "core_data": terms["data"]}
+        return Candidate(f"yaw {math.degrees(yaw):.0f}", run)
+
+    return best_of(problem, [turned(y) for y in yaws], lambda p, info: info["core_data"],
+                   start=problem.snapshot())
 
 
-def kept_yaws(ranked: list[tuple[float, dict, float]], n_kept: int,
-              keep_opposite: bool) -> list[tuple[float, dict, float]]:
-    """The yaw candidates that go on to the pose hypotheses: the ``n_kept`` best and
-    (``keep_opposite``) also the candidate that started facing the opposite way of the
-    best, if it is not among them. A torso alone is nearly symmetric front to back: a body
-    bent forward and one leaning back facing the other way fit its core alike, and only the
-    whole body (legs, arms, feet) tells them apart in the hypothesis stage.
+def kept_yaws(ranked: list[Scored], n_kept: int) -> list[Scored]:
+    """The yaw candidates that go on to the pose hypotheses: the ``n_kept`` best and also
+    the candidate that started facing the opposite way of the best, if it is not among
+    them. A torso alone is nearly symmetric front to back: a body bent forward and one
+    leaning back facing the other way fit its core alike, and only the whole body (legs,
+    arms, feet) tells them apart in the hypothesis stage.
 
     Parameters
     ----------
-    ranked : ``(core cost, snapshot, start yaw rad)`` best first (:func:`yaw_search`).
+    ranked : yaw candidates best first (:func:`yaw_search`; ``info["yaw"]`` in rad).
     n_kept : how many of the best go on (at least 1).
     """
     out = list(ranked[:max(int(n_kept), 1)])
-    if keep_opposite:
-        target = ranked[0][2] + math.pi
-        for cand in ranked[len(out):]:
-            if abs(math.remainder(cand[2] - target, 2 * math.pi)) < 1e-6:
-                out.append(cand)
+    target = ranked[0].info["yaw"] + math.pi
+    for cand in ranked[len(out):]:
+        if abs(math.remainder(cand.info["yaw"] - target, 2 * math.pi)) < 1e-6:
+            out.append(cand)
     return out
 
 
@@ -123,7 +126,8 @@ def symmetric_score(problem, cap: float = 0.1, scan_cap: float | None = None) ->
     as one with its arms out on a T-pose scan. The scan -> body cap decides what loose cloth
     is worth: with a cap above the cloth's distance from the body, a limb folded up into a
     skirt or dress explains cloth points and can outscore the right limb, whose bare shin it
-    leaves unexplained (the limb search's option ``limb_scan_cap``).
+    leaves unexplained (smaller caps than 0.1 m made the limb searches worse on tuning
+    data).
     """
     scan_cap = cap if scan_cap is None else scan_cap
     V = problem.posed_numpy()[problem.body_ids]
@@ -135,127 +139,97 @@ def symmetric_score(problem, cap: float = 0.1, scan_cap: float | None = None) ->
 def compose_root(heading: np.ndarray, tilt: np.ndarray) -> np.ndarray:
     """Axis-angle (3,) of a hypothesis' root: its own ``tilt`` (e.g. a deep bend's forward
     lean, in the model frame) first, then the search's ``heading`` (the yaw search's root)."""
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial.transform import Rotation
-
     return (Rotation.from_rotvec(heading) * Rotation.from_rotvec(tilt)).as_rotvec()
 
 
-def hypothesis_search(problem, poses, n_yaw: int, n_rigid: int, n_pose: int, keep: int,
-                      yaws_kept: int, lr_pose: float, lr_transl: float, size_init: bool,
-                      verbose: bool = False, yaw_candidates: int = 4,
-                      keep_opposite: bool = True, refine_opposite: bool = False,
-                      yaw_postures: tuple[str, ...] = ("a-pose",)) -> dict:
+def hypothesis_search(problem, spec, objective: Objective, verbose: bool = False) -> dict:
     """Multi-hypothesis start (see module docstring); leaves the best in ``problem``.
 
     Parameters
     ----------
-    poses : names of :data:`~dressmeup.body.registration.hypotheses.CANONICAL_POSES`.
-    n_yaw, n_rigid, n_pose : steps of the yaw candidates, of the whole-body rigid stage of
-        each (pose, yaw) hypothesis, and of the short pose stage of the ``keep`` best.
-    yaws_kept : how many of the ``yaw_candidates`` yaws go on to the pose hypotheses.
-    yaw_candidates : yaws tried on the core, evenly spaced over the full turn.
-    size_init : match each hypothesis' vertical extent to the scan with a uniform scale.
-    keep_opposite : the yaw facing opposite the best is always among the kept yaws
-        (:func:`kept_yaws`).
-    refine_opposite : also refine the best rigid hypothesis facing away from the best one
-        when none of the ``keep`` best does (:func:`refined_hypotheses`).
-    yaw_postures : canonical poses (untilted roots) the yaw search runs from, each over the
-        ``yaw_candidates`` yaws; every start yaw keeps its best core cost over the postures
-        (:func:`best_per_start_yaw`). An upright torso ranks a deeply bent scan's headings
-        almost at random; a bent one ranks them.
+    spec : the :class:`~dressmeup.body.registration.plan.HypothesisSearch` stage (poses,
+        yaw candidates, yaws and hypotheses kept, step counts, learning rates).
+    objective : the objective of its pose steps (its rigid steps use it as ``global``;
+        the yaw candidates, core-only).
 
     Returns
     -------
-    info : dict with the ranked hypotheses (name, yaw in degrees, data cost) and step counts.
+    info : dict with the ranked hypotheses (name, yaw in degrees, symmetric score) and the
+    step count.
     """
     # heavy: torch (~1.1 s to import)
     import torch
 
-    model = problem.model
+    model, rates = problem.model, spec.rates
+    n_yaw, n_rigid, n_pose = spec.steps
     rest = model.posed(model.default_params()).joints
-    yaws = tuple(2 * math.pi * k / max(yaw_candidates, 1) for k in range(max(yaw_candidates, 1)))
-    rankings = []
-    for posture in yaw_postures:
-        if posture not in UPRIGHT_HYPOTHESES:
-            raise ValueError(f"yaw_postures: {posture!r} tilts the root; a yaw search "
-                             "posture must not (its root is the heading)")
-        problem.set_params(pose=canonical_pose(posture, model.joint_names, rest))
-        place_on_scan(problem, size_init)
-        rankings.append(yaw_search(problem, n_yaw, lr_pose, lr_transl, yaws=yaws,
-                                   verbose=verbose))
-    ranked_yaws = best_per_start_yaw(rankings)
-    roots = [snap["pose"][0].clone()
-             for _, snap, _ in kept_yaws(ranked_yaws, yaws_kept, keep_opposite)]
-    rigid: list[tuple[float, str, float, dict]] = []
-    for name in poses:
-        hyp = canonical_pose(name, model.joint_names, rest)
-        for root in roots:
-            problem.set_params(pose=hyp, scale=1.0)
+    n = max(spec.yaw_candidates, 1)
+    yaws = tuple(2 * math.pi * k / n for k in range(n))
+    problem.set_params(pose=canonical_pose("a-pose", model.joint_names, rest))
+    place_on_scan(problem, True)
+    ranked = yaw_search(problem, objective, n_yaw, rates, yaws=yaws, verbose=verbose)
+    roots = [c.snapshot["pose"][0].clone() for c in kept_yaws(ranked, spec.yaws_kept)]
+    rigid_objective = replace(objective, stage="global")
+
+    def rigid(name: str, root) -> Candidate:
+        def run(p) -> dict:
+            hyp = canonical_pose(name, model.joint_names, rest)
+            p.set_params(pose=hyp, scale=1.0)
             with torch.no_grad():  # untilted: the heading as is (a round trip through
                 # scipy would move its last bits, and with them every fit)
-                problem.pose[0] = root if not hyp[0].any() else torch.as_tensor(
-                    compose_root(root.cpu().numpy(), hyp[0]), dtype=problem.dt)
-            place_on_scan(problem, size_init)
-            run_adam(problem, "global", n_rigid, [problem.pose, problem.transl],
-                     [lr_pose, lr_transl], label=f"hypothesis {name}", verbose=verbose)
-            yaw = math.degrees(float(root.norm()) * float(torch.sign(root[1]) or 1.0))
-            rigid.append((symmetric_score(problem), name, yaw, problem.snapshot()))
-    rigid.sort(key=lambda t: t[0])
-    refined: list[tuple[float, str, float, dict]] = []
-    for _, name, yaw, snap in refined_hypotheses(rigid, keep, refine_opposite):
-        problem.restore(snap)
-        params = [problem.pose, problem.transl]
-        lrs = [lr_pose, lr_transl]
-        if size_init:
-            params.append(problem.log_scale)
-            lrs.append(0.003)
-        run_adam(problem, "pose", n_pose, params, lrs, label=f"hypothesis {name} pose",
-                 verbose=verbose)
-        refined.append((symmetric_score(problem), name, yaw, problem.snapshot()))
-    refined.sort(key=lambda t: t[0])
-    problem.restore(refined[0][3])
-    logger.info("hypotheses: %s", ", ".join(f"{n}@{y:.0f} {c:.3f}" for c, n, y, _ in refined))
-    return {"init": f"hypothesis {refined[0][1]} (yaw {refined[0][2]:.0f} deg)",
-            "hypotheses_rigid": [(n, round(y), round(c, 4)) for c, n, y, _ in rigid],
-            "hypotheses_refined": [(n, round(y), round(c, 4)) for c, n, y, _ in refined],
-            "init_steps": len(yaw_postures) * len(yaws) * n_yaw + len(rigid) * n_rigid
-            + len(refined) * n_pose}
+                p.pose[0] = root if not hyp[0].any() else torch.as_tensor(
+                    compose_root(root.cpu().numpy(), hyp[0]), dtype=p.dt)
+            place_on_scan(p, True)
+            run_adam(p, rigid_objective, n_rigid, [p.pose, p.transl], [rates.pose, rates.transl],
+                     label=f"hypothesis {name}", verbose=verbose)
+            return {"yaw": math.degrees(float(root.norm()) * float(torch.sign(root[1]) or 1.0))}
+        return Candidate(name, run)
+
+    def refined(cand: Scored) -> Candidate:
+        def run(p) -> dict:
+            p.restore(cand.snapshot)
+            run_adam(p, objective, n_pose, [p.pose, p.transl, p.log_scale],
+                     [rates.pose, rates.transl, SIZE_RATE], label=f"hypothesis {cand.name} pose",
+                     verbose=verbose)
+            return cand.info
+        return Candidate(cand.name, run)
+
+    def score(p, info) -> float:
+        return symmetric_score(p)
+
+    hypotheses = best_of(problem, [rigid(name, root) for name in spec.hypotheses
+                                   for root in roots], score)
+    finals = best_of(problem, [refined(c) for c in refined_hypotheses(hypotheses, spec.keep)],
+                     score)
+    logger.info("hypotheses: %s", ", ".join(f"{c.name}@{c.info['yaw']:.0f} {c.score:.3f}"
+                                            for c in finals))
+    best = finals[0]
+    return {"init": f"hypothesis {best.name} (yaw {best.info['yaw']:.0f} deg)",
+            "hypotheses_rigid": [(c.name, round(c.info["yaw"]), round(c.score, 4))
+                                 for c in hypotheses],
+            "hypotheses_refined": [(c.name, round(c.info["yaw"]), round(c.score, 4))
+                                   for c in finals],
+            "init_steps": len(yaws) * n_yaw + len(hypotheses) * n_rigid + len(finals) * n_pose}
 
 
-def best_per_start_yaw(rankings: list[list[tuple[float, dict, float]]]
-                       ) -> list[tuple[float, dict, float]]:
-    """Merge :func:`yaw_search` results from several postures: for each start yaw the
-    candidate with the lowest core cost (the costs compare: same scan, same core skin),
-    best first. One ranking is returned as is."""
-    if len(rankings) == 1:
-        return rankings[0]
-    best: dict[float, tuple[float, dict, float]] = {}
-    for ranked in rankings:
-        for cand in ranked:
-            if cand[2] not in best or cand[0] < best[cand[2]][0]:
-                best[cand[2]] = cand
-    return sorted(best.values(), key=lambda t: t[0])
-
-
-def refined_hypotheses(rigid: list[tuple], keep: int, opposite: bool) -> list[tuple]:
-    """The rigid hypotheses that get the short pose stage: the ``keep`` best and
-    (``opposite``), when all of them face within 90 degrees of the best, also the best one
-    facing further away, refined last (so it changes the fit only when it wins). A rigid
-    stage ranks a bent torso and an upright body facing the other way alike (a torso bent
-    over its legs with the arms hanging looks, from its back, like a body sitting with its
-    thighs forward); the pose stage is what tells them apart.
+def refined_hypotheses(rigid: list[Scored], keep: int) -> list[Scored]:
+    """The rigid hypotheses that get the short pose stage: the ``keep`` best and, when all
+    of them face within 90 degrees of the best, also the best one facing further away,
+    refined last (so it changes the fit only when it wins). A rigid stage ranks a bent
+    torso and an upright body facing the other way alike (a torso bent over its legs with
+    the arms hanging looks, from its back, like a body sitting with its thighs forward);
+    the pose stage is what tells them apart.
 
     Parameters
     ----------
-    rigid : ``(score, name, yaw degrees, snapshot)`` best first.
+    rigid : scored hypotheses best first, ``info["yaw"]`` in degrees.
     """
     out = list(rigid[:max(int(keep), 1)])
-    if opposite and rigid:
-        best = rigid[0][2]
+    if rigid:
+        best = rigid[0].info["yaw"]
 
-        def away(h) -> bool:
-            return abs(math.remainder(h[2] - best, 360.0)) > 90.0
+        def away(h: Scored) -> bool:
+            return abs(math.remainder(h.info["yaw"] - best, 360.0)) > 90.0
 
         if not any(away(h) for h in out):
             out += [h for h in rigid[len(out):] if away(h)][:1]
@@ -277,49 +251,45 @@ def _rigid_similarity(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, float, 
     return R, s, t, rms
 
 
-def keypoint_start(problem, poses, n_pose: int, lr_pose: float, lr_transl: float,
-                   size_init: bool, verbose: bool = False) -> dict:
-    """Start from 3D keypoints: each canonical pose is aligned to the keypoints by a
-    similarity transform (closed form), the best one is placed (rotation as the root, the
-    scale as the temporary size) and ``n_pose`` pose steps fit keypoints and scan together.
+def keypoint_start(problem, spec, objective: Objective, verbose: bool = False) -> dict:
+    """Start from 3D keypoints: each canonical pose of ``spec`` (a
+    :class:`~dressmeup.body.registration.plan.KeypointStart`) is aligned to the keypoints by
+    a similarity transform (closed form), the best one is placed (rotation as the root, the
+    scale as the temporary size) and ``spec.pose_steps`` steps of ``objective`` fit
+    keypoints and scan together.
 
     Returns info like :func:`hypothesis_search`.
     """
-    # heavy: torch (~1.1 s to import), scipy (~0.5 s to import)
+    # heavy: torch (~1.1 s to import)
     import torch
-    from scipy.spatial.transform import Rotation
 
-    model = problem.model
+    model, rates = problem.model, spec.rates
     ids, targets = problem.kp
     if len(ids) < 4:
         raise ValueError("keypoint_start: need at least 4 keypoints")
-    rest_params = model.default_params()
+    rest = model.posed(model.default_params()).joints
     ranked = []
-    for name in poses:
-        hyp = canonical_pose(name, model.joint_names, model.posed(rest_params).joints)
-        rest_params.pose = hyp
-        J = model.posed(rest_params).joints[ids]
-        R, s, t, rms = _rigid_similarity(J, targets)
+    for name in spec.hypotheses:
+        hyp = canonical_pose(name, model.joint_names, rest)
+        params = model.default_params()
+        params.pose = hyp
+        R, s, _, rms = _rigid_similarity(model.posed(params).joints[ids], targets)
         ranked.append((rms, name, hyp, R, s))
     ranked.sort(key=lambda r: r[0])
     rms, name, hyp, R, s = ranked[0]
     pose = hyp.copy()
     pose[0] = (Rotation.from_matrix(R) * Rotation.from_rotvec(hyp[0])).as_rotvec()
-    scale = float(np.clip(s, 0.5, 1.5)) if size_init else 1.0
-    problem.set_params(pose=pose, scale=scale)
+    problem.set_params(pose=pose, scale=float(np.clip(s, 0.5, 1.5)))
     # translation: the posed joints onto the keypoints (mean offset)
     with torch.no_grad():
         out = model.forward(problem.shape_value()[None], problem.pose[None], None,
                             torch.exp(problem.log_scale)[None])
         J = out.joints[0].cpu().numpy()[ids]
     problem.set_params(transl=(targets - J).mean(0))
-    params, lrs = [problem.pose, problem.transl], [lr_pose, lr_transl]
-    if size_init:
-        params.append(problem.log_scale)
-        lrs.append(0.003)
-    run_adam(problem, "pose", n_pose, params, lrs, label="keypoint start", verbose=verbose)
+    run_adam(problem, objective, spec.pose_steps, [problem.pose, problem.transl, problem.log_scale],
+             [rates.pose, rates.transl, SIZE_RATE], label="keypoint start", verbose=verbose)
     yaw = math.degrees(Rotation.from_rotvec(problem.pose[0].detach().cpu().numpy()).as_euler("YXZ")[0])
     logger.info("keypoint start: %s (rms %.3f m)", name, rms)
     return {"init": f"keypoints + {name} (yaw {yaw:.0f} deg)",
             "hypotheses_keypoint_rms": [(n, round(r, 4)) for r, n, *_ in ranked],
-            "init_score": symmetric_score(problem), "init_steps": n_pose}
+            "init_score": symmetric_score(problem), "init_steps": spec.pose_steps}

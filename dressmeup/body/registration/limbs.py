@@ -16,10 +16,8 @@ whole change is kept only if the symmetric score of the settled body beats the s
 The score's basin around the right configuration of an outstretched arm is narrow (about
 10 degrees at the shoulder on a sitting scan whose hand the fit had lost: the nearest grid
 candidates score worse than the lost arm). With ``aim`` the search also aims the limb at
-the scan the body leaves unexplained: scan points farther than a gap from the body are
-grouped (:func:`unexplained_groups`), the limb is reduced to its two bones, and the
-configurations of a finer grid whose bones run nearest through a group within reach
-(:func:`aimed_candidates`) compete with the cube grid under the same score.
+the scan the body leaves unexplained (:mod:`.aim`): those candidates compete with the cube
+grid under the same score.
 
 Hinge conventions are those of :mod:`.hypotheses` (SMPL frame: y up, facing +z, left on
 +x): elbows bend about -y (left) / +y (right), knees about +x.
@@ -31,10 +29,14 @@ import logging
 import math
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
+from dressmeup.body.registration.aim import aimed_candidates, unexplained_groups
 from dressmeup.body.registration.hypotheses import align_directions
 from dressmeup.body.registration.init import capped_distances, symmetric_score
-from dressmeup.body.registration.stages import run_adam
+from dressmeup.body.registration.problem import Objective
+from dressmeup.body.registration.search import Candidate, best_of
+from dressmeup.body.registration.stages import SIZE_RATE, run_adam
 from dressmeup.body.registration.terms import JOINT_LIMITS
 from dressmeup.geometry.neighbors import NearestTree
 
@@ -49,10 +51,16 @@ LIMBS: tuple[tuple[str, str, tuple[float, float, float]], ...] = (
 )
 
 #: Knee bends (degrees) of the legs' grid in the first limb search (the one right after the
-#: hypotheses; ``OptimizationRegistrar.limb_first_knee_bends``). No 140: from the
-#: hypotheses' rough body a shin folded up into a skirt or dress explains cloth and
-#: outscores the hanging one; the second search, from a settled body, still tries 140.
+#: hypotheses; the setting ``limb_first_knee_bends``). No 140: from the hypotheses' rough
+#: body a shin folded up into a skirt or dress explains cloth and outscores the hanging
+#: one; the later searches, from a settled body, still try 140.
 FIRST_KNEE_BENDS: tuple[float, ...] = (0.0, 50.0, 100.0)
+#: twists about each upper-limb direction of the grid (evenly spaced)
+TWISTS = 6
+#: a limb moves only if its best candidate lowers the symmetric score by more than this (m)
+MIN_GAIN = 2e-4
+#: cap (m) of both directions of the score that decides the limb searches
+SCORE_CAP = 0.1
 
 
 def cube_directions() -> np.ndarray:
@@ -110,11 +118,21 @@ class LimbScorer:
         j_lo = self.J_up + M_up @ (self.J_lo - self.J_up)
         return np.r_[self.J_up + self.X_up @ M_up.T, j_lo + self.X_lo @ M_lo.T]
 
-    def score(self, M_up: np.ndarray, M_lo: np.ndarray) -> float:
+    def score(self, M_up: np.ndarray, M_lo: np.ndarray, above: float = math.inf) -> float:
         """Symmetric capped distance (m) with the limb moved (same value as
-        ``symmetric_score`` for the identity, up to the skinning blend near the joints)."""
+        ``symmetric_score`` for the identity, up to the skinning blend near the joints);
+        ``math.inf`` when it is surely above ``above`` (a lower bound of the score exceeds
+        it: the remaining queries are skipped; a search needs no more of a candidate that
+        cannot beat its best)."""
         X = self.points(M_up, M_lo)
+        cut = above * (1.0 + 1e-9) + 1e-12  # float rounding of the bounds on the safe side
+        if above < math.inf:  # every distance is >= 0: a quarter of the limb bounds b below
+            part = float(capped_distances(self.tree, X[::4], self.cap).sum())
+            if (self.const_body + part) / self.n_b + self.const_scan / self.n_p > cut:
+                return math.inf
         b = float(capped_distances(self.tree, X, self.cap).sum())
+        if (self.const_body + b) / self.n_b + self.const_scan / self.n_p > cut:
+            return math.inf
         # Only a scan point nearer the limb's bounding box than to the rest of the body can
         # get closer (the margin keeps float rounding of the box distance on the safe side),
         # so only those are queried: the same sum, term for term (benchmarks/perf/limb_scorer.py).
@@ -122,6 +140,10 @@ class LimbScorer:
                                                    self.P_near - X.max(0)), 0.0), axis=1)
         near = gap < self.d_near + 1e-9
         d = self.d_near.copy()
+        if above < math.inf:  # the points that cannot come nearer keep their distance
+            kept = float(d[~near].sum())
+            if (self.const_body + b) / self.n_b + (self.const_scan + kept) / self.n_p > cut:
+                return math.inf
         if near.any():
             d_limb, _ = NearestTree(X).query(self.P_near[near],
                                              distance_upper_bound=self.scan_cap)
@@ -129,123 +151,9 @@ class LimbScorer:
         return (self.const_body + b) / self.n_b + (self.const_scan + float(d.sum())) / self.n_p
 
 
-def fibonacci_directions(n: int) -> np.ndarray:
-    """(n, 3) unit vectors spread evenly over the sphere (Fibonacci lattice)."""
-    i = np.arange(n) + 0.5
-    polar = np.arccos(1.0 - 2.0 * i / n)
-    turn = math.pi * (1.0 + 5.0 ** 0.5) * i
-    return np.c_[np.cos(turn) * np.sin(polar), np.cos(polar), np.sin(turn) * np.sin(polar)]
-
-
-def unexplained_groups(P: np.ndarray, V: np.ndarray, gap: float = 0.05, link: float = 0.03,
-                       min_points: int = 15, most: int = 3) -> list[np.ndarray]:
-    """The groups of scan points the body leaves unexplained, largest first.
-
-    Parameters
-    ----------
-    P : (p, 3) scan points (m); V : (b, 3) body points (m), current pose.
-    gap : a scan point farther than this from every body point is unexplained (m); above
-        a clothed scan's shell (1-3 cm) and the noise.
-    link : unexplained points closer than this are in one group (m).
-    min_points, most : smaller groups are ignored; at most ``most`` groups are returned.
-
-    Returns
-    -------
-    groups : list of (m_k, 3) arrays of scan points.
-    """
-    # heavy: scipy (~0.5 s to import)
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    d = capped_distances(NearestTree(V), P, gap)
-    far = P[d >= gap]
-    if len(far) < min_points:
-        return []
-    pairs = cKDTree(far).query_pairs(link, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
-                       shape=(len(far), len(far)))
-    _, label = connected_components(graph, directed=False)
-    sizes = np.bincount(label)
-    order = [k for k in np.argsort(-sizes, kind="stable") if sizes[k] >= min_points][:most]
-    return [far[label == k] for k in order]
-
-
-def _segment_distances(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(n, m) distances of points ``q`` (m, 3) to the segments ``a`` -> ``b`` ((n, 3) or
-    (3,) each); through (n, 3) x (3, m) products, no (n, m, 3) array."""
-    a = np.broadcast_to(a, b.shape) if a.ndim == 1 else a
-    ab = b - a
-    ab2 = np.maximum(np.einsum("nk,nk->n", ab, ab), 1e-12)
-    # einsum, not @: these products are too small for BLAS threads to pay
-    proj = np.einsum("nk,mk->nm", ab, q) - np.einsum("nk,nk->n", a, ab)[:, None]  # (q-a).ab
-    w2 = ((q * q).sum(1)[None] - 2.0 * np.einsum("nk,mk->nm", a, q)
-          + np.einsum("nk,nk->n", a, a)[:, None])
-    t = np.clip(proj / ab2[:, None], 0.0, 1.0)
-    return np.sqrt(np.maximum(w2 - 2.0 * t * proj + t * t * ab2[:, None], 0.0))
-
-
-def aimed_candidates(W_up: np.ndarray, W_lo: np.ndarray,
-                     J_up: np.ndarray, J_lo: np.ndarray, end: np.ndarray, hinge,
-                     groups, most: int = 60, samples: int = 32, n_directions: int = 300,
-                     twists: int = 24, bends_deg=tuple(range(0, 141, 10)),
-                     seed: int = 0) -> list[tuple]:
-    """(direction, twist rad, bend rad) candidates (parametrised as in
-    :func:`_limb_candidates`) whose bones run through a group of unexplained scan points.
-
-    The limb is reduced to its two bones, upper joint -> lower joint -> ``end``; on a finer
-    grid (upper-bone directions x twists x bends) a configuration's distance to a group is
-    the mean distance of the group's points (``samples`` of them) to the nearer bone. Per
-    group within reach, the ``most`` nearest configurations are returned.
-
-    Parameters
-    ----------
-    W_up, W_lo : (3, 3) current world rotations of the upper and lower joint; J_up, J_lo :
-        (3,) their positions (m); the upper bone runs from J_up to J_lo.
-    end : (3,) end of the lower bone (e.g. the centre of the hand's or foot's points),
-        current pose (m); it moves with the lower bone.
-    groups : list of (m_k, 3) scan points (m), e.g. :func:`unexplained_groups`.
-    """
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial.transform import Rotation
-
-    length = float(np.linalg.norm(J_lo - J_up))
-    c_up = (J_lo - J_up) / max(length, 1e-12)
-    reach = length + float(np.linalg.norm(end - J_lo))
-    rng = np.random.default_rng(seed)
-    groups = [g[rng.choice(len(g), min(samples, len(g)), replace=False)] for g in groups]
-    groups = [g for g in groups if np.linalg.norm(g - J_up, axis=1).min() <= reach]
-    if not groups:
-        return []
-
-    D = fibonacci_directions(n_directions)
-    d_all = np.repeat(D, twists, axis=0)
-    t_all = np.tile(2 * math.pi * np.arange(twists) / twists, n_directions)
-    align = np.repeat([align_directions(c_up, d) for d in D], twists, axis=0)
-    # :func:`_world`'s upper rotation for every candidate at once
-    R_up = (Rotation.from_rotvec(d_all * t_all[:, None]) * Rotation.from_rotvec(align)
-            * Rotation.from_matrix(W_up))
-    j_lo = J_up + length * d_all
-    local_end = W_lo.T @ (end - J_lo)  # in the lower joint's current frame
-    upper = [_segment_distances(g, J_up, j_lo) for g in groups]
-    scores: list[list[np.ndarray]] = [[] for _ in groups]
-    bends = np.radians(np.asarray(bends_deg, dtype=np.float64))
-    for bend in bends:
-        M = (R_up * Rotation.from_rotvec(np.asarray(hinge) * bend)).as_matrix()
-        tip = j_lo + M @ local_end
-        for k, g in enumerate(groups):
-            scores[k].append(np.minimum(upper[k], _segment_distances(g, j_lo, tip)).mean(1))
-    out = []
-    for per_bend in scores:
-        flat = np.concatenate(per_bend)  # bend-major: index = bend * n + candidate
-        for i in np.argsort(flat, kind="stable")[:most]:
-            b, c = divmod(int(i), len(d_all))
-            out.append((d_all[c], float(t_all[c]), float(bends[b])))
-    return out
-
-
-def _limb_candidates(c_up: np.ndarray, twists: int, bends_deg) -> list[tuple]:
-    """(direction, twist rad, bend rad) triples of the grid for a limb now pointing ``c_up``."""
+def grid_candidates(twists: int, bends_deg) -> list[tuple]:
+    """(direction, twist rad, bend rad) triples of the cube grid: each cube direction
+    unbent, then each with every twist and every bend above 0 (degrees ``bends_deg``)."""
     out = [(d, 0.0, 0.0) for d in cube_directions()]
     for d in cube_directions():
         for k in range(twists):
@@ -255,15 +163,12 @@ def _limb_candidates(c_up: np.ndarray, twists: int, bends_deg) -> list[tuple]:
     return out
 
 
-def _world(c_up, W_up, d, twist, bend, hinge, turns: dict | None = None):
+def limb_rotations(c_up, W_up, d, twist, bend, hinge, turns: dict | None = None):
     """World rotations (upper, lower) of a candidate: the upper bone turned from ``c_up``
     onto ``d`` then twisted about it, the lower bone bent about its hinge. ``W_up``: the
     upper joint's world rotation (a matrix or a ``Rotation``); ``turns``: a dict kept across
     the calls of one limb (same ``c_up``), caching the turn of each (direction, twist), the
     same product in the same order, so the same floats."""
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial.transform import Rotation
-
     key = (np.asarray(d, np.float64).tobytes(), float(twist))
     turn = None if turns is None else turns.get(key)
     if turn is None:
@@ -277,9 +182,6 @@ def _world(c_up, W_up, d, twist, bend, hinge, turns: dict | None = None):
 
 def _tilt(d: np.ndarray, a: float, b: float) -> np.ndarray:
     """``d`` tilted by angles ``a`` and ``b`` (rad) about two axes perpendicular to it."""
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial.transform import Rotation
-
     e1 = np.cross(d, (0.0, 1.0, 0.0) if abs(d[1]) < 0.9 else (1.0, 0.0, 0.0))
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(d, e1)
@@ -294,15 +196,15 @@ def _within_limits(name: str, rotvec: np.ndarray, margin: float = 0.3) -> bool:
 
 
 def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, twists: int,
-                bends_deg, top: int = 3, rounds: int = 2, extra=()) -> tuple[
+                bends_deg, top: int = 3, rounds: int = 2, extra=(), grid=None) -> tuple[
                     float, float, np.ndarray, np.ndarray]:
-    """Best configuration of one limb by the grid (and the ``extra`` candidates, e.g.
-    :func:`aimed_candidates`) then a pattern search around the ``top`` best. Returns (start
-    score, best score, local rotvec upper, local rotvec lower); ``W`` (j, 3, 3) are the
-    current world rotations of the joints."""
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial.transform import Rotation
-
+    """Best configuration of one limb by the grid (:func:`grid_candidates`, or
+    ``grid(c_up)`` for a limb pointing along ``c_up`` when given) and the ``extra``
+    candidates (e.g. :func:`.aim.aimed_candidates`), then a pattern search around the
+    ``top`` best. Returns (start score, best score, local rotvec upper, local rotvec
+    lower); ``W`` (j, 3, 3) are the current world rotations of the joints. A candidate
+    that cannot enter the ``top`` (or, in the pattern search, beat the current best) is
+    not scored to the end (:meth:`LimbScorer.score`'s ``above``): the same result."""
     names = list(problem.model.joint_names)
     parent = int(problem.model.joint_parents[upper])
     W_par = Rotation.from_matrix(W[parent]) if parent >= 0 else Rotation.identity()
@@ -312,16 +214,32 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
     W_up_inv, W_lo_inv = W[upper].T, W[lower].T
     up_name, lo_name = names[upper], names[lower]
     R_W_up, W_par_inv, turns = Rotation.from_matrix(W[upper]), W_par.inv(), {}
+    uppers: dict = {}  # (direction, twist) -> (R_up, upper within limits, its matrix)
+    hinges: dict = {}  # bend -> (hinge rotation, lower within limits)
 
-    def evaluate(d, twist, bend):
-        R_up, R_lo = _world(c_up, R_W_up, d, twist, bend, hinge, turns)
-        local = (W_par_inv * R_up).as_rotvec()
-        if not (_within_limits(up_name, local) and _within_limits(lo_name, np.asarray(hinge)
-                                                                  * bend)):
+    def evaluate(d, twist, bend, above: float = math.inf):
+        # the same products as limb_rotations, each computed once per direction and twist
+        # (and per bend): the grid repeats them
+        key = (np.asarray(d, np.float64).tobytes(), float(twist))
+        if key not in uppers:
+            R_up, _ = limb_rotations(c_up, R_W_up, d, twist, 0.0, hinge, turns)
+            uppers[key] = (R_up, _within_limits(up_name, (W_par_inv * R_up).as_rotvec()),
+                           R_up.as_matrix() @ W_up_inv)
+        if bend not in hinges:
+            rotvec = np.asarray(hinge) * bend
+            hinges[bend] = (Rotation.from_rotvec(rotvec), _within_limits(lo_name, rotvec))
+        (R_up, up_ok, M_up), (turn_lo, lo_ok) = uppers[key], hinges[bend]
+        if not (up_ok and lo_ok):
             return math.inf
-        return scorer.score(R_up.as_matrix() @ W_up_inv, R_lo.as_matrix() @ W_lo_inv)
+        return scorer.score(M_up, (R_up * turn_lo).as_matrix() @ W_lo_inv, above)
 
-    scored = [(evaluate(*c), c) for c in [*_limb_candidates(c_up, twists, bends_deg), *extra]]
+    grid = grid_candidates(twists, bends_deg) if grid is None else grid(c_up)
+    scored, kept = [], []  # kept: the ``top`` lowest scores so far
+    for c in [*grid, *extra]:  # a candidate that cannot enter the top is not scored fully
+        s = evaluate(*c, above=kept[-1] if len(kept) == top else math.inf)
+        scored.append((s, c))
+        if s < math.inf:
+            kept = sorted([*kept, s])[:top]
     scored.sort(key=lambda t: t[0])
     best = scored[0]
     step = math.radians(15.0)
@@ -335,43 +253,23 @@ def search_limb(problem, scorer: LimbScorer, upper: int, lower: int, hinge, W, t
             if b > 0:
                 moves += [(d, t, b + 2 * h), (d, t, max(b - 2 * h, 0.0))]
             for m in moves:
-                s = evaluate(*m)
+                s = evaluate(*m, above=cur[0])
                 if s < cur[0]:
                     cur = (s, m)
         if cur[0] < best[0]:
             best = cur
     d, t, b = best[1]
-    R_up, _ = _world(c_up, R_W_up, d, t, b, hinge, turns)
+    R_up, _ = limb_rotations(c_up, R_W_up, d, t, b, hinge, turns)
     return base, best[0], (W_par_inv * R_up).as_rotvec(), np.asarray(hinge) * b
 
 
-def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_init: bool,
-                twists: int = 6, bends_deg=(0, 50, 100, 140), min_gain: float = 2e-4,
-                aim: str = "none", scan_cap: float = 0.1, leg_bends_deg=None,
-                verbose: bool = False) -> dict:
-    """Try other directions for each arm and leg of the current fit (see module docstring);
-    leaves the better of (start, start with moved limbs + ``n_pose`` pose steps) in
-    ``problem``.
-
-    Parameters
-    ----------
-    n_pose : pose steps after a limb moved (0: keep the moved limbs unsettled).
-    twists, bends_deg : twists about each upper-limb direction (evenly spaced) and bends of
-        the lower limb (degrees) of the grid; 26 x (1 + twists x bends > 0) candidates a limb.
-    leg_bends_deg : the knee bends (degrees) of the legs' grid; None: ``bends_deg``.
-    min_gain : a limb moves only if the symmetric score drops by more than this (m).
-    aim : which limbs (``"none"``, ``"arms"``, ``"all"``) also score the configurations
-        that run their bones through the scan the body leaves unexplained
-        (:func:`unexplained_groups`, :func:`aimed_candidates`); the groups are found again
-        before each limb, so a group one limb took is not chased again.
-    scan_cap : cap (m) of the score's scan -> body distances (its body -> scan cap is 0.1;
-        :func:`~dressmeup.body.registration.init.symmetric_score`).
-
-    Returns
-    -------
-    info : ``{"limbs_moved": [joint names], "limb_score": (before, after) m, "limb_kept":
-    bool}``.
-    """
+def move_limbs(problem, aim: str, knee_bends, elbow_bends, grid=None) -> list[str]:
+    """Move each arm and leg of ``problem`` in turn to its best grid (or ``grid(c_up)``) or aimed
+    configuration when that lowers the symmetric score by more than :data:`MIN_GAIN`
+    (scored with the limb moved rigidly, the body model not run); return the upper joints
+    of the limbs moved. ``aim``: ``"none"``, ``"arms"`` or ``"all"`` (the limbs whose
+    aimed candidates, :func:`.aim.aimed_candidates`, join the grid's; the unexplained scan
+    is found again before each limb, so a group one limb took is not chased again)."""
     # heavy: torch (~1.1 s to import)
     import torch
 
@@ -379,7 +277,6 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
     names = list(model.joint_names)
     parents = np.asarray(model.joint_parents)
     dom = problem.W_sub.cpu().numpy().argmax(1)
-    start_score, start = symmetric_score(problem, scan_cap=scan_cap), problem.snapshot()
     moved: list[str] = []
     posed = None
     for up_name, lo_name, hinge in LIMBS:
@@ -399,7 +296,7 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
         if up_mask.sum() + lo_mask.sum() < 10:
             continue
         scorer = LimbScorer(problem.P, problem.tree, V, up_mask, lo_mask, J[upper], J[lower],
-                            scan_cap=scan_cap)
+                            scan_cap=SCORE_CAP)
         extra = []
         if aim == "all" or (aim == "arms" and up_name.endswith("shoulder")):
             groups = unexplained_groups(problem.P, V)
@@ -408,33 +305,59 @@ def limb_search(problem, n_pose: int, lr_pose: float, lr_transl: float, size_ini
             if groups and end_mask.any():
                 extra = aimed_candidates(W[upper], W[lower], J[upper], J[lower],
                                          V[end_mask].mean(0), hinge, groups)
-        leg = leg_bends_deg is not None and up_name.endswith("hip")
-        base, best, rv_up, rv_lo = search_limb(problem, scorer, upper, lower, hinge, W, twists,
-                                               leg_bends_deg if leg else bends_deg,
-                                               extra=extra)
+        bends = knee_bends if up_name.endswith("hip") else elbow_bends
+        base, best, rv_up, rv_lo = search_limb(problem, scorer, upper, lower, hinge, W, TWISTS,
+                                               bends, extra=extra, grid=grid)
         logger.info("limb %s: %.4f -> %.4f", up_name, base, best)
-        if best < base - min_gain:
+        if best < base - MIN_GAIN:
             with torch.no_grad():
                 problem.pose[upper] = torch.as_tensor(rv_up, dtype=problem.dt)
                 problem.pose[lower] = torch.as_tensor(rv_lo, dtype=problem.dt)
             moved.append(up_name)
             posed = None
-    info = {"limbs_moved": moved, "limb_score": (round(start_score, 5), round(start_score, 5)),
-            "limb_kept": False}
+    return moved
+
+
+def limb_search(problem, spec, objective: Objective, verbose: bool = False,
+                grid=None) -> dict:
+    """Try other directions for each arm and leg of the current fit (see module docstring);
+    leaves the better of (start, start with moved limbs + a settling pose stage) in
+    ``problem`` by the symmetric score (:func:`.search.best_of`; equal: the start).
+
+    Parameters
+    ----------
+    spec : the :class:`~dressmeup.body.registration.plan.LimbSearch` stage (aim, knee and
+        elbow bends, settling steps, whether the temporary scale settles too, rates).
+    objective : the objective of the settling steps.
+    grid : ``grid(c_up) -> candidates`` in place of the cube grid (:func:`grid_candidates`)
+        for a limb now pointing along the unit vector ``c_up``.
+
+    Returns
+    -------
+    info : ``{"limbs_moved": [joint names], "limb_score": (before, after) m, "limb_kept":
+    bool}``.
+    """
+    start = problem.snapshot()
+    moved = move_limbs(problem, spec.aim, spec.knee_bends, spec.elbow_bends, grid=grid)
+    info = {"limbs_moved": moved, "limb_kept": False}
     if not moved:
-        return info
-    if n_pose > 0:
-        params, lrs = [problem.pose, problem.transl], [lr_pose, lr_transl]
-        if size_init:
-            params.append(problem.log_scale)
-            lrs.append(0.003)
-        run_adam(problem, "pose", n_pose, params, lrs, label="limb search pose", verbose=verbose)
-    after = symmetric_score(problem, scan_cap=scan_cap)
-    info["limb_score"] = (round(start_score, 5), round(after, 5))
-    if after < start_score:
-        info["limb_kept"] = True
-    else:
-        problem.restore(start)
-    logger.info("limb search: moved %s, score %.4f -> %.4f (%s)", moved, start_score, after,
-                "kept" if info["limb_kept"] else "dropped")
+        score = round(symmetric_score(problem, scan_cap=SCORE_CAP), 5)
+        return {**info, "limb_score": (score, score)}
+    with_moves = problem.snapshot()
+    params = [problem.pose, problem.transl] + ([problem.log_scale] if spec.size else [])
+    lrs = [spec.rates.pose, spec.rates.transl] + ([SIZE_RATE] if spec.size else [])
+
+    def settled(p) -> None:
+        p.restore(with_moves)
+        run_adam(p, objective, spec.pose_steps, params, lrs, label="limb search pose",
+                 verbose=verbose)
+
+    ranked = best_of(problem, [Candidate("start", lambda p: p.restore(start)),
+                               Candidate("moved", settled)],
+                     lambda p, _: symmetric_score(p, scan_cap=SCORE_CAP))
+    scores = {c.name: c.score for c in ranked}
+    info.update(limb_score=(round(scores["start"], 5), round(scores["moved"], 5)),
+                limb_kept=ranked[0].name == "moved")
+    logger.info("limb search: moved %s, score %.4f -> %.4f (%s)", moved, scores["start"],
+                scores["moved"], "kept" if info["limb_kept"] else "dropped")
     return info

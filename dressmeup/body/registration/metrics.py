@@ -11,6 +11,7 @@ body -> scan figures.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from dressmeup.geometry.mesh import vertex_normals
 from dressmeup.geometry.sampling import sample_surface
@@ -47,9 +48,6 @@ def outside_distances_mm(body_vertices: np.ndarray, body_faces: np.ndarray,
                          scan_points: np.ndarray, seen_radius: float = 0.05) -> np.ndarray:
     """(n,) how far (mm) each body vertex lies outside the scan along its normal (0 inside
     or in a hole: no scan point within ``seen_radius`` m)."""
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial import cKDTree
-
     V = np.asarray(body_vertices, dtype=np.float64)
     P = np.asarray(scan_points, dtype=np.float64)
     d, nn = cKDTree(P).query(V, k=1, workers=1)
@@ -79,9 +77,6 @@ def fit_metrics(body_vertices: np.ndarray, body_faces: np.ndarray, scan_points: 
     the outside distance), ``seen_share`` and ``parts``: {part: {"body_to_scan_mm",
     "outside_p90_mm", "outside_share"}}.
     """
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial import cKDTree
-
     V = np.asarray(body_vertices, dtype=np.float64)
     F = np.asarray(body_faces, dtype=np.int64)
     P = np.asarray(scan_points, dtype=np.float64)

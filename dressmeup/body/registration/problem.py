@@ -2,14 +2,17 @@
 
 :class:`FitProblem` holds the scan points, the sampled body points, the priors' constants
 and the free parameters (``pose (j, 3)`` axis-angle, ``transl (3,)``, ``shape_z`` (the
-shape, through a sigmoid for phenotype models), ``log_scale``), and evaluates the loss of
-a stage (``global``, ``pose`` or ``shape``). Correspondences are recomputed by k-d tree
-(body -> scan every step, scan -> body every ``correspondence_every`` steps) unless frozen.
+shape, through a sigmoid for phenotype models), ``log_scale``), and evaluates the loss
+that an :class:`Objective` names (stage ``global``, ``pose`` or ``shape``; the core
+joints only; the far-cloth rule on or off; the keypoint weight). The nearest-point pairs
+of a run of steps live in a :class:`Correspondences` (body -> scan every step, scan ->
+body every second step, by k-d tree).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -17,117 +20,65 @@ import numpy as np
 from dressmeup.body.params import BodyParams
 from dressmeup.body.registration.terms import (
     CORE_JOINTS,
-    HAND_JOINTS,
     JOINT_LIMITS,
     PRIOR_SCALE,
+    body_neighbourhoods,
+    joint_skin_mask,
     one_sided_cost,
     pose_prior,
+    unseen_free_weights,
 )
 from dressmeup.body.skeleton import PHENOTYPE_NAMES
 from dressmeup.geometry.mesh import vertex_normals
 from dressmeup.geometry.neighbors import NearestTree
 
 
-def joint_skin_mask(model, joints, threshold: float = 0.5) -> np.ndarray:
-    """(n,) bool: vertices whose skinning weights on ``joints`` sum above ``threshold``."""
-    ids = [list(model.joint_names).index(n) for n in joints if n in model.joint_names]
-    if not ids:
-        return np.zeros(model.n_vertices, dtype=bool)
-    return np.asarray(model.skinning_weights)[:, ids].sum(1) > threshold
+@dataclass(frozen=True)
+class Objective:
+    """Which objective a run of steps minimises or a comparison evaluates.
+
+    Attributes
+    ----------
+    stage : ``"global"`` (data term only), ``"pose"`` (+ pose prior and joint limits) or
+        ``"shape"`` (+ shape prior and, over a stage, the pull of the temporary size scale
+        back to 1).
+    core_only : the data term on the torso, hips and head only, body -> scan (rigid starts).
+    far_cloth : the data term's far-cloth rule (``DataTerm.far_cloth``) on; off, scan
+        points beyond ``cloth_max`` pull by their excess.
+    keypoints : weight of the keypoint term (0: none, or no keypoints).
+    """
+
+    stage: str = "pose"
+    core_only: bool = False
+    far_cloth: bool = False
+    keypoints: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.stage not in ("global", "pose", "shape"):
+            raise ValueError(f"stage: expected global, pose or shape, got {self.stage!r}")
 
 
-def body_neighbourhoods(rest_points: np.ndarray, radius: float, most: int = 16) -> np.ndarray:
-    """(b, most) int64: for each body point, the indices of the body points within ``radius``
-    (m) of it on the rest body (itself included), padded with ``b`` (see
-    :func:`unseen_free_weights`).
+class Correspondences:
+    """The nearest-point pairs and rest normals of one run of steps, refreshed as the body
+    moves: body -> scan every step, scan -> body every second step, the rest normals at the
+    first step and, in a shape stage, every 10th.
 
     Parameters
     ----------
-    rest_points : (b, 3) the fit's body points on the rest body (m).
-    radius : neighbourhood radius (m); most : at most this many neighbours (the nearest).
+    steps : length of the stage (the shape stage's pull of the temporary scale back to 1
+        grows over it); 0 for a single evaluation, which does not count that pull.
     """
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial import cKDTree
 
-    _, idx = cKDTree(rest_points).query(rest_points, k=min(most, len(rest_points)),
-                                        distance_upper_bound=radius, workers=1)
-    return np.asarray(idx, dtype=np.int64).reshape(len(rest_points), -1)
+    #: scan -> body pairs are refreshed every this many steps
+    SCAN_TO_BODY_EVERY = 2
+    #: a shape stage refreshes the rest normals every this many steps
+    NORMALS_EVERY = 10
 
-
-def unseen_free_weights(normals, nn_b2s, nn_s2b, neighbourhoods=None):
-    """(b,) float weights of the body -> scan pairs: 0 where the body point's nearest scan
-    point belongs to a surface of the body facing the other way (its own nearest body
-    point's normal opposes this point's), i.e. where the scan did not see this part of the
-    body (a side the capture missed, a hole), else 1.
-
-    With ``neighbourhoods`` (:func:`body_neighbourhoods`), also 0 where no scan point has its
-    nearest body point in the body point's neighbourhood: no scan surface lies over it. This
-    frees the body points of a missing side near the scan's cut edge, whose normals agree with
-    the edge's and which the facing test keeps pulling towards it.
-
-    Parameters
-    ----------
-    normals : (b, 3) body normals (torch); nn_b2s : (b,) scan index of each body point;
-    nn_s2b : (p,) body index of each scan point; neighbourhoods : None or (b, m) int64
-        torch indices into the body points, padded with b.
-    """
-    # heavy: torch (~1.1 s to import)
-    import torch
-
-    seen = (normals * normals[nn_s2b[nn_b2s]]).sum(-1) > 0
-    if neighbourhoods is not None:
-        hit = torch.zeros(len(normals) + 1, dtype=torch.bool, device=normals.device)
-        hit[nn_s2b] = True  # hit[b], the padding, stays False
-        seen = seen & hit[neighbourhoods].any(1)
-    return seen.to(normals.dtype)
-
-
-#: Loose-cloth test (:func:`loose_cloth_mask`): samples every ``step`` m along the segment
-#: from a scan point to its body point, skipping ``margin_scan`` m at the scan end and
-#: ``margin_body`` m at the body end; a sample within ``eps`` m of a scan point is a crossing.
-#: 5 cm at the scan end: a segment leaving its own surface at less than ~17 deg is not a
-#: crossing, and a scan limb without the body in it (8-12 cm thick) still shows its far side.
-LOOSE_CLOTH_TEST = {"step": 0.01, "eps": 0.015, "margin_scan": 0.05, "margin_body": 0.03}
-
-
-def loose_cloth_mask(P: np.ndarray, B: np.ndarray, outside: np.ndarray, cloth_max: float,
-                     tree) -> np.ndarray:
-    """(p,) bool: scan points that are *loose cloth over the body*.
-
-    A scan point outside the body farther than ``cloth_max`` from its nearest body point
-    is loose cloth (a skirt, a dress, a wide sleeve) when the straight segment to that body
-    point crosses no other scan surface: the body lies right under it, however far. Such a
-    point says little about where the body is, and its pull bent the legs under a dress
-    into the cloth. A scan part that does not contain the body (the scan's leg 10 cm in
-    front of the body's, a T-pose arm beside a body with its arms down) has its own far
-    side, or its surface, between the two: it keeps pulling the body towards it.
-
-    Parameters
-    ----------
-    P : (p, 3) scan points (m); B : (p, 3) the nearest body point of each.
-    outside : (p,) bool, the scan point lies outside the body (signed residual < 0).
-    cloth_max : gap (m) up to which every scan point pulls.
-    tree : nearest-point index of ``P`` (:class:`~dressmeup.geometry.neighbors.NearestTree`
-        or a ``scipy.spatial.cKDTree``).
-    """
-    t = LOOSE_CLOTH_TEST
-    D = B - P
-    g = np.linalg.norm(D, axis=1)
-    idx = np.flatnonzero(outside & (g > cloth_max))
-    loose = np.zeros(len(P), dtype=bool)
-    if idx.size == 0:
-        return loose
-    L = g[idx]
-    s = t["margin_scan"] + t["step"] * np.arange(int(np.ceil(L.max() / t["step"])) + 1)
-    valid = s[None, :] < (L - t["margin_body"])[:, None]
-    frac = s[None, :] / L[:, None]
-    X = P[idx, None, :] + frac[..., None] * D[idx, None, :]
-    rows = np.nonzero(valid)[0]
-    d, _ = tree.query(X[valid], k=1, distance_upper_bound=t["eps"], workers=1)
-    hit = np.zeros(idx.size, dtype=bool)
-    hit[rows[d < t["eps"]]] = True
-    loose[idx] = ~hit
-    return loose
+    def __init__(self, steps: int = 0) -> None:
+        self.steps, self.step = int(steps), 0
+        self.rest_normals = None  # (b, 3) torch, the body points' normals on the rest body
+        self.nn_b2s = None  # (b,) scan index of each body point
+        self.nn_s2b = None  # (p,) body index of each scan point
 
 
 class FitProblem:
@@ -135,28 +86,28 @@ class FitProblem:
 
     Parameters
     ----------
-    opts : the :class:`~dressmeup.body.registration.optimizer.OptimizationRegistrar`
-        (weights, scales, sample counts, seed, device).
     model : BodyModel.
-    P : (p, 3) float64 scan points.
+    P : (p, 3) float64 scan points (m).
     kp : None or (joint ids (k,), targets (k, 3)) keypoints.
+    data : :class:`~dressmeup.body.registration.config.DataTerm`.
+    priors : :class:`~dressmeup.body.registration.config.Priors`.
+    seed : seed of the body points' sample; device : torch device.
     """
 
-    def __init__(self, opts, model, P: np.ndarray, kp):
+    def __init__(self, model, P: np.ndarray, kp, data, priors, seed: int = 0,
+                 device: str = "cpu"):
         # heavy: torch (~1.1 s to import)
         import torch
 
-        self.opts, self.model, self.P, self.kp = opts, model, P, kp
-        self.dev = torch.device(opts.device)
+        self.model, self.P, self.kp, self.data, self.priors = model, P, kp, data, priors
+        self.dev = torch.device(device)
         self.dt = torch.float32
         dev, dt = self.dev, self.dt
         self.tree = NearestTree(P)
         self.P_t = torch.as_tensor(P, dtype=dt, device=dev)
-        self.loose = None  # (p,) weights of the scan points, 0 for loose cloth
-        self.far_cloth_on = opts.far_cloth_from == "start"  # the optimizer switches it on
-        self.loose_every = 10  # steps between two loose-cloth tests
-        rng = np.random.default_rng(opts.seed)
-        self.body_ids = np.sort(rng.choice(model.n_vertices, min(opts.n_body_points, model.n_vertices),
+        rng = np.random.default_rng(seed)
+        self.body_ids = np.sort(rng.choice(model.n_vertices, min(data.n_body_points,
+                                                                 model.n_vertices),
                                            replace=False))
         self.body_ids_t = torch.as_tensor(self.body_ids, device=dev)
         names = list(model.joint_names)
@@ -179,7 +130,6 @@ class FitProblem:
             if name in names:
                 prior_scale[names.index(name)] = factor
         self.prior_scale = prior_scale[1:, None]
-        self.kp_weight = float(opts.keypoint_weight)
         if kp is not None:
             self.kp_ids = torch.as_tensor(kp[0], dtype=torch.long, device=dev)
             self.kp_pts = torch.as_tensor(kp[1], dtype=dt, device=dev)
@@ -189,34 +139,24 @@ class FitProblem:
         core = joint_skin_mask(model, CORE_JOINTS)[self.body_ids]
         self.core_t = torch.as_tensor(np.flatnonzero(core) if core.any() else
                                       np.arange(len(self.body_ids)), device=dev)
-        hand = joint_skin_mask(model, HAND_JOINTS)[self.body_ids]
-        w = np.where(hand, float(opts.hand_weight), 1.0)
-        self.point_weight = None if np.all(w == 1.0) else torch.as_tensor(w, dtype=dt, device=dev)
         self.neighbourhoods = None  # (b, m) for the hit test of unseen body points
-        radius = opts.unseen_hit_radius
-        if radius is not None:
+        if data.unseen_hit_radius is not None:
             rest = np.asarray(model.posed(model.default_params()).vertices)[self.body_ids]
-            self.neighbourhoods = torch.as_tensor(body_neighbourhoods(rest, float(radius)),
-                                                  device=dev)
-        self.distal: list[int] = []
+            self.neighbourhoods = torch.as_tensor(
+                body_neighbourhoods(rest, float(data.unseen_hit_radius)), device=dev)
 
         self.shape_z = torch.zeros(len(self.default_shape), dtype=dt, device=dev, requires_grad=True)
         self.pose = torch.zeros((self.n_joints, 3), dtype=dt, device=dev, requires_grad=True)
         self.transl = torch.zeros(3, dtype=dt, device=dev, requires_grad=True)
         self.log_scale = torch.zeros((), dtype=dt, device=dev, requires_grad=True)
-        # correspondence / stage state
-        self.step = 0
-        self.stage_steps = 1
-        self.rest_normals = None
-        self.nn_s2b = None
-        self.nn_b2s = None
-        self.freeze = False
-        self.core_only = False
-        # False while the running stage does not move the shape (set by the stages): the
-        # shape then enters the body model without a gradient, so the model's cached rest
-        # body is reused instead of re-shaped every step (the same values, and the same
-        # gradients for the parameters that move)
-        self.shape_moves = True
+        self._normals = None  # (shape bytes, rest normals of the body points)
+
+    @classmethod
+    def from_config(cls, config, model, P: np.ndarray, kp=None) -> FitProblem:
+        """The problem of ``config`` (a :class:`~.config.RegistrationConfig`) on scan points
+        ``P`` (p, 3), as a fit builds it."""
+        return cls(model, P, kp, config.data, config.priors, seed=config.runtime.seed,
+                   device=config.runtime.device)
 
     # ------------------------------------------------------------ parameters
     def set_params(self, shape: np.ndarray | None = None, pose: np.ndarray | None = None,
@@ -260,18 +200,18 @@ class FitProblem:
             for k, v in snap.items():
                 getattr(self, k).copy_(v)
 
-    def body_params(self, keep_scale: bool) -> BodyParams:
-        """The current parameters as :class:`BodyParams` (``scale`` 1 unless ``keep_scale``)."""
+    def body_params(self) -> BodyParams:
+        """The current parameters as :class:`BodyParams` (``scale`` 1: a fit ends with its
+        size in the shape)."""
         # heavy: torch (~1.1 s to import)
         import torch
 
         with torch.no_grad():
             shape = self.shape_value().cpu().numpy().astype(np.float64)
-            scale = float(torch.exp(self.log_scale)) if keep_scale else 1.0
         return BodyParams(model=self.model.name, gender=getattr(self.model, "gender", "neutral"),
                           shape=shape, pose=self.pose.detach().cpu().numpy().astype(np.float64),
                           transl=self.transl.detach().cpu().numpy().astype(np.float64),
-                          scale=scale)
+                          scale=1.0)
 
     def scale_into_shape(self, steps: int = 60, lr: float = 0.1) -> float:
         """Hand the temporary uniform scale over to the shape, in the rest pose.
@@ -318,24 +258,15 @@ class FitProblem:
             self.transl.add_(torch.as_tensor(before - after, dtype=self.dt, device=self.dev))
         return float(rms)
 
-    def objective(self, stage: str, far_cloth_on: bool = True) -> float:
-        """The ``stage`` objective (data term, priors and keypoints, as :meth:`loss` sums
-        them; float) at the current parameters, with fresh correspondences and far cloth
-        on or off. The shape stage's pull of the temporary scale back to 1 is not counted
-        (it grows over a stage from zero weight). The correspondence cache is reset
-        afterwards: the next stage starts afresh, as after :meth:`reset_correspondences`."""
+    def objective(self, objective: Objective) -> float:
+        """The value (float) of ``objective`` at the current parameters, with fresh
+        correspondences: what a stage's first step would see, without the shape stage's
+        pull of the temporary scale back to 1 (it grows over a stage from zero weight)."""
         # heavy: torch (~1.1 s to import)
         import torch
 
-        keep = self.far_cloth_on
-        self.reset_correspondences()
-        self.far_cloth_on = far_cloth_on
-        try:
-            with torch.no_grad():
-                loss, _ = self.loss(stage)
-        finally:
-            self.far_cloth_on = keep
-            self.reset_correspondences()
+        with torch.no_grad():
+            loss, _ = self.loss(objective)
         return float(loss)
 
     def posed_numpy(self) -> np.ndarray:
@@ -349,95 +280,95 @@ class FitProblem:
         return out.vertices[0].cpu().numpy().astype(np.float64)
 
     # ------------------------------------------------------------ objective
-    def reset_correspondences(self) -> None:
-        """Forget cached correspondences and normals (a new stage starts)."""
-        self.rest_normals, self.nn_s2b, self.nn_b2s, self.step = None, None, None, 0
-        self.loose = None
-
-    def _update_rest_normals(self, rest_vertices) -> None:
+    def _rest_normals(self, shape):
+        """(b, 3) torch normals of the body points on the rest body of ``shape`` (s,); the
+        last shape's are kept (the stages that hold the shape ask for the same ones)."""
         # heavy: torch (~1.1 s to import)
         import torch
 
-        Vr = rest_vertices[0].detach().cpu().numpy().astype(np.float64)
-        self.rest_normals = torch.as_tensor(vertex_normals(Vr, self.model.faces)[self.body_ids],
-                                            dtype=self.dt, device=self.dev)
+        key = shape.detach().cpu().numpy().tobytes()
+        if self._normals is None or self._normals[0] != key:
+            with torch.no_grad():
+                rest, _ = self.model.rest(shape.detach()[None])
+            Vr = rest[0].cpu().numpy().astype(np.float64)
+            normals = torch.as_tensor(vertex_normals(Vr, self.model.faces)[self.body_ids],
+                                      dtype=self.dt, device=self.dev)
+            self._normals = (key, normals)
+        return self._normals[1]
 
-    def loss(self, stage: str):
-        """Loss (torch scalar) and its terms (dict of floats) for ``stage``.
+    def loss(self, objective: Objective, pairs: Correspondences | None = None,
+             hold_shape: bool = False):
+        """Loss (torch scalar) of ``objective`` and its terms (dict of floats).
 
-        ``global``: data term only; ``pose``: + pose prior; ``shape``: + shape prior and the
-        pull of the temporary size scale back to 1 (unless the scale is fitted).
+        Parameters
+        ----------
+        objective : what to evaluate (:class:`Objective`).
+        pairs : the correspondences of the running stage, updated here (None: fresh ones,
+            a single evaluation).
+        hold_shape : the shape enters the body model without a gradient, so the model's
+            cached rest body is reused (the same values, and the same gradients for the
+            other parameters); for steps that do not move the shape.
         """
         # heavy: torch (~1.1 s to import)
         import torch
 
-        o = self.opts
-        shape = self.shape_value() if self.shape_moves else self.shape_value().detach()
+        pairs = Correspondences() if pairs is None else pairs
+        o, stage = self.data, objective.stage
+        shape = self.shape_value().detach() if hold_shape else self.shape_value()
         out = self.model.forward(shape[None], self.pose[None], self.transl[None],
                                  torch.exp(self.log_scale)[None], vertex_ids=self.body_ids_t)
         Vb = out.vertices[0]
-        if self.rest_normals is None or (stage == "shape" and self.step % 10 == 0):
-            self._update_rest_normals(out.rest_vertices)
+        if pairs.rest_normals is None or (stage == "shape"
+                                          and pairs.step % pairs.NORMALS_EVERY == 0):
+            pairs.rest_normals = self._rest_normals(shape)
         with torch.no_grad():
             Rb = torch.einsum("kj,jab->kab", self.W_sub, out.transforms[0, :, :3, :3])
-            Nb = (Rb @ self.rest_normals[..., None])[..., 0]
+            Nb = (Rb @ pairs.rest_normals[..., None])[..., 0]
             Nb = Nb / (Nb.norm(dim=-1, keepdim=True) + 1e-12)
             Vb_np = Vb.detach().cpu().numpy()
-            if not self.freeze or self.nn_b2s is None:
-                _, nn_b2s = self.tree.query(Vb_np)
-                self.nn_b2s = torch.as_tensor(nn_b2s, device=self.dev)
-            if self.nn_s2b is None or (not self.freeze and self.step % o.correspondence_every == 0):
+            _, nn_b2s = self.tree.query(Vb_np)
+            pairs.nn_b2s = torch.as_tensor(nn_b2s, device=self.dev)
+            if pairs.nn_s2b is None or pairs.step % pairs.SCAN_TO_BODY_EVERY == 0:
                 _, nn = NearestTree(Vb_np).query(self.P)
-                self.nn_s2b = torch.as_tensor(nn, device=self.dev)
-        self.step += 1
+                pairs.nn_s2b = torch.as_tensor(nn, device=self.dev)
+        pairs.step += 1
         # body -> scan, signed along the body normal (> 0: body outside the scan)
-        d = Vb - self.P_t[self.nn_b2s]
+        d = Vb - self.P_t[pairs.nn_b2s]
         r = (d * Nb).sum(-1)
         # scan -> body: a scan point inside the body means the body is outside it
-        e = Vb[self.nn_s2b] - self.P_t
-        r2 = (e * Nb[self.nn_s2b]).sum(-1)
-        w = self.point_weight
-        wb = w
-        if o.skip_unseen:  # body points the scan did not see carry no body -> scan cost
-            # (the hit test only in the shape stage: see OptimizationRegistrar.unseen_hit_radius)
-            seen = unseen_free_weights(Nb.detach(), self.nn_b2s, self.nn_s2b,
-                                       self.neighbourhoods if stage == "shape" else None)
-            wb = seen if w is None else w * seen
-        if self.core_only:  # rigid stage: torso, hips and head against the scan only
-            pairs = ((r[self.core_t], d[self.core_t], None if wb is None else wb[self.core_t],
-                      False),)
+        e = Vb[pairs.nn_s2b] - self.P_t
+        r2 = (e * Nb[pairs.nn_s2b]).sum(-1)
+        # body points the scan did not see carry no body -> scan cost (the hit test only
+        # in the shape stage: earlier, the pull of far body points brings a misplaced limb)
+        wb = unseen_free_weights(Nb.detach(), pairs.nn_b2s, pairs.nn_s2b,
+                                 self.neighbourhoods if stage == "shape" else None)
+        if objective.core_only:  # torso, hips and head against the scan only
+            pairs_used = ((r[self.core_t], d[self.core_t], wb[self.core_t], False),)
         else:
-            ws = None if w is None else w[self.nn_s2b]
-            far = o.far_cloth if self.far_cloth_on and o.cloth_max is not None else "pull"
-            if far == "loose":  # loose cloth does not pull
-                if self.loose is None or self.step % self.loose_every == 1:
-                    mask = loose_cloth_mask(self.P, Vb_np[self.nn_s2b.cpu().numpy()],
-                                            (r2 < 0).cpu().numpy(), o.cloth_max, self.tree)
-                    self.loose = torch.as_tensor(~mask, dtype=self.dt, device=self.dev)
-                ws = self.loose if ws is None else ws * self.loose
-            pairs = ((r, d, wb, False), (r2, e, ws, far == "free"))
+            free = objective.far_cloth and o.far_cloth == "free"
+            pairs_used = ((r, d, wb, False), (r2, e, None, free))
         data = 0.0
-        for res, diff, wt, free in pairs:
+        for res, diff, wt, far_free in pairs_used:
             data = data + one_sided_cost(res, diff, wt, o.sigma_out, o.sigma_in, o.inside_weight,
-                                         o.point_weight, o.cloth_max, far_free=free)
+                                         o.point_weight, o.cloth_max, far_free=far_free)
         loss = data * 1e4  # residuals in metres: scale to ~cm^2
         terms = {"data": float(data.detach()) * 1e4}
+        pr = self.priors
         if stage != "global":
             prior = pose_prior(self.pose, self.prior_scale, self.lim_ids, self.lim_lo, self.lim_hi,
-                               o.pose_prior_weight, o.limit_weight)
+                               pr.pose_prior_weight, pr.limit_weight)
             loss = loss + prior
             terms["prior"] = float(prior.detach())
-        if stage == "shape" and not o.optimize_scale:
-            # pull the temporary size scale back to 1: the shape takes it over
-            frac = min(self.step / max(self.stage_steps, 1), 1.0)
-            loss = loss + 1e3 * frac * self.log_scale ** 2
         if stage == "shape":
-            reg = o.shape_weight * ((self.shape_value() - self.shape_mean) ** 2).sum()
+            if pairs.steps > 0:  # pull the temporary size scale back to 1: the shape takes it
+                frac = min(pairs.step / max(pairs.steps, 1), 1.0)
+                loss = loss + 1e3 * frac * self.log_scale ** 2
+            reg = pr.shape_weight * ((self.shape_value() - self.shape_mean) ** 2).sum()
             loss = loss + reg
             terms["shape"] = float(reg.detach())
-        if self.kp is not None and self.kp_weight > 0:
-            kl = self.kp_weight * 1e4 * ((out.joints[0, self.kp_ids] - self.kp_pts) ** 2
-                                            ).sum(-1).mean()
+        if self.kp is not None and objective.keypoints > 0:
+            kl = objective.keypoints * 1e4 * ((out.joints[0, self.kp_ids] - self.kp_pts) ** 2
+                                              ).sum(-1).mean()
             loss = loss + kl
             terms["keypoints"] = float(kl.detach())
         return loss, terms

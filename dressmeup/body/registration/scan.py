@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from dressmeup.errors import InputError
 
@@ -53,9 +54,6 @@ def normal_lines(P: np.ndarray, k: int = 16) -> np.ndarray:
     direction of least variance of its ``k`` nearest neighbours (local plane fit). Works
     for meshes sampled by :func:`prepare_scan` and raw point clouds alike, whatever the
     winding or orientation of the source."""
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial import cKDTree
-
     P = np.asarray(P, dtype=np.float64)
     k = int(min(max(k, 3), len(P)))
     _, nn = cKDTree(P).query(P, k=k, workers=1)
@@ -122,7 +120,7 @@ UP_ROTATIONS: dict[str, np.ndarray] = {
 }
 
 #: A scan whose extent along y is below this share of its largest extent does not look
-#: upright with y up. Measured (session 21): the 24 scans of the edition
+#: upright with y up. Measured: the 24 scans of the edition
 #: synth-registration-v3 and the 136 of the perf suites span at least 0.88 of their largest
 #: extent along y (picking up; 0.79 with a floor kept). Along y a z-up scan shows a
 #: horizontal extent: the edition's z-up copies (bodies facing z) 0.29-0.60, so all are

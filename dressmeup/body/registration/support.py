@@ -30,6 +30,8 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from dressmeup.body.registration.scan import normal_lines
 from dressmeup.errors import InputError
@@ -121,7 +123,6 @@ def find_supports(points: np.ndarray, band: float = 0.008, min_side: float = 0.3
     -------
     The supports in the order found (largest first, roughly).
     """
-
     P = np.asarray(points, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 3:
         raise InputError(f"scan: expected points (p, 3), got {P.shape}")
@@ -243,9 +244,6 @@ def remove_support(points: np.ndarray, **options) -> tuple[np.ndarray, list[Supp
 
 def _spacing(P: np.ndarray, rng, n: int = 2000) -> float:
     """Median nearest-neighbour distance (m) of a random subset of ``P`` to all of ``P``."""
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial import cKDTree
-
     sub = P[rng.choice(len(P), min(n, len(P)), replace=False)]
     d, _ = cKDTree(P).query(sub, k=2, workers=1)
     return float(np.median(d[:, 1]))
@@ -268,9 +266,6 @@ class _RegionTest:
         """The plane's support region, or None: cells holding free slab points whose normal
         agrees with the plane, kept where a ``k`` x ``k`` square around them is at least
         ``fill`` occupied (the union of those squares)."""
-        # heavy: scipy (~0.5 s to import)
-        from scipy import ndimage
-
         k = self.k
         slab = free & (np.abs(self.P @ normal + offset) <= self.band)
         on = slab & (np.abs(self.N @ normal) >= self.cos_tilt)

@@ -9,12 +9,15 @@ centimetres off the skin, so loose clothing does not inflate the body. A point-t
 term with a small weight keeps correspondences from sliding. Inside gaps larger than
 ``cloth_max`` (6 cm) are not clothing: their excess costs like an outside residual, so
 limbs of the scan far from the body still pull it; with ``far_free`` (the registrar's
-``far_cloth="free"`` rule, from the shape stage on) they stop pulling beyond ``cloth_max``
-(a skirt's far cloth bent the legs into it). Each body point carries a weight (hands count
-less: their many vertices would otherwise pull the arm).
+``far_cloth="free"`` rule, in the stages that turn it on) they stop pulling beyond
+``cloth_max`` (a skirt's far cloth bent the legs into it). Body points the scan did not
+see carry no body -> scan cost (:func:`unseen_free_weights`).
 """
 
 from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
 
 #: Soft limits (radians) on the axis-angle components (x, y, z) of the SMPL-like joints in
 #: the SMPL frame (y up, facing +z, left on +x). Knees bend one way; elbows bend forward.
@@ -49,8 +52,6 @@ CORE_JOINTS = ("pelvis", "spine1", "spine2", "spine3", "neck", "head", "left_col
 DISTAL_JOINTS = ("left_ankle", "right_ankle", "left_foot", "right_foot", "left_wrist",
                  "right_wrist", "head")
 
-#: Joints whose skin is "hand" for the hand weight and the without-hands errors.
-HAND_JOINTS = ("left_wrist", "right_wrist")
 
 #: Per-joint multipliers of the pose prior: toes and ankles move little in scans, and their
 #: rotation is poorly seen by the data, so they are held closer to the rest pose.
@@ -112,3 +113,54 @@ def pose_prior(pose, prior_scale, lim_ids, lim_lo, lim_hi, prior_weight: float,
         viol = torch.relu(lim_lo - p) + torch.relu(p - lim_hi)
         prior = prior + limit_weight * 1e2 * (viol ** 2).sum()
     return prior
+
+
+def joint_skin_mask(model, joints, threshold: float = 0.5) -> np.ndarray:
+    """(n,) bool: vertices whose skinning weights on ``joints`` sum above ``threshold``."""
+    ids = [list(model.joint_names).index(n) for n in joints if n in model.joint_names]
+    if not ids:
+        return np.zeros(model.n_vertices, dtype=bool)
+    return np.asarray(model.skinning_weights)[:, ids].sum(1) > threshold
+
+
+def body_neighbourhoods(rest_points: np.ndarray, radius: float, most: int = 16) -> np.ndarray:
+    """(b, most) int64: for each body point, the indices of the body points within ``radius``
+    (m) of it on the rest body (itself included), padded with ``b`` (see
+    :func:`unseen_free_weights`).
+
+    Parameters
+    ----------
+    rest_points : (b, 3) the fit's body points on the rest body (m).
+    radius : neighbourhood radius (m); most : at most this many neighbours (the nearest).
+    """
+    _, idx = cKDTree(rest_points).query(rest_points, k=min(most, len(rest_points)),
+                                        distance_upper_bound=radius, workers=1)
+    return np.asarray(idx, dtype=np.int64).reshape(len(rest_points), -1)
+
+
+def unseen_free_weights(normals, nn_b2s, nn_s2b, neighbourhoods=None):
+    """(b,) float weights of the body -> scan pairs: 0 where the body point's nearest scan
+    point belongs to a surface of the body facing the other way (its own nearest body
+    point's normal opposes this point's), i.e. where the scan did not see this part of the
+    body (a side the capture missed, a hole), else 1.
+
+    With ``neighbourhoods`` (:func:`body_neighbourhoods`), also 0 where no scan point has its
+    nearest body point in the body point's neighbourhood: no scan surface lies over it. This
+    frees the body points of a missing side near the scan's cut edge, whose normals agree with
+    the edge's and which the facing test keeps pulling towards it.
+
+    Parameters
+    ----------
+    normals : (b, 3) body normals (torch); nn_b2s : (b,) scan index of each body point;
+    nn_s2b : (p,) body index of each scan point; neighbourhoods : None or (b, m) int64
+        torch indices into the body points, padded with b.
+    """
+    # heavy: torch (~1.1 s to import)
+    import torch
+
+    seen = (normals * normals[nn_s2b[nn_b2s]]).sum(-1) > 0
+    if neighbourhoods is not None:
+        hit = torch.zeros(len(normals) + 1, dtype=torch.bool, device=normals.device)
+        hit[nn_s2b] = True  # hit[b], the padding, stays False
+        seen = seen & hit[neighbourhoods].any(1)
+    return seen.to(normals.dtype)
