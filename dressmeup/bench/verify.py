@@ -23,11 +23,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from dressmeup.bench.edition import edition_from_dict, list_editions, load_edition
 from dressmeup.bench.results import EDITION_JSON, PER_SAMPLE, SUMMARY, Result, stats
 from dressmeup.errors import InputError
+from dressmeup.io.tables import read_frame
 
 #: relative tolerance of a recomputed mean/std (the toolkit's own summaries agree exactly)
 RTOL = 1e-9
@@ -89,9 +89,9 @@ def check_summary(result: Result) -> list[str]:
             return [f"{where}: {PER_SAMPLE} is missing, so the summary cannot be checked"]
 
         try:
-            table = pd.read_parquet(path)
-        except Exception as exc:  # noqa: BLE001 - pyarrow raises several types on damage
-            return [f"{path}: unreadable ({exc})"]
+            table = read_frame(path, "per-item table")
+        except InputError as exc:
+            return [str(exc)]
     s = result.summary
     metrics = list((s.get("metrics") or {}).keys())
     problems: list[str] = []

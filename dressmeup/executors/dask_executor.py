@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from dressmeup.errors import InputError
+from dressmeup.limits import JSON_BYTES
 
 LOOPBACK = "127.0.0.1"
 
@@ -225,10 +226,14 @@ class DaskExecutor:
         if self.scheduler:
             kw = ({"scheduler_file": self.scheduler} if Path(self.scheduler).is_file()
                   else {"address": self.scheduler})
+            if "scheduler_file" in kw:  # Dask reads it whole: a scheduler file is small
+                JSON_BYTES.check(Path(self.scheduler).stat().st_size,
+                                 f"--scheduler {self.scheduler}", "scheduler file size")
             try:
                 self._client = distributed.Client(timeout="20s", **kw)
                 self._client.wait_for_workers(1, timeout=120)
-            except (OSError, TimeoutError) as exc:
+            except (OSError, TimeoutError, ValueError, KeyError, TypeError) as exc:
+                # ValueError/KeyError/TypeError: a file that is not a scheduler file
                 raise InputError(f"--scheduler {self.scheduler}: cannot use that Dask "
                                  f"scheduler ({type(exc).__name__}: {exc}); start one with "
                                  f"'dask scheduler' and 'dask worker', or drop --scheduler "
