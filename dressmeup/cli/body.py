@@ -7,8 +7,12 @@ import json
 import sys
 from pathlib import Path
 
+from dressmeup.cli.checks import output_file, seed
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
+
+#: Most steps of one registration stage (the defaults are 60 to 160).
+MAX_ITERATIONS = 100_000
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -25,7 +29,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("scan", help="scan mesh (.ply/.obj/.stl/.off) or points (.npy (p,3), .xyz)")
     p.add_argument("--model", default="anny",
                    help="body model: anny (default, open), procedural, smpl, smplh, smplx")
-    p.add_argument("--out", required=True, help="output parameter file (.npz)")
+    p.add_argument("--out", required=True, type=output_file,
+                   help="output parameter file (.npz)")
     p.add_argument("--init", help="starting parameters (.npz or any importable format)")
     p.add_argument("--keypoints", help="3D joint positions: .npy (j,3) with NaN rows for "
                    "missing joints, or .json {joint_name: [x, y, z]}")
@@ -34,7 +39,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--params", help="with --registrar from-file: the parameter file to import")
     p.add_argument("--format", default="auto",
                    help="with --registrar from-file: npz, easymocap, pamir, smplify (default auto)")
-    p.add_argument("--gender", default="neutral", help="SMPL family: neutral, female or male")
+    p.add_argument("--gender", default="neutral", choices=("neutral", "female", "male"),
+                   help="SMPL family: neutral, female or male")
     p.add_argument("--model-path", help="SMPL family: the model file or its folder")
     p.add_argument("--iterations", default=None,
                    help="steps of the global,pose,shape stages, e.g. 60,160,160")
@@ -59,8 +65,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "--up=-z). The parameters are written in the scan's frame")
     p.add_argument("--no-picture", action="store_true",
                    help="do not write the picture of the fit (<out>.fit.png)")
-    p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
-    p.set_defaults(func=_run_register)
+    p.add_argument("--seed", type=seed, default=0, help="sampling seed (default 0)")
+    p.set_defaults(func=_run_register, locks=("out",))
 
 
 def _load_scan(path: str):
@@ -71,10 +77,17 @@ def _load_scan(path: str):
     if not p.is_file():
         raise FileNotFoundError(f"scan not found: {p}")
     if p.suffix.lower() == ".npy":
-        return np.load(p, allow_pickle=False)
+        # start-up time: the stage loads when the command runs
+        from dressmeup.io.npz import load_npy
+
+        return _points(load_npy(p, what="scan"), p)
     if p.suffix.lower() in (".xyz", ".txt"):
+        # start-up time: the stage loads when the command runs
+        from dressmeup.limits import MESH_BYTES
+
+        MESH_BYTES.check(p.stat().st_size, str(p), "point file size")
         try:
-            return np.loadtxt(p, usecols=(0, 1, 2))
+            return _points(np.loadtxt(p, usecols=(0, 1, 2), ndmin=2), p)
         except ValueError as exc:
             raise InputError(f"{p}: not a point list of x y z rows ({exc})") from exc
     if p.suffix.lower() == ".ply":  # a mesh or a point cloud: header checked before parsing
@@ -85,13 +98,36 @@ def _load_scan(path: str):
     # start-up time: the stage loads when the command runs
     import trimesh
 
+    # start-up time: the stage loads when the command runs
+    from dressmeup.limits import MESH_BYTES
+
+    MESH_BYTES.check(p.stat().st_size, str(p))
     try:
         mesh = trimesh.load(p, process=False, force="mesh")
+        V, F = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
     except Exception as exc:  # noqa: BLE001 - a third-party parser on user files
         raise InputError(f"{p}: cannot read the scan ({type(exc).__name__}: {exc})") from exc
-    if len(mesh.faces) == 0:
-        return np.asarray(mesh.vertices)
-    return np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    _points(V, p)
+    if len(F) == 0:
+        return V
+    if F.ndim != 2 or F.shape[1] != 3 or F.min() < 0 or F.max() >= len(V):
+        raise InputError(f"{p}: the scan's faces are not triangles indexing its "
+                         f"{len(V)} vertices")
+    return V, F
+
+
+def _points(P, path: Path):
+    """``P`` when it is ``(p, 3)`` finite points, at least four of them."""
+    # start-up time: the stage loads when the command runs
+    import numpy as np
+
+    P = np.asarray(P)
+    if P.ndim != 2 or P.shape[1] != 3 or P.dtype.kind not in "fiu":
+        raise InputError(f"{path}: expected (p, 3) points, got {P.dtype} {P.shape}")
+    if len(P) < 4 or not np.isfinite(P).all():
+        raise InputError(f"{path}: expected at least 4 finite points, got {len(P)} "
+                         f"({int((~np.isfinite(P)).any(axis=1).sum())} with NaN or inf)")
+    return P.astype(np.float64)
 
 
 def _load_keypoints(path: str):
@@ -106,6 +142,11 @@ def _load_keypoints(path: str):
         from dressmeup.io.jsonio import read_json
 
         return {k: np.asarray(v, dtype=float) for k, v in read_json(p, "keypoints").items()}
+    if p.suffix.lower() == ".npy":
+        # start-up time: the stage loads when the command runs
+        from dressmeup.io.npz import load_npy
+
+        return load_npy(p, what="keypoints file")
     # start-up time: the stage loads when the command runs
     from dressmeup.io.npz import load_npz
 
@@ -144,8 +185,9 @@ def _run_register(args: argparse.Namespace) -> int:
                 its = tuple(int(x) for x in args.iterations.split(","))
             except ValueError:
                 its = ()
-            if len(its) != 3 or min(its) < 0:
-                raise InputError(f"--iterations: expected three counts like 60,160,160, got "
+            if len(its) != 3 or min(its) < 0 or max(its) > MAX_ITERATIONS:
+                raise InputError(f"--iterations: expected three counts from 0 to "
+                                 f"{MAX_ITERATIONS:,} like 60,160,160, got "
                                  f"{args.iterations!r}")
             options["iterations"] = its
         if args.clothed and args.naked:

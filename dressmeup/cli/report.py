@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from dressmeup.cli.checks import integer, new_output
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Register the ``report`` subcommand."""
@@ -28,12 +30,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--submissions", "-s", nargs="+", action="extend", default=[],
                    help="submission folders, or folders holding them (default: the paths "
                         "recorded in the results)")
-    p.add_argument("--out", "-o", required=True, help="site folder (index.html goes there)")
-    p.add_argument("--images-per-side", type=int, default=5,
+    p.add_argument("--out", "-o", required=True, type=new_output,
+                   help="site folder (index.html goes there)")
+    p.add_argument("--images-per-side", type=integer(0), default=5,
                    help="best and worst items drawn per method (default 5)")
-    p.add_argument("--max-images", type=int, default=120,
+    p.add_argument("--max-images", type=integer(0), default=120,
                    help="pictures of the whole site at most (default 120)")
-    p.set_defaults(func=_report)
+    p.set_defaults(func=_report, locks=("out",))
 
 
 def _report(args: argparse.Namespace) -> int:

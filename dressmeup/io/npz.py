@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import os
+import tokenize
 import zipfile
 import zlib
 from collections.abc import Mapping
@@ -28,8 +29,10 @@ import numpy as np
 from dressmeup.errors import InputError
 from dressmeup.limits import ARRAY_BYTES, NPZ_MEMBERS, Limit, bounded_file
 
+#: what numpy and zipfile raise on damaged files (numpy parses a header with the
+#: tokenizer: SyntaxError, TokenError)
 _DAMAGE = (zipfile.BadZipFile, zlib.error, EOFError, ValueError, OSError, KeyError,
-           NotImplementedError, RuntimeError)
+           NotImplementedError, RuntimeError, SyntaxError, tokenize.TokenError)
 
 
 @dataclass(frozen=True)
