@@ -16,7 +16,6 @@ Threat model: accidents and casual tampering (a hand-edited ``summary.json`` or
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -27,6 +26,7 @@ import numpy as np
 from dressmeup.bench.edition import edition_from_dict, list_editions, load_edition
 from dressmeup.bench.results import EDITION_JSON, PER_SAMPLE, SUMMARY, Result, stats
 from dressmeup.errors import InputError
+from dressmeup.io.jsonio import parse_json_file
 from dressmeup.io.tables import read_frame
 
 #: relative tolerance of a recomputed mean/std (the toolkit's own summaries agree exactly)
@@ -138,8 +138,7 @@ def check_edition(result: Result) -> tuple[EditionCheck, list[str]]:
     problems: list[str] = []
     if path.is_file():
         try:
-            ed = edition_from_dict(json.loads(path.read_text(encoding="utf-8")),
-                                   source=str(path))
+            ed = edition_from_dict(parse_json_file(path), source=str(path))
         except (OSError, ValueError) as exc:
             return EditionCheck(False, str(path)), [f"{path}: unreadable edition ({exc})"]
         if ed.hash != claimed:

@@ -13,6 +13,10 @@ from dressmeup.io.atomic import atomic_write_text
 
 #: Most steps of one registration stage (the defaults are 60 to 160).
 MAX_ITERATIONS = 100_000
+#: A fit leaving 5 % of the scan farther than this from the body (mm) is reported as poor,
+#: naming --up: an upside-down scan fitted from upright starts leaves 380 mm (a good fit of
+#: a clothed scan: tens of mm).
+POOR_FIT_P95_MM = 150.0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -34,7 +38,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--init", help="starting parameters (.npz or any importable format)")
     p.add_argument("--keypoints", help="3D joint positions: .npy (j,3) with NaN rows for "
                    "missing joints, or .json {joint_name: [x, y, z]}")
-    p.add_argument("--registrar", default="optimization",
+    p.add_argument("--registrar", default="optimization", choices=("optimization", "from-file"),
                    help="registrar name: optimization (default) or from-file")
     p.add_argument("--params", help="with --registrar from-file: the parameter file to import")
     p.add_argument("--format", default="auto",
@@ -175,7 +179,16 @@ def _run_register(args: argparse.Namespace) -> int:
         options = {"path": args.params, "format": args.format}
         scan = None
     else:
+        if args.format != "auto" or args.params:
+            raise InputError("--format and --params go with --registrar from-file")
         scan = _load_scan(args.scan)
+        if args.up not in (None, "y"):  # the scan turned as asked must look upright
+            # start-up time: the stage loads when the command runs
+            from dressmeup.body.registration.scan import check_upright, rotate_scan, up_rotation
+
+            turned = rotate_scan(scan, up_rotation(args.up))
+            check_upright(turned[0] if isinstance(turned, tuple) else turned,
+                          f"{args.scan} turned by --up {args.up}")
         options["seed"] = args.seed
         options["init_route"] = args.init_route
         options["remove_support"] = not args.keep_support
@@ -256,6 +269,12 @@ def _report_fit(model, params, scan, out: Path, picture: bool, seed: int,
     parts = vertex_parts(model)
     m = fit_metrics(posed.vertices, model.faces, pts, parts)
     sys.stdout.write(format_metrics(m) + "\n")
+    if m.get("scan_to_body_p95_mm", 0.0) > POOR_FIT_P95_MM:
+        sys.stderr.write(f"dressmeup register: warning: poor fit: 5 % of the scan is more than "
+                         f"{m['scan_to_body_p95_mm']:.0f} mm from the body. Is the scan upright "
+                         "with y up? An upside-down scan needs --up=-y, a z-up one --up z "
+                         "(or --up=-z); a scan of several people or with large props fits "
+                         "one body only\n")
     metrics_path = out.with_name(out.stem + ".metrics.json")
     atomic_write_text(metrics_path, json.dumps(m, indent=1))
     written = [str(metrics_path)]

@@ -18,7 +18,7 @@ from dressmeup.cli.checks import device, integer, new_output, number, seed
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_bytes
-from dressmeup.limits import FRAMES, IMAGE_PIXELS
+from dressmeup.limits import FRAMES, IMAGE_PIXELS, MESH_FACES
 
 #: Smallest TSDF voxel (metres): a person's surface at 0.5 mm is about 16 million voxels.
 MIN_VOXEL_M = 0.0005
@@ -46,8 +46,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="write a drifted calibration: rotate every camera but the reference by this many degrees")
     p.add_argument("--perturb-cm", type=number(0.0, 100.0), default=0.0,
                    help="... and shift it by this many centimetres")
-    p.add_argument("--scale", type=number(0.0, 16.0, lo_open=True), default=1.0,
-                   help="image size factor (0.5: 320x288)")
+    p.add_argument("--scale", type=number(0.05, 16.0), default=1.0,
+                   help="image size factor, 0.05 to 16 (0.5: 320x288)")
     p.add_argument("--subject-up", default="auto", choices=("auto", "x", "y", "z"),
                    help="the subject's up axis: auto, x, y or z")
     p.add_argument("--seed", type=seed, default=0)
@@ -182,7 +182,7 @@ def _validate_session(args: argparse.Namespace) -> int:
 def _fusion_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--voxel", type=number(MIN_VOXEL_M, 1.0), default=0.004,
                    help=f"TSDF voxel size in metres, {MIN_VOXEL_M:g} to 1 (default 0.004)")
-    p.add_argument("--min-weight", type=number(0.0), default=1.0,
+    p.add_argument("--min-weight", type=number(1.0, 1e6), default=1.0,
                    help="mesh a voxel only when at least this many frames observed it (default 1: "
                         "every surface any frame saw, including surface seen by one view)")
     p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=False,
@@ -200,7 +200,7 @@ def _fusion_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--device", default="cpu", type=device, help="cpu or cuda[:N]")
     p.add_argument("--poisson-depth", type=integer(1, MAX_POISSON_DEPTH), default=None,
                    help=f"screened Poisson remesh at this depth (1 to {MAX_POISSON_DEPTH})")
-    p.add_argument("--decimate", type=integer(1), default=None,
+    p.add_argument("--decimate", type=integer(1, MESH_FACES), default=None,
                    help="decimate the scan to this many faces")
     p.add_argument("--no-cleanup", action="store_true",
                    help="keep the raw TSDF mesh: no component, non-manifold or hole repair (the cleanup "
@@ -282,6 +282,10 @@ def _fuse(args: argparse.Namespace) -> int:
     session = open_session(args.session)
     for note in session.notes:
         sys.stdout.write(f"note: {note}\n")
+    views = len(session.rig.cameras) * max(1, session.info.n_frames)
+    if args.min_weight > views:
+        raise InputError(f"--min-weight {args.min_weight:g}: the session has {views} views, so "
+                         "no voxel is seen that often; give at most that many")
     result = fuse_session(session, _fusion_config(args))
     extra: dict[str, Any] = {"session": str(Path(args.session).resolve()),
                              **({"pose_notes": session.notes} if session.notes else {})}

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from dressmeup.cli.checks import integer, new_output
+from dressmeup.errors import InputError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -42,6 +44,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _report(args: argparse.Namespace) -> int:
     # start-up time: the stage loads when the command runs
     from dressmeup.viz.site import write_site
+
+    for option, paths in (("--data", args.data), ("--submissions", args.submissions)):
+        for p in paths:
+            if not Path(p).is_dir():
+                raise InputError(f"{option} {p}: not a folder")
 
     rep = write_site(args.results, args.out, data_roots=args.data,
                      submissions=args.submissions, images_per_side=args.images_per_side,

@@ -81,9 +81,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _server(args: argparse.Namespace, **kw):
     # start-up time: the stage loads when the command runs
+    from sqlalchemy.exc import ArgumentError, NoSuchModuleError
+
     from dressmeup.server.service import EvaluationServer
 
-    return EvaluationServer(ServerConfig(Path(args.root), database=args.database, **kw))
+    try:
+        return EvaluationServer(ServerConfig(Path(args.root), database=args.database, **kw))
+    except (ArgumentError, NoSuchModuleError) as exc:
+        raise InputError(f"--database {args.database}: not a database URL this server can use "
+                         f"({exc}); e.g. sqlite:///server.db or "
+                         "postgresql+psycopg://user:pw@host/db") from exc
 
 
 def _serve(args: argparse.Namespace) -> int:

@@ -76,8 +76,9 @@ def output_lock(path: str | os.PathLike, what: str = "output") -> Iterator[Path]
         _HELD[key] += 1
         try:
             yield target
-        finally:
-            _HELD[key] -= 1
+        finally:  # the outer holder may have ended first (an abandoned inner one)
+            if key in _HELD:
+                _HELD[key] -= 1
         return
     lock = lock_path(target)
     lock.parent.mkdir(parents=True, exist_ok=True)

@@ -236,6 +236,9 @@ def read_4ddress(root: str | os.PathLike, frames: list[str] | None = None,
         subject, outfit = take.parents[1].name, take.parent.name
         tag = f"{subject}/{outfit}/{take.name}"
         info = load_pickle(take / "basic_info.pkl")
+        if not isinstance(info, dict):
+            raise InputError(f"{take / 'basic_info.pkl'}: expected a dict (scan_frames, "
+                             f"rotation, offset), got {type(info).__name__}")
         g = gender or (info.get("gender") if isinstance(info, dict) else None) or \
             meta["gender"].get(subject)
         if g is None:
