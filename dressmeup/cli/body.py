@@ -157,6 +157,65 @@ def _load_keypoints(path: str):
     return load_npz(p, what="keypoints file")
 
 
+def _fit_options(args: argparse.Namespace) -> dict:
+    """The registrar's options from the command line, every one checked (before any file
+    is read or model built)."""
+    if args.registrar == "from-file":
+        if not args.params:
+            raise InputError("--registrar from-file needs --params FILE")
+        return {"path": args.params, "format": args.format}
+    if args.format != "auto" or args.params:
+        raise InputError("--format and --params go with --registrar from-file")
+    options: dict = {"seed": args.seed, "init_route": args.init_route,
+                     "remove_support": not args.keep_support, "up": args.up}
+    if args.iterations:
+        try:
+            its = tuple(int(x) for x in args.iterations.split(","))
+        except ValueError:
+            its = ()
+        if len(its) != 3 or min(its) < 0 or max(its) > MAX_ITERATIONS:
+            raise InputError(f"--iterations: expected three counts from 0 to "
+                             f"{MAX_ITERATIONS:,} like 60,160,160, got {args.iterations!r}")
+        options["iterations"] = its
+    if args.clothed and args.naked:
+        raise InputError("--clothed and --naked exclude each other")
+    if args.clothed:
+        options["inside_weight"] = 0.2
+    if args.naked:
+        options.update(inside_weight=1.0, sigma_in=0.15)
+    return options
+
+
+def _checked_scan(args: argparse.Namespace):
+    """The scan, and when ``--up`` names another axis, checked to look upright once turned."""
+    scan = _load_scan(args.scan)
+    if args.up not in (None, "y"):
+        # start-up time: the stage loads when the command runs
+        from dressmeup.body.registration.scan import check_upright, rotate_scan, up_rotation
+
+        turned = rotate_scan(scan, up_rotation(args.up))
+        check_upright(turned[0] if isinstance(turned, tuple) else turned,
+                      f"{args.scan} turned by --up {args.up}")
+    return scan
+
+
+def _precheck(path: str) -> None:
+    """Refuse a parameter file whose size or content is out of bounds (a pickle bomb, a
+    damaged .npz) before minutes of model building; the importer reads it afterwards."""
+    # start-up time: the stage loads when the command runs
+    from dressmeup.io.jsonio import parse_json_file
+    from dressmeup.io.npz import npz_arrays_info
+    from dressmeup.io.pickles import read_pickle_bytes
+
+    suffix = Path(path).suffix.lower()
+    if suffix in (".pkl", ".pickle"):
+        read_pickle_bytes(path)
+    elif suffix == ".npz":
+        npz_arrays_info(path, "parameter file")
+    elif suffix == ".json":
+        parse_json_file(path)
+
+
 def _run_register(args: argparse.Namespace) -> int:
     # start-up time: the stage loads when the command runs
     from dressmeup.body import get_body_model
@@ -170,45 +229,13 @@ def _run_register(args: argparse.Namespace) -> int:
             kw["model_path"] = args.model_path
     if Path(args.out).is_dir():
         raise InputError(f"--out {args.out} is a folder; give the .npz file to write")
+    options = _fit_options(args)
     keypoints = _load_keypoints(args.keypoints) if args.keypoints else None  # before the fit
+    scan = None if args.registrar == "from-file" else _checked_scan(args)
+    for path in (args.init, args.params):  # bounded reads before the model is built
+        if path:
+            _precheck(path)
     model = get_body_model(args.model, **kw)
-    options: dict = {}
-    if args.registrar == "from-file":
-        if not args.params:
-            raise InputError("--registrar from-file needs --params FILE")
-        options = {"path": args.params, "format": args.format}
-        scan = None
-    else:
-        if args.format != "auto" or args.params:
-            raise InputError("--format and --params go with --registrar from-file")
-        scan = _load_scan(args.scan)
-        if args.up not in (None, "y"):  # the scan turned as asked must look upright
-            # start-up time: the stage loads when the command runs
-            from dressmeup.body.registration.scan import check_upright, rotate_scan, up_rotation
-
-            turned = rotate_scan(scan, up_rotation(args.up))
-            check_upright(turned[0] if isinstance(turned, tuple) else turned,
-                          f"{args.scan} turned by --up {args.up}")
-        options["seed"] = args.seed
-        options["init_route"] = args.init_route
-        options["remove_support"] = not args.keep_support
-        options["up"] = args.up
-        if args.iterations:
-            try:
-                its = tuple(int(x) for x in args.iterations.split(","))
-            except ValueError:
-                its = ()
-            if len(its) != 3 or min(its) < 0 or max(its) > MAX_ITERATIONS:
-                raise InputError(f"--iterations: expected three counts from 0 to "
-                                 f"{MAX_ITERATIONS:,} like 60,160,160, got "
-                                 f"{args.iterations!r}")
-            options["iterations"] = its
-        if args.clothed and args.naked:
-            raise InputError("--clothed and --naked exclude each other")
-        if args.clothed:
-            options["inside_weight"] = 0.2
-        if args.naked:
-            options.update(inside_weight=1.0, sigma_in=0.15)
     init = import_body_params(args.init, body_model=model) if args.init else None
     result = fit(scan, model, init=init, keypoints=keypoints, registrar=args.registrar,
                  return_result=True, **options)

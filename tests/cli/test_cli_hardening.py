@@ -61,6 +61,14 @@ def tri(tmp_path):
     (["metrics", "{tri}", "{tri}", "--seed", "-1"], "--seed"),
     (["serve", "--root", "{t}/srv", "--port", "70000"], "--port"),
     (["submit", "{t}/sub", "-e", "x", "--server", "ftp://x", "--token", "t"], "--server"),
+    (["register", "{tri}", "--registrar", "nope", "--out", "{t}/f.npz"], "--registrar"),
+    (["register", "{tri}", "--format", "nope", "--out", "{t}/f.npz"],
+     "--format and --params go with --registrar from-file"),
+    (["baseline", "uvparam", "--method", "xatlas", "--meshes", "sphere-2k", "--param",
+      "nope=1", "--out", "{t}/sub"], "unknown hyperparameter(s) ['nope']"),
+    (["report", "{t}", "--data", "{t}/missing", "--out", "{t}/site"], "--data"),
+    (["server", "list", "--root", "{t}/srv", "--database", "nope://x"], "--database nope://x"),
+    (["synth-capture", "mannequin", "--out", "{t}/s", "--scale", "1e-9"], "--scale"),
 ])
 def test_bad_options_are_usage_errors(argv, says, capsys, tmp_path, tri):
     argv = [a.format(t=tmp_path, tri=tri) for a in argv]
@@ -165,3 +173,23 @@ def test_uv_checkpoint_that_is_not_one_is_named(content, capsys, tmp_path):
                          capsys)
     assert status == 2 and "c.pt" in err and "checkpoint" in err, err
     assert not (tmp_path / "sub").exists()
+
+
+def test_register_refuses_an_up_axis_the_scan_does_not_have(capsys, tmp_path):
+    from dressmeup.body import get_body_model
+
+    model = get_body_model("procedural")
+    scan = tmp_path / "scan.npy"
+    np.save(scan, model.posed(model.default_params()).vertices)  # y up
+    status, _, err = run(["register", scan, "--model", "procedural", "--up", "z", "--out",
+                          tmp_path / "fit.npz"], capsys)
+    assert status == 2 and "turned by --up z" in err and "--up y" in err, err
+
+
+def test_fuse_refuses_more_views_than_the_session_has(capsys, tmp_path):
+    session = tmp_path / "session"
+    assert main(["synth-capture", "mannequin", "--out", str(session), "--scale", "0.1"]) == 0
+    capsys.readouterr()
+    status, _, err = run(["fuse", session, "--out", tmp_path / "scan", "--min-weight", "8"],
+                         capsys)
+    assert status == 2 and "the session has 7 views" in err
