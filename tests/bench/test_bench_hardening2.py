@@ -1,4 +1,4 @@
-"""The hardening issue's bench-side reproductions: submissions that inflate or hold
+"""Known bad inputs of the bench side: submissions that inflate or hold
 100,000 members, predictions in millimetres, editions created over tampered, unfinished or
 foreign data or under a shipped name, result folders that are lists or random bytes,
 checkpoints that are not weights, a Dask scheduler file that is not one."""

@@ -1,6 +1,6 @@
 """Bad options and files on the command line are one-line errors before any work starts
-(never a traceback, never minutes of work or gigabytes of memory): the hardening issue's
-reproductions that need no dataset."""
+(never a traceback, never minutes of work or gigabytes of memory): the known bad inputs
+that need no dataset."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The hardening issue's data-side reproductions: texture bombs and junk, a manifest of two
+"""Known bad inputs of the data side: texture bombs and junk, a manifest of two
 million rows, symlink loops, published datasets whose files are bombs or hold strings,
 out-of-range faces or missing keys, THuman ids that collapse, resumed builds that lose
 their records, two writers of one dataset."""
