@@ -11,7 +11,8 @@ import sys
 from pathlib import Path
 
 import bad_files as bf
-from cases_files import _dataset_copy, _fx, _garment
+from cases_common import _fx
+from cases_files import _dataset_copy, _garment
 from runner import Case
 
 F, W = "{F}", "{W}"
