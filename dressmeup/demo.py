@@ -6,7 +6,8 @@
 2. run every retargeting baseline the toolkit provides into submissions;
 3. validate and score them, and print the leaderboard;
 4. when the UV stage is installed: build the ``synth-uvparam-mini-v1`` mesh set, run the UV
-   baselines, score them and print their leaderboard;
+   baselines (and the neural method with its shipped pretrained models), score them and
+   print their leaderboard;
 5. when the capture and fusion stages are installed: render one synthetic capture of a sample,
    fuse it and report its fusion quality against the scan.
 6. write the report site of every result (``runs/<time>/site/index.html``: sortable
@@ -27,13 +28,17 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from dressmeup.errors import DressmeupError
 from dressmeup.viz.site import write_site
 
 DEMO_EDITION = "synth-retarget-mini-v3"
 QUICK_EDITION = "synth-retarget-tiny-v3"
 UV_EDITION = "synth-uvparam-mini-v1"
-#: UV baselines run by the demo (the neural method trains per mesh: too slow for a demo).
+#: UV baselines run by the demo (the neural method runs as its own row, pretrained).
 UV_DEMO_METHODS = ("xatlas", "lscm", "harmonic", "slim")
+#: the neural UV row: the shipped pretrained models (the garment's category, else the
+#: general one): inference only, about 2 s a mesh (training per mesh is too slow for a demo)
+NEURAL_DEMO = {"pretrained": "category"}
 
 
 def _run_folder(out: Path) -> Path:
@@ -83,7 +88,9 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     run = _run_folder(out)
     report: dict[str, Any] = {"run": run, "results": [], "ok": True}
     edition = QUICK_EDITION if quick else DEMO_EDITION
-    log(f"[1/4] synthetic dataset for edition {edition} -> {out / 'data' / edition}")
+    log(f"[1/4] synthetic dataset for edition {edition} -> {out / 'data' / edition}"
+        + ("" if quick else " (the first run also builds the anny body model: a few "
+           "minutes, with progress lines)"))
     parts = runs.build_parts(edition, out / "data" / edition, log=log,
                              allow_other_data=True)
     other = runs.data_differs(edition, parts.full) is not None
@@ -139,6 +146,13 @@ def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report
     data = runs.build_data(UV_EDITION, out / "data" / UV_EDITION, log=log)
     subs = runs.run_baselines(UV_EDITION, data, run / "submissions" / UV_EDITION,
                               methods=methods, log=log)
+    if "neural" in available:
+        try:
+            subs["neural"] = runs.run_uvparam_baseline(
+                "neural", UV_EDITION, data, run / "submissions" / UV_EDITION / "neural",
+                log=log, **NEURAL_DEMO)
+        except DressmeupError as exc:  # e.g. the shipped weights are not installed
+            log(f"  neural: skipped ({exc})")
     if not subs:
         return
     results = runs.score_many(subs, UV_EDITION, data, run / "results" / UV_EDITION,

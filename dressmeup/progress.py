@@ -1,5 +1,6 @@
 """Progress for long work: a tqdm bar on a terminal (or in a notebook), a plain line now and
-then in a log; silent when ``DRESSMEUP_NO_PROGRESS`` is set.
+then in a log; silent when ``DRESSMEUP_NO_PROGRESS`` is set. Work that is one long call
+(building a body model) shows a line every little while instead (:func:`working`).
 
 A bar redraws itself with carriage returns up to ten times a second. Written to a file or a
 pipe (``dressmeup demo > log 2>&1``, CI) every redraw stays in the log, so there the same
@@ -9,9 +10,11 @@ line, and work that ends sooner prints nothing.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
-from collections.abc import Iterable, Iterator
+import threading
+from collections.abc import Callable, Iterable, Iterator
 from time import monotonic
 from typing import TypeVar
 
@@ -48,6 +51,45 @@ def progress(iterable: Iterable[T], desc: str = "", total: int | None = None,
     if total is None:
         total = len(iterable) if hasattr(iterable, "__len__") else None
     return _log_lines(iterable, desc, total)
+
+
+@contextlib.contextmanager
+def working(desc: str, every: float | None = None,
+            write: Callable[[str], object] | None = None) -> Iterator[None]:
+    """Print ``desc: m:ss elapsed`` every ``every`` seconds while the block runs (one long
+    call that cannot report its own progress), and ``desc: done in m:ss`` after it when any
+    line was printed; nothing for work that ends sooner.
+
+    Parameters
+    ----------
+    desc : what is being done (``"building the anny body model"``).
+    every : seconds between lines (default: 10 s on a terminal, :data:`LINE_INTERVAL_S`
+        in a log).
+    write : where lines go (default: stderr); silent when ``DRESSMEUP_NO_PROGRESS`` is set.
+    """
+    if os.environ.get("DRESSMEUP_NO_PROGRESS"):
+        yield
+        return
+    every = every if every is not None else (10.0 if _bar_wanted() else LINE_INTERVAL_S)
+    out = write or _write
+    stop = threading.Event()
+    t0 = monotonic()
+    printed = []
+
+    def beat() -> None:
+        while not stop.wait(every):
+            out(f"{desc}: {tqdm.format_interval(monotonic() - t0)} elapsed")
+            printed.append(True)
+
+    thread = threading.Thread(target=beat, name="dressmeup-working", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
+        if printed:
+            out(f"{desc}: done in {tqdm.format_interval(monotonic() - t0)}")
 
 
 def _bar_wanted() -> bool:

@@ -19,8 +19,9 @@ PACKAGE = Path(__file__).resolve().parents[1] / "dressmeup"
 # Lowest first. A unit may import units of its own layer only when listed together in
 # SIBLINGS_MAY_IMPORT; otherwise only units of lower layers.
 LAYERS: list[set[str]] = [
-    {"dressmeup", "errors", "cache", "progress", "io.atomic", "io.jsonable", "io.jsonio",
-     "io.npz", "io.hashing", "executors", "hyperparameters"},
+    {"dressmeup", "errors", "limits", "cache", "progress", "io.atomic", "io.jsonable",
+     "io.jsonio", "io.npz", "io.pickles", "io.images", "io.tables", "io.hashing", "io.outlock",
+     "executors", "hyperparameters"},
     {"geometry"},
     {"metrics", "io.mesh"},
     {"body"},
@@ -38,7 +39,14 @@ LAYERS: list[set[str]] = [
 ]
 SIBLINGS_MAY_IMPORT = {("dressmeup", "errors"), ("executors", "errors"),
                        ("hyperparameters", "errors"), ("io.jsonio", "errors"),
-                       ("io.npz", "errors"), ("cli", "__main__"), ("__main__", "cli")}
+                       ("io.npz", "errors"), ("cli", "__main__"), ("__main__", "cli"),
+                       ("limits", "errors"),
+                       *((unit, "limits") for unit in ("io.jsonio", "io.npz", "io.pickles",
+                                                       "io.images", "io.tables",
+                                                       "executors")),
+                       *((unit, "errors") for unit in ("io.pickles", "io.images", "io.tables",
+                                                       "io.outlock")),
+                       ("executors", "io.jsonio")}
 # what the evaluation devkit may import: it must never run or favour a method
 BENCH_MAY_NOT_IMPORT = ("methods.nn", "methods.retarget", "methods.uvparam", "runs", "viz",
                         "server", "demo", "cli")

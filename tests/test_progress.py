@@ -76,3 +76,51 @@ def test_switched_off_prints_nothing(how, log, monkeypatch):
     else:
         items = list(progress(range(3), desc="off", disable=True))
     assert items == [0, 1, 2] and stream.getvalue() == ""
+
+
+def test_one_long_call_prints_a_line_now_and_then(monkeypatch):
+    """``working``: the body model's build (one call, minutes) is not silent."""
+    import time
+
+    from dressmeup.progress import working
+
+    monkeypatch.delenv("DRESSMEUP_NO_PROGRESS", raising=False)
+    lines: list[str] = []
+    with working("building the anny body model", every=0.05, write=lines.append):
+        time.sleep(0.3)
+    assert len(lines) >= 3 and lines[0].startswith("building the anny body model: 00:0")
+    assert lines[-1].startswith("building the anny body model: done in ")
+    lines.clear()
+    with working("quick", every=5.0, write=lines.append):
+        pass
+    assert lines == []
+    monkeypatch.setenv("DRESSMEUP_NO_PROGRESS", "1")
+    with working("off", every=0.01, write=lines.append):
+        time.sleep(0.05)
+    assert lines == []
+
+
+def test_the_body_model_build_prints_progress(monkeypatch, log, tmp_path):
+    """A slow anny build (a stand-in module: the real first build takes minutes) prints
+    lines in a log while it runs."""
+    import sys
+    import time
+    import types
+
+    from dressmeup.body import anny_model
+
+    fake = types.ModuleType("anny")
+    fake.paths = types.SimpleNamespace(download_noncommercial_data=None,
+                                       set_anny_cache_path=lambda p: None)
+    fake.Anny = lambda **kw: time.sleep(0.35) or "model"
+    monkeypatch.setitem(sys.modules, "anny", fake)
+    monkeypatch.setitem(sys.modules, "anny.paths", fake.paths)
+    monkeypatch.setattr(anny_model, "_configure_caches", lambda: tmp_path)
+    monkeypatch.setattr(progress_mod, "LINE_INTERVAL_S", 0.1)
+    monkeypatch.delenv("DRESSMEUP_NO_PROGRESS", raising=False)
+    stream = log()
+    model, _seconds, _path = anny_model.build_anny(prune_cache=False)
+    lines = stream.getvalue().splitlines()
+    assert model == "model" and len(lines) >= 2
+    assert lines[0].startswith("building the anny body model") and "elapsed" in lines[0]
+    assert "done in" in lines[-1]

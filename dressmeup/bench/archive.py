@@ -12,7 +12,9 @@ Fetching checks the index against the pin, downloads the archive (resuming a par
 download with an HTTP range request), checks its sha256 before anything is unpacked, then
 unpacks member by member: only regular files named in the index with their size, no path
 outside the target, no links, and each file's sha256 checked as it is written; the folder is
-renamed into place only when complete.
+renamed into place only when complete. Bounds (:mod:`dressmeup.limits`): an index is a JSON
+file (``json_bytes``) of at most ``archive_members`` files; what is unpacked is exactly what
+the index lists, and must fit on the disk before anything is downloaded.
 """
 
 from __future__ import annotations
@@ -39,13 +41,13 @@ from dressmeup.data.parts import part_of, part_record
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_dir, atomic_path, atomic_write_text
 from dressmeup.io.hashing import sha256_file
+from dressmeup.io.jsonio import parse_json_bytes
+from dressmeup.limits import ARCHIVE_MEMBERS, JSON_BYTES
 from dressmeup.progress import progress
 
 INDEX_FORMAT = "dressmeup-archive-index/1"
 PINS_FORMAT = "dressmeup-edition-parts/1"
 CHUNK = 1 << 20
-#: largest index file read (an index lists one line per file)
-MAX_INDEX_BYTES = 64 << 20
 #: the hidden copy of the index a fetched folder keeps (``edition verify`` reads it)
 LOCAL_INDEX = ".dressmeup-index.json"
 
@@ -165,8 +167,10 @@ def _join(source: str, name: str) -> str:
     return source.rstrip("/") + "/" + name if _is_url(source) else str(Path(source) / name)
 
 
-def _read_small(source: str, max_bytes: int = MAX_INDEX_BYTES) -> bytes:
-    """The bytes of a small file at a URL or path (refused beyond ``max_bytes``)."""
+def _read_small(source: str) -> bytes:
+    """The bytes of a small file at a URL or path (refused beyond the ``json_bytes``
+    limit)."""
+    max_bytes = JSON_BYTES.value()
     if _is_url(source):
         try:
             with urllib.request.urlopen(source, timeout=60) as r:
@@ -179,18 +183,20 @@ def _read_small(source: str, max_bytes: int = MAX_INDEX_BYTES) -> bytes:
             raise InputError(f"{p} not found")
         with open(p, "rb") as fh:
             data = fh.read(max_bytes + 1)
-    if len(data) > max_bytes:
-        raise InputError(f"{source}: larger than {max_bytes >> 20} MB; not an index")
+    JSON_BYTES.check(len(data), source, "index size (read so far)")
     return data
 
 
 def read_index(data: bytes, where: str) -> tuple[dict[str, Any], list[Entry]]:
     """Parse and check an index (its entries re-hashed against ``index_sha256``)."""
+    index = parse_json_bytes(data, where)
     try:
-        index = json.loads(data)
+        ARCHIVE_MEMBERS.check(len(index["files"]), where, "files listed")
         entries = [Entry(str(p), str(s), int(n)) for p, s, n in index["files"]]
         archive = index["archive"]
         _ = (str(archive["name"]), str(archive["sha256"]), int(archive["bytes"]))
+    except InputError:
+        raise
     except (ValueError, KeyError, TypeError) as exc:
         raise InputError(f"{where}: not an archive index ({exc})") from exc
     if index.get("format") != INDEX_FORMAT:
@@ -390,6 +396,7 @@ def verify_folder(root: str | os.PathLike, edition: str | Edition | None = None
     problems = []
     local = root / LOCAL_INDEX
     if local.is_file():
+        JSON_BYTES.check(local.stat().st_size, str(local), "index size")
         index, listed = read_index(local.read_bytes(), str(local))
         want = {e.path: e for e in listed}
         for p in sorted(set(want) - set(entries)):

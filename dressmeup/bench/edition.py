@@ -24,9 +24,9 @@ from pathlib import Path
 from typing import Any
 
 from dressmeup.bench.tasks import get_task
-from dressmeup.bench.tasks.common import manifest_sha256
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.jsonio import parse_json_file
 
 SCHEMA = "dressmeup-edition/1"
 TASKS = ("retarget", "uvparam", "fusion", "registration", "correspondence")
@@ -223,19 +223,15 @@ def load_edition(name_or_path: str | os.PathLike | Edition) -> Edition:
     if path.suffix == ".json" or path.exists() or os.sep in text_path:
         if not path.is_file():
             raise InputError(f"edition file {path} does not exist")
-        source = str(path)
-        try:
-            raw = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError(f"edition file {path} cannot be read as UTF-8 text: {exc}") from exc
-    else:
-        res = resources.files("dressmeup.bench") / "editions" / f"{text_path}.json"
-        if not res.is_file():
-            raise InputError(f"unknown edition {text_path!r}: shipped editions are "
-                             f"{', '.join(list_editions())}; or give a path to an edition "
-                             "JSON file")
-        source = f"dressmeup:{text_path}"
-        raw = res.read_text(encoding="utf-8")
+        # bounded (json_bytes), UTF-8 and JSON checked, errors naming the file
+        return edition_from_dict(parse_json_file(path), source=str(path))
+    res = resources.files("dressmeup.bench") / "editions" / f"{text_path}.json"
+    if not res.is_file():
+        raise InputError(f"unknown edition {text_path!r}: shipped editions are "
+                         f"{', '.join(list_editions())}; or give a path to an edition "
+                         "JSON file")
+    source = f"dressmeup:{text_path}"
+    raw = res.read_text(encoding="utf-8")
     try:
         data = json.loads(raw)
     except json.JSONDecodeError as exc:
@@ -426,70 +422,3 @@ def _parse_pin(d: Any) -> tuple[DatasetPin | None, list[str]]:
             return None, problems
         return DatasetPin(kind="real", manifest_sha256=sha, name=name), []
     return None, [f"dataset.kind must be 'generated' or 'real', got {kind!r}"]
-
-
-def create_edition(data_root: str | os.PathLike, task: str, name: str, *,
-                   split: str = "test", metrics: list[str] | None = None,
-                   primary_metric: str | None = None, per_category: list[str] | None = None,
-                   version: int = 1, description: str | None = None) -> Edition:
-    """An edition pinned to a dataset the user built (e.g. with an adapter from a licensed
-    copy of CLOTH3D), so a lab can run the same protocol on data that cannot be shipped.
-
-    The dataset is pinned by the sha256 of its ``manifest.parquet`` (``kind: "real"``):
-    scoring refuses any other data. Options are the task's defaults.
-
-    Parameters
-    ----------
-    data_root : the dataset root (``dataset.json`` + ``manifest.parquet``).
-    task : one of :data:`TASKS`.
-    name : edition name (letters, digits, ``.``, ``-``, ``_``).
-    split : the manifest split scored (must hold items of the task).
-    metrics : metric names in table order (default: every metric of the task).
-    primary_metric : the metric leaderboards sort by (default: the first metric).
-    per_category : metrics shown per category (default: the primary metric).
-    version : edition version (bump on any protocol change).
-    description : free text (default: says what data and split it pins).
-
-    Returns
-    -------
-    Edition, validated (save it with :meth:`Edition.save`).
-
-    Raises
-    ------
-    InputError
-        Unknown task, a bad name, no dataset at ``data_root``, or no items of the task in
-        ``split`` (the message says which).
-    """
-
-    if task not in TASKS:
-        raise InputError(f"--task must be one of {', '.join(TASKS)}, got {task!r}")
-    root = Path(data_root)
-    if not root.is_dir():
-        raise InputError(f"--data {root} is not a folder (give the dataset root)")
-    sha = manifest_sha256(root)
-    t = get_task(task)
-    metrics = list(metrics) if metrics else [m.name for m in t.metrics]
-    primary = primary_metric or metrics[0]
-    ds_name = None
-    ds_json = root / "dataset.json"
-    if ds_json.is_file():
-        try:
-            ds_name = json.loads(ds_json.read_text(encoding="utf-8")).get("name")
-        except (OSError, json.JSONDecodeError) as exc:
-            raise InputError(f"{ds_json} cannot be read: {exc}") from exc
-    data = {"schema": SCHEMA, "name": name, "version": version, "task": task,
-            "dataset": {"kind": "real", "manifest_sha256": sha,
-                        **({"name": str(ds_name)} if ds_name else {})},
-            "split": split, "metrics": metrics, "primary_metric": primary,
-            "per_category": list(per_category) if per_category is not None else [primary],
-            "description": description or ""}
-    ed = edition_from_dict(data, source=f"<created from {root}>")
-    items = t.items(ed, root)
-    if not items:
-        raise InputError(f"dataset {root} has no {task} items in split {split!r}")
-    if description is None:
-        data["description"] = (f"{task} on the user-built dataset "
-                               f"{ds_name or root.name} (split {split}, {len(items)} items), "
-                               f"pinned by manifest sha256 {sha[:12]}")
-        ed = edition_from_dict(data, source=f"<created from {root}>")
-    return ed

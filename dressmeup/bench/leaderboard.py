@@ -19,7 +19,6 @@ The table itself is :class:`~dressmeup.bench.board.Leaderboard`.
 from __future__ import annotations
 
 import importlib
-import json
 import math
 import os
 from collections.abc import Sequence
@@ -35,6 +34,7 @@ from dressmeup.bench.tasks import get_task
 from dressmeup.bench.verify import comparability, verify_results
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.jsonio import parse_json_file
 
 __all__ = ["FORMATS", "BoardRow", "Column", "Leaderboard", "build_leaderboard", "format_summary",
            "write_leaderboard"]
@@ -43,8 +43,7 @@ __all__ = ["FORMATS", "BoardRow", "Column", "Leaderboard", "build_leaderboard", 
 def _edition_of(result: Result) -> Edition:
     path = result.path / EDITION_JSON
     if path.is_file():
-        return edition_from_dict(json.loads(path.read_text(encoding="utf-8")),
-                                 source=str(path))
+        return edition_from_dict(parse_json_file(path), source=str(path))
 
     return load_edition(result.summary["edition"]["name"])
 

@@ -46,6 +46,7 @@ from dressmeup.data.parts import VOLATILE_KEYS, PartsReport, Withheld, write_par
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_dir, atomic_write_text
 from dressmeup.io.hashing import sha256_file
+from dressmeup.io.jsonio import parse_json_file
 from dressmeup.io.mesh import load_mesh
 
 #: generator files of the scored split are withheld when their name is one of its ids
@@ -208,8 +209,10 @@ def export_parts(edition: str | Edition, root: str | Path, public_out: str | Pat
 def _copy_meshset(root: Path, public_out, private_out, label: dict[str, Any]) -> PartsReport:
     """uvparam: both parts are the mesh set (nothing is withheld)."""
     report = PartsReport(public=Path(public_out or ""), private=Path(private_out or ""))
-    info = {k: v for k, v in json.loads((root / layout.DATASET_JSON).read_text(
-        encoding="utf-8")).items() if k not in VOLATILE_KEYS}
+    raw = parse_json_file(root / layout.DATASET_JSON)
+    if not isinstance(raw, dict):
+        raise InputError(f"{root / layout.DATASET_JSON}: expected a JSON object")
+    info = {k: v for k, v in raw.items() if k not in VOLATILE_KEYS}
     for name, out in (("public", public_out), ("private", private_out)):
         if out is None:
             continue

@@ -36,6 +36,7 @@ from dressmeup.bench.intervals import LEVEL, METHOD, N_RESAMPLES, SEED, crossed_
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_dir, atomic_write_text, only_temp_files
 from dressmeup.io.jsonio import parse_json_file, validate_json
+from dressmeup.io.tables import read_frame
 
 RESULT_SCHEMA = "dressmeup-result/3"
 #: Integer version of :data:`RESULT_SCHEMA` (stored as ``schema_version``).
@@ -240,12 +241,15 @@ def load_result(path: str | os.PathLike, table: bool = True) -> Result:
         raise InputError(f"{folder} is not a result folder: {SUMMARY} not found{hint}")
 
     summary = parse_json_file(summary_path)
-    if isinstance(summary, dict) and summary.get("schema") in READABLE_SCHEMAS:
+    if not isinstance(summary, dict):
+        raise InputError(f"{summary_path}: a JSON {type(summary).__name__}, expected the "
+                         "result summary object that 'dressmeup score' writes")
+    if summary.get("schema") in READABLE_SCHEMAS:
         validate_json(summary, "result", str(summary_path))
     if summary.get("schema") not in READABLE_SCHEMAS:
         raise InputError(f"{summary_path}: schema {summary.get('schema')!r} is not one of "
                          f"{', '.join(READABLE_SCHEMAS)} (a newer toolkit wrote it? "
                          "upgrade dressmeup)")
-    df = pd.read_parquet(folder / PER_SAMPLE) if table and (folder / PER_SAMPLE).is_file() \
-        else None
+    df = read_frame(folder / PER_SAMPLE, "per-item table") \
+        if table and (folder / PER_SAMPLE).is_file() else None
     return Result(path=folder, summary=summary, table=df)

@@ -35,6 +35,7 @@ from dressmeup.data.integrity import verify_checksums, verify_listed_files
 from dressmeup.data.parts import part_of, withheld_message
 from dressmeup.errors import InputError
 from dressmeup.executors import require_shared
+from dressmeup.io.tables import read_frame, table_size
 from dressmeup.progress import progress
 
 
@@ -188,9 +189,10 @@ def _verify_data(data_root: Path, items: list[Any]) -> int:
     for it in items:
         ids.add(str(it.item_id))
         ids.update(v for v in (getattr(it, "meta", None) or {}).values() if isinstance(v, str))
+    table_size(data_root / layout.MANIFEST, "manifest")  # bounded and readable first
     columns = set(pq.read_schema(data_root / layout.MANIFEST).names)
     if "sample_id" not in columns and {"mesh_id", "path", "sha256"} <= columns:  # a mesh set
-        rows = pd.read_parquet(data_root / layout.MANIFEST).to_dict("records")
+        rows = read_frame(data_root / layout.MANIFEST, "manifest").to_dict("records")
         return verify_listed_files(data_root, [r for r in rows if r["mesh_id"] in ids],
                                    "mesh_id", "path", "sha256")
     return verify_checksums(data_root, ids)

@@ -16,18 +16,18 @@ Threat model: accidents and casual tampering (a hand-edited ``summary.json`` or
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from dressmeup.bench.edition import edition_from_dict, list_editions, load_edition
 from dressmeup.bench.results import EDITION_JSON, PER_SAMPLE, SUMMARY, Result, stats
 from dressmeup.errors import InputError
+from dressmeup.io.jsonio import parse_json_file
+from dressmeup.io.tables import read_frame
 
 #: relative tolerance of a recomputed mean/std (the toolkit's own summaries agree exactly)
 RTOL = 1e-9
@@ -89,9 +89,9 @@ def check_summary(result: Result) -> list[str]:
             return [f"{where}: {PER_SAMPLE} is missing, so the summary cannot be checked"]
 
         try:
-            table = pd.read_parquet(path)
-        except Exception as exc:  # noqa: BLE001 - pyarrow raises several types on damage
-            return [f"{path}: unreadable ({exc})"]
+            table = read_frame(path, "per-item table")
+        except InputError as exc:
+            return [str(exc)]
     s = result.summary
     metrics = list((s.get("metrics") or {}).keys())
     problems: list[str] = []
@@ -138,8 +138,7 @@ def check_edition(result: Result) -> tuple[EditionCheck, list[str]]:
     problems: list[str] = []
     if path.is_file():
         try:
-            ed = edition_from_dict(json.loads(path.read_text(encoding="utf-8")),
-                                   source=str(path))
+            ed = edition_from_dict(parse_json_file(path), source=str(path))
         except (OSError, ValueError) as exc:
             return EditionCheck(False, str(path)), [f"{path}: unreadable edition ({exc})"]
         if ed.hash != claimed:

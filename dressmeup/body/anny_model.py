@@ -44,6 +44,7 @@ from dressmeup.body.base import LBSBodyModel
 from dressmeup.body.skeleton import PHENOTYPE_NAMES, SMPL22_JOINT_NAMES, SMPL22_PARENTS
 from dressmeup.cache import cache_dir
 from dressmeup.errors import DressmeupError
+from dressmeup.progress import working
 
 logger = logging.getLogger(__name__)
 
@@ -244,7 +245,8 @@ def build_anny(prune_cache: bool = True):
         # heavy: anny (~5 s to import, with torch)
         import anny
 
-        with _no_download(), warnings.catch_warnings():
+        with _no_download(), warnings.catch_warnings(), working(
+                f"building the anny body model (minutes the first time, then read from {path})"):
             warnings.simplefilter("ignore", DeprecationWarning)
             model = anny.Anny(rig="anny", topology="anny", local_changes="none",
                               facial_actions="none", phenotypes="default",

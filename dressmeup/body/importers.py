@@ -56,7 +56,7 @@ def _read_mapping(path: Path) -> dict:
     if suffix == ".json":
         data = parse_json_file(path)  # not UTF-8 / not JSON: InputError naming the file
     elif suffix == ".npz":
-        data = load_npz(path, what="body parameter file", max_bytes=256 << 20)
+        data = load_npz(path, what="body parameter file")
     elif suffix in (".pkl", ".pickle"):
         data = safe_load_pickle(path)
     else:

@@ -109,7 +109,7 @@ class BodyParams:
         path = Path(path)
         if not path.is_file() and not path.exists():
             raise FileNotFoundError(f"body parameter file not found: {path}")
-        arrays = load_npz(path, what="body parameter file", max_bytes=64 << 20)
+        arrays = load_npz(path, what="body parameter file")
         missing = [k for k in ("model", "shape", "pose") if k not in arrays]
         if missing:
             raise InputError(f"{path}: missing field(s) {missing}; expected fields {list(FIELDS)}")

@@ -6,7 +6,10 @@ importable callable, so plain ``pickle.load`` on an untrusted file can run arbit
 :func:`safe_load_pickle` resolves only an allow-list of numpy/scipy reconstruction helpers;
 ``chumpy`` classes are replaced by a stand-in (chumpy is never imported) whose value is
 read back as a plain array. Anything else (``os.system``, ``eval``, code objects, ...) is
-refused with :class:`~dressmeup.errors.InputError`.
+refused with :class:`~dressmeup.errors.InputError`. Before any of it runs, the file's size
+and what its opcodes would build are bounded (:func:`dressmeup.io.pickles.read_pickle_bytes`:
+a 200-byte "billion laughs" pickle is refused, not expanded), and a sparse matrix whose
+dense form would pass the ``array_bytes`` limit is refused before anyone densifies it.
 """
 
 from __future__ import annotations
@@ -19,6 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from dressmeup.errors import InputError
+from dressmeup.io.pickles import read_pickle_bytes
+from dressmeup.limits import ARRAY_BYTES
 
 _ALLOWED = {
     ("numpy.core.multiarray", "_reconstruct"),
@@ -83,15 +88,21 @@ class _RestrictedUnpickler(pickle.Unpickler):
         )
 
 
-def _clean(value):
-    """Turn stand-ins and sparse matrices into plain arrays, recursively for dicts/lists."""
+def _clean(value, source: str = "pickle"):
+    """Turn stand-ins into plain arrays, recursively for dicts/lists; sparse matrices whose
+    dense form passes the ``array_bytes`` limit are refused."""
+    if hasattr(value, "toarray") and hasattr(value, "shape"):
+        shape = tuple(int(n) for n in value.shape)
+        dense = 8 * (shape[0] if shape else 1) * (shape[1] if len(shape) > 1 else 1)
+        ARRAY_BYTES.check(dense, source, f"sparse matrix of shape {shape}, dense")
+        return value
     if isinstance(value, ChumpyStandIn):
         arr = value.to_array()
         return value if arr is None else arr
     if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
+        return {k: _clean(v, source) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return type(value)(_clean(v) for v in value)
+        return type(value)(_clean(v, source) for v in value)
     return value
 
 
@@ -105,14 +116,17 @@ def safe_load_pickle(path: str | os.PathLike):
     Raises
     ------
     InputError : the pickle references anything outside the allow-list (message names the
-        file and the refused callable), or is not a readable pickle.
+        file and the refused callable), is not a readable pickle, is nested too deeply, or
+        would build more than the limits of :mod:`dressmeup.limits` allow.
     """
     path = Path(path)
-    data = path.read_bytes()
+    data = read_pickle_bytes(path)
     try:
         obj = _RestrictedUnpickler(io.BytesIO(data), str(path)).load()
+        return _clean(obj, str(path))
     except InputError:
         raise
+    except RecursionError as exc:
+        raise InputError(f"{path}: the pickle is nested too deeply to read") from exc
     except Exception as exc:  # corrupt or truncated files
         raise InputError(f"{path}: not a readable model pickle ({type(exc).__name__}: {exc})") from exc
-    return _clean(obj)

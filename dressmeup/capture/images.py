@@ -13,6 +13,7 @@ import numpy as np
 
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path
+from dressmeup.io.images import image_header
 
 __all__ = ["frame_name", "read_png", "read_depth_png", "read_color_png", "read_label_png",
            "check_size", "write_png", "write_depth_png", "write_color_png"]
@@ -29,6 +30,7 @@ def read_png(path: Path) -> np.ndarray:
 
     if not path.is_file():
         raise InputError(f"{path}: file is missing")
+    image_header(path)  # its size is bounded (dressmeup.limits) before anything is decoded
     data = np.fromfile(str(path), dtype=np.uint8)
     img = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
     if img is None:

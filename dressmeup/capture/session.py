@@ -39,7 +39,7 @@ from dressmeup.capture.images import (
 from dressmeup.capture.rig import Rig, read_rig, save_rig
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
-from dressmeup.io.jsonio import validate_json
+from dressmeup.io.jsonio import parse_json_file, validate_json
 
 __all__ = [
     "GarmentInfo",
@@ -234,10 +234,8 @@ def check_session(root: str | os.PathLike, check_images: bool = True) -> Session
     if not sj.is_file():
         out.problems.append(f"{sj}: file is missing")
     else:
-        try:
-            out.info = SessionInfo.from_dict(json.loads(sj.read_text(encoding="utf-8")), str(sj))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            out.problems.append(f"{sj}: not valid JSON ({exc})")
+        try:  # bounded (json_bytes), UTF-8 and JSON checked
+            out.info = SessionInfo.from_dict(parse_json_file(sj), str(sj))
         except InputError as exc:
             out.problems.append(str(exc))
     if out.rig is not None and out.info is not None:

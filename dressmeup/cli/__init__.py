@@ -5,19 +5,26 @@ and keeps its handlers thin: they parse arguments, call library functions and pr
 imports happen inside the handlers so that ``dressmeup --help`` stays fast. Errors the user
 can fix (:class:`dressmeup.errors.DressmeupError` such as ``InputError``, missing or
 inaccessible files) are printed as one line and exit with status 2; any other exception is a
-bug: its traceback is printed with a hint to report it (status 70).
+bug: its traceback is printed with a hint to report it (status 70). A subcommand that writes
+names its output options in ``set_defaults(locks=(...))``: each is locked
+(:func:`dressmeup.io.outlock.output_lock`) for the whole run, so two runs writing one output
+cannot both succeed.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
 import sys
 import traceback
 from collections.abc import Sequence
 
 from dressmeup import __version__
+from dressmeup.cli.checks import SetLimit
 from dressmeup.errors import DressmeupError
+from dressmeup.io.outlock import output_lock
 
 # One module per stage; each defines ``register(subparsers) -> None``.
 COMMAND_MODULES = ("metrics", "body", "data", "capture", "baseline", "bench", "edition",
@@ -31,6 +38,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="3D garment datasets and benchmarks (run 'dressmeup demo' for the whole journey).",
     )
     parser.add_argument("--version", action="version", version=f"dressmeup {__version__}")
+    parser.add_argument("--max", action=SetLimit, metavar="LIMIT=N",
+                        help="raise (or lower) a resource limit for this run, e.g. --max "
+                             "array_bytes=4G (repeatable; every limit and its default: "
+                             "docs/limits.md; or set DRESSMEUP_MAX_<LIMIT>)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(f"dressmeup.cli.{name}").register(sub)
@@ -39,8 +50,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 #: Errors the user can fix: the toolkit's own (InputError & co.) and files that are missing
 #: or not accessible. They print one line and exit with status 2; anything else is a bug.
-USER_ERRORS = (DressmeupError, FileNotFoundError, NotADirectoryError, IsADirectoryError,
-               PermissionError)
+USER_ERRORS = (DressmeupError, FileNotFoundError, FileExistsError, NotADirectoryError,
+               IsADirectoryError, PermissionError)
 #: Exit status of an internal error (EX_SOFTWARE of sysexits.h).
 INTERNAL_ERROR = 70
 ISSUES_URL = "https://github.com/dressmeup/dressmeup/issues"
@@ -49,13 +60,28 @@ ISSUES_URL = "https://github.com/dressmeup/dressmeup/issues"
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status (0 ok, 1 command-specific failure such
     as an invalid submission, 2 user error, 70 internal error, 130 interrupted)."""
-    parser = build_parser()
+    saved = {k: v for k, v in os.environ.items() if k.startswith("DRESSMEUP_MAX_")}
+    try:
+        return _run(build_parser(), argv)
+    finally:  # --max holds for this run only (main may be called again in one process)
+        for k in [k for k in os.environ if k.startswith("DRESSMEUP_MAX_")]:
+            if k not in saved:
+                del os.environ[k]
+        os.environ.update(saved)
+
+
+def _run(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> int:
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 1
     try:
-        status = args.func(args)
+        with contextlib.ExitStack() as held:
+            for name in getattr(args, "locks", ()):
+                if getattr(args, name, None):
+                    held.enter_context(output_lock(getattr(args, name),
+                                                   "--" + name.replace("_", "-")))
+            status = args.func(args)
     except USER_ERRORS as exc:
         sys.stderr.write(f"dressmeup {args.command}: error: {_one_line(exc)}\n")
         return 2

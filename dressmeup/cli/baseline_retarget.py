@@ -5,9 +5,15 @@ from __future__ import annotations
 import argparse
 import sys
 
+from dressmeup.cli.checks import integer, new_output, number, output_file, seed
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
 from dressmeup.hyperparameters import parse_params
+from dressmeup.limits import WORKERS
+from dressmeup.methods.retarget import METHODS, POSTPROCESSES
+
+#: Most training steps of one run (the reference weights took 3,000 to 20,000).
+MAX_STEPS = 10_000_000
 
 
 def register(tasks: argparse._SubParsersAction) -> None:
@@ -16,21 +22,27 @@ def register(tasks: argparse._SubParsersAction) -> None:
         "retarget", help="run a retargeting baseline over an edition into a submission",
         description="Retarget the source garment of every pair of the edition's split onto the "
                     "target body and write a submission folder that 'dressmeup score' accepts. "
-                    "Methods: rigid, skinning, isomap, isomap-refine; chain post-processes with "
-                    "'+detail' and '+penetration' (e.g. isomap-refine+detail).")
-    p.add_argument("--method", required=True, help="method name, e.g. skinning or isomap-refine+penetration")
+                    f"Methods: {', '.join(METHODS)}; chain post-processes with "
+                    f"{' and '.join(repr('+' + p) for p in POSTPROCESSES)} (e.g. "
+                    "isomap-refine+detail); docs/baselines.md describes each.")
+    p.add_argument("--method", required=True,
+                   help=f"method name: {', '.join(METHODS)}, optionally followed by "
+                        f"{' and/or '.join('+' + p for p in POSTPROCESSES)} (e.g. "
+                        "isomap-refine+penetration)")
     p.add_argument("--data", required=True, help="dataset root (holds manifest.parquet)")
     p.add_argument("--edition", required=True, help="edition name (e.g. synth-retarget-v2) or path")
-    p.add_argument("--out", required=True, help="submission folder to create (must be new or empty)")
+    p.add_argument("--out", required=True, type=new_output,
+                   help="submission folder to create (must be new or empty)")
     p.add_argument("--weights", default=None, help="isomap-refine checkpoint (.pt) from train-retarget")
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="method hyperparameter (repeatable), e.g. --param k_place=3 "
                         "--param detail__anchor_fraction=0.5")
-    p.add_argument("--limit", type=int, default=None, help="only the first N pairs (the submission "
-                                                          "is then incomplete: for smoke tests)")
+    p.add_argument("--limit", type=integer(1), default=None,
+                   help="only the first N pairs (the submission is then incomplete: for smoke "
+                        "tests)")
     p.add_argument("--overwrite", action="store_true", help="write into a non-empty folder")
     add_executor_args(p, default_workers=1, what="pair")
-    p.set_defaults(func=_run)
+    p.set_defaults(func=_run, locks=("out",))
 
     t = tasks.add_parser(
         "train-retarget", help="train the isomap-refine network (self-supervised, or supervised: -sup)",
@@ -44,25 +56,32 @@ def register(tasks: argparse._SubParsersAction) -> None:
                    help="network to train (default isomap-refine)")
     t.add_argument("--split", default="train", help="split to train on (default: train)")
     t.add_argument("--val-split", default="val", help="validation split ('none': no validation; default val)")
-    t.add_argument("--max-val", type=int, default=16, help="validation pairs used (default 16)")
-    t.add_argument("--out", required=True, help="checkpoint path (.pt)")
-    t.add_argument("--steps", type=int, default=300, help="training steps (one pair each)")
-    t.add_argument("--max-triplets", type=int, default=0, help="training pairs used (default 0: all)")
-    t.add_argument("--wall-minutes", type=float, default=None, help="wall budget of this run; training "
-                                                                   "stops there (resume later from OUT.ckpt)")
-    t.add_argument("--val-every", type=int, default=50, help="steps between validations (default 50)")
-    t.add_argument("--checkpoint-every", type=int, default=50, help="steps between checkpoints (default 50)")
+    t.add_argument("--max-val", type=integer(1), default=16,
+                   help="validation pairs used (default 16)")
+    t.add_argument("--out", required=True, type=output_file, help="checkpoint path (.pt)")
+    t.add_argument("--steps", type=integer(1, MAX_STEPS), default=300,
+                   help="training steps (one pair each)")
+    t.add_argument("--max-triplets", type=integer(0), default=0,
+                   help="training pairs used (default 0: all)")
+    t.add_argument("--wall-minutes", type=number(0.0, 525600.0, lo_open=True), default=None,
+                   help="wall budget of this run; training stops there (resume later from "
+                        "OUT.ckpt)")
+    t.add_argument("--val-every", type=integer(1), default=50,
+                   help="steps between validations (default 50)")
+    t.add_argument("--checkpoint-every", type=integer(1), default=50,
+                   help="steps between checkpoints (default 50)")
     t.add_argument("--half", action="store_true", help="store the weights as float16 (half the file)")
     t.add_argument("--until-converged", action="store_true",
                    help="stop when the validation figure improved by less than 1 %% over the last "
                         "20 %% of the steps (--steps is then the most steps)")
     t.add_argument("--curves", default=None, help="write the learning curves to this PNG")
-    t.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's choice)")
+    t.add_argument("--threads", type=integer(1, WORKERS), default=None,
+                   help="torch threads (default: torch's choice)")
     t.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="hyperparameter of the method (repeatable), e.g. --param width=256")
     t.add_argument("--exclude-garments", default="", help="comma-separated garment ids not to train on")
-    t.add_argument("--seed", type=int, default=0)
-    t.set_defaults(func=_train)
+    t.add_argument("--seed", type=seed, default=0)
+    t.set_defaults(func=_train, locks=("out",))
 
 
 def _params(items: list[str]) -> dict:

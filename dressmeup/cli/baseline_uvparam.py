@@ -14,6 +14,7 @@ import re
 import sys
 from pathlib import Path
 
+from dressmeup.cli.checks import new_output, output_file
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
 from dressmeup.hyperparameters import parse_params
@@ -41,7 +42,8 @@ def register(tasks: argparse._SubParsersAction) -> None:
     p.add_argument("--data", type=Path, default=None,
                    help="the edition's mesh set (a folder built by build_data, e.g. by 'dressmeup "
                         "demo'); needs --edition; replaces --meshes")
-    p.add_argument("--out", required=True, type=Path, help="submission folder to write")
+    p.add_argument("--out", required=True, type=lambda s: Path(new_output(s)),
+                   help="submission folder to write")
     p.add_argument("--config", default="fast", choices=("fast", "reference"),
                    help="neural method: network configuration")
     p.add_argument("--checkpoint", type=Path, default=None,
@@ -52,7 +54,7 @@ def register(tasks: argparse._SubParsersAction) -> None:
     p.add_argument("--images", type=Path, default=None,
                    help="also write a checkerboard picture per mesh into this folder")
     add_executor_args(p, default_workers=1, what="mesh of --data (the edition's mesh set)")
-    p.set_defaults(func=_run_uvparam)
+    p.set_defaults(func=_run_uvparam, locks=("out",))
 
     t = tasks.add_parser(
         "train-uvparam", help="train the neural UV method on one mesh and save a checkpoint",
@@ -60,10 +62,11 @@ def register(tasks: argparse._SubParsersAction) -> None:
                     "about train_vertices first) and save a checkpoint for inference on other "
                     "discretisations of the same shape.")
     t.add_argument("mesh", help="mesh id (e.g. blob-3k) or mesh file")
-    t.add_argument("--out", required=True, type=Path, help="checkpoint file to write (.pt)")
+    t.add_argument("--out", required=True, type=lambda s: Path(output_file(s)),
+                   help="checkpoint file to write (.pt)")
     t.add_argument("--config", default="fast", choices=("fast", "reference"))
     t.add_argument("--param", action="append", default=[], metavar="KEY=VALUE")
-    t.set_defaults(func=_run_train)
+    t.set_defaults(func=_run_train, locks=("out",))
 
 
 def _parse_params(items: list[str]) -> dict:
@@ -81,12 +84,28 @@ def load_mesh_arg(spec: str):
     if path.suffix.lower() in (".obj", ".ply", ".off", ".stl", ".glb"):
         if not path.is_file():
             raise FileNotFoundError(f"mesh file {path} does not exist")
+        mesh_id = re.sub(r"[^A-Za-z0-9_-]", "_", path.stem)
+        if path.suffix.lower() in (".obj", ".ply"):  # the toolkit's bounded reader
+            # start-up time: the stage loads when the command runs
+            from dressmeup.io.mesh import load_mesh
+
+            m = load_mesh(path)
+            return mesh_id, m.vertices, m.faces
         # start-up time: the stage loads when the command runs
         import trimesh
 
-        mesh = trimesh.load(path, force="mesh", process=False)
-        mesh_id = re.sub(r"[^A-Za-z0-9_-]", "_", path.stem)
-        return mesh_id, np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+        from dressmeup.geometry.mesh import as_arrays
+        from dressmeup.limits import MESH_BYTES
+
+        MESH_BYTES.check(path.stat().st_size, str(path))
+        try:
+            mesh = trimesh.load(path, force="mesh", process=False)
+            V, F = as_arrays(np.asarray(mesh.vertices, dtype=np.float64),
+                             np.asarray(mesh.faces, dtype=np.int64), name=str(path))
+        except Exception as exc:  # noqa: BLE001 - a third-party parser on user files
+            raise InputError(f"{path}: cannot read the mesh ({type(exc).__name__}: "
+                             f"{exc})") from exc
+        return mesh_id, V, F
     V, F = make_test_mesh(spec)
     return spec, V, F
 

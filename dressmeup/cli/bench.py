@@ -7,7 +7,10 @@ import argparse
 import json
 import sys
 
+from dressmeup.cli.baseline_retarget import MAX_STEPS
+from dressmeup.cli.checks import integer, new_output, output_file
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
+from dressmeup.limits import WORKERS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -23,7 +26,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--edition", "-e", required=True,
                    help="edition name (see 'dressmeup editions') or path to an edition JSON")
     p.add_argument("--data", "-d", required=True, help="dataset root the edition is scored on")
-    p.add_argument("--max-per-kind", type=int, default=50,
+    p.add_argument("--max-per-kind", type=integer(0), default=50,
                    help="problems printed per kind (default 50; 0 = all)")
     p.set_defaults(func=_validate)
 
@@ -36,13 +39,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("submission", help="submission folder")
     p.add_argument("--edition", "-e", required=True, help="edition name or JSON path")
     p.add_argument("--data", "-d", required=True, help="dataset root the edition is scored on")
-    p.add_argument("--out", "-o", required=True, help="new results folder")
+    p.add_argument("--out", "-o", required=True, type=new_output, help="new results folder")
     p.add_argument("--allow-other-data", action="store_true",
                    help="score data whose manifest differs from the edition's expected one "
                         "(the result is marked 'not comparable' in every leaderboard)")
     add_executor_args(p, default_workers=None, what="scored item")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    p.set_defaults(func=_score)
+    p.set_defaults(func=_score, locks=("out",))
 
     p = subparsers.add_parser(
         "leaderboard", help="turn results of one edition into a table (md, csv, latex, html)",
@@ -58,13 +61,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "'dressmeup report'.")
     p.add_argument("results", nargs="+", help="result folders written by 'dressmeup score'")
     p.add_argument("--format", "-f", choices=("md", "csv", "latex", "html"), default="md")
-    p.add_argument("--out", "-o", default=None, help="output file (default: print)")
+    p.add_argument("--out", "-o", default=None, type=output_file,
+                   help="output file (default: print)")
     p.add_argument("--sort-by", default=None, help="metric to sort by (default: primary)")
     p.add_argument("--std", action="store_true", help="show mean ± std")
     p.add_argument("--per-category", default=None,
                    help="comma-separated metrics shown per category ('none' for none; "
                         "default: the edition's)")
-    p.set_defaults(func=_leaderboard)
+    p.set_defaults(func=_leaderboard, locks=("out",))
 
     p = subparsers.add_parser(
         "editions", help="list the shipped benchmark editions (or show one)",
@@ -78,18 +82,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Generate a small synthetic dataset, run every available retargeting "
                     "baseline (and UV baselines / one fused synthetic capture when those "
                     "stages are installed), score them and print a leaderboard.")
-    p.add_argument("--out", "-o", default=None,
+    p.add_argument("--out", "-o", default=None, type=new_output,
                    help="work folder (default: a new folder under ./dressmeup-demo)")
-    p.add_argument("--workers", "-j", type=int, default=None, help="scoring workers")
+    p.add_argument("--workers", "-j", type=integer(1, WORKERS), default=None,
+                   help="scoring workers")
     p.add_argument("--quick", action="store_true",
                    help="the tiny edition (procedural body, 2 pairs): a few minutes")
     p.add_argument("--serve", action="store_true",
                    help="also run an evaluation server on 127.0.0.1, submit the baselines to "
                         "it over HTTP, publish them, and keep serving until Ctrl-C")
-    p.add_argument("--train-steps", type=int, default=0,
+    p.add_argument("--train-steps", type=integer(0, MAX_STEPS), default=0,
                    help="train trainable baselines without shipped weights for this many "
                         "self-supervised steps (default 0: skip them)")
-    p.set_defaults(func=_demo)
+    p.set_defaults(func=_demo, locks=("out",))
 
 
 def _validate(args: argparse.Namespace) -> int:

@@ -7,8 +7,16 @@ import json
 import sys
 from pathlib import Path
 
+from dressmeup.cli.checks import output_file, seed
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
+
+#: Most steps of one registration stage (the defaults are 60 to 160).
+MAX_ITERATIONS = 100_000
+#: A fit leaving 5 % of the scan farther than this from the body (mm) is reported as poor,
+#: naming --up: an upside-down scan fitted from upright starts leaves 380 mm (a good fit of
+#: a clothed scan: tens of mm).
+POOR_FIT_P95_MM = 150.0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -25,16 +33,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("scan", help="scan mesh (.ply/.obj/.stl/.off) or points (.npy (p,3), .xyz)")
     p.add_argument("--model", default="anny",
                    help="body model: anny (default, open), procedural, smpl, smplh, smplx")
-    p.add_argument("--out", required=True, help="output parameter file (.npz)")
+    p.add_argument("--out", required=True, type=output_file,
+                   help="output parameter file (.npz)")
     p.add_argument("--init", help="starting parameters (.npz or any importable format)")
     p.add_argument("--keypoints", help="3D joint positions: .npy (j,3) with NaN rows for "
                    "missing joints, or .json {joint_name: [x, y, z]}")
-    p.add_argument("--registrar", default="optimization",
+    p.add_argument("--registrar", default="optimization", choices=("optimization", "from-file"),
                    help="registrar name: optimization (default) or from-file")
     p.add_argument("--params", help="with --registrar from-file: the parameter file to import")
     p.add_argument("--format", default="auto",
                    help="with --registrar from-file: npz, easymocap, pamir, smplify (default auto)")
-    p.add_argument("--gender", default="neutral", help="SMPL family: neutral, female or male")
+    p.add_argument("--gender", default="neutral", choices=("neutral", "female", "male"),
+                   help="SMPL family: neutral, female or male")
     p.add_argument("--model-path", help="SMPL family: the model file or its folder")
     p.add_argument("--preset", choices=("default", "naked", "clothed", "fast"),
                    default="default",
@@ -60,8 +70,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    "--up=-z). The parameters are written in the scan's frame")
     p.add_argument("--no-picture", action="store_true",
                    help="do not write the picture of the fit (<out>.fit.png)")
-    p.add_argument("--seed", type=int, default=0, help="sampling seed (default 0)")
-    p.set_defaults(func=_run_register)
+    p.add_argument("--seed", type=seed, default=0, help="sampling seed (default 0)")
+    p.set_defaults(func=_run_register, locks=("out",))
 
 
 def _load_scan(path: str):
@@ -72,10 +82,17 @@ def _load_scan(path: str):
     if not p.is_file():
         raise FileNotFoundError(f"scan not found: {p}")
     if p.suffix.lower() == ".npy":
-        return np.load(p, allow_pickle=False)
+        # start-up time: the stage loads when the command runs
+        from dressmeup.io.npz import load_npy
+
+        return _points(load_npy(p, what="scan"), p)
     if p.suffix.lower() in (".xyz", ".txt"):
+        # start-up time: the stage loads when the command runs
+        from dressmeup.limits import MESH_BYTES
+
+        MESH_BYTES.check(p.stat().st_size, str(p), "point file size")
         try:
-            return np.loadtxt(p, usecols=(0, 1, 2))
+            return _points(np.loadtxt(p, usecols=(0, 1, 2), ndmin=2), p)
         except ValueError as exc:
             raise InputError(f"{p}: not a point list of x y z rows ({exc})") from exc
     if p.suffix.lower() == ".ply":  # a mesh or a point cloud: header checked before parsing
@@ -86,13 +103,36 @@ def _load_scan(path: str):
     # start-up time: the stage loads when the command runs
     import trimesh
 
+    # start-up time: the stage loads when the command runs
+    from dressmeup.limits import MESH_BYTES
+
+    MESH_BYTES.check(p.stat().st_size, str(p))
     try:
         mesh = trimesh.load(p, process=False, force="mesh")
+        V, F = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
     except Exception as exc:  # noqa: BLE001 - a third-party parser on user files
         raise InputError(f"{p}: cannot read the scan ({type(exc).__name__}: {exc})") from exc
-    if len(mesh.faces) == 0:
-        return np.asarray(mesh.vertices)
-    return np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    _points(V, p)
+    if len(F) == 0:
+        return V
+    if F.ndim != 2 or F.shape[1] != 3 or F.min() < 0 or F.max() >= len(V):
+        raise InputError(f"{p}: the scan's faces are not triangles indexing its "
+                         f"{len(V)} vertices")
+    return V, F
+
+
+def _points(P, path: Path):
+    """``P`` when it is ``(p, 3)`` finite points, at least four of them."""
+    # start-up time: the stage loads when the command runs
+    import numpy as np
+
+    P = np.asarray(P)
+    if P.ndim != 2 or P.shape[1] != 3 or P.dtype.kind not in "fiu":
+        raise InputError(f"{path}: expected (p, 3) points, got {P.dtype} {P.shape}")
+    if len(P) < 4 or not np.isfinite(P).all():
+        raise InputError(f"{path}: expected at least 4 finite points, got {len(P)} "
+                         f"({int((~np.isfinite(P)).any(axis=1).sum())} with NaN or inf)")
+    return P.astype(np.float64)
 
 
 def _load_keypoints(path: str):
@@ -107,10 +147,68 @@ def _load_keypoints(path: str):
         from dressmeup.io.jsonio import read_json
 
         return {k: np.asarray(v, dtype=float) for k, v in read_json(p, "keypoints").items()}
+    if p.suffix.lower() == ".npy":
+        # start-up time: the stage loads when the command runs
+        from dressmeup.io.npz import load_npy
+
+        return load_npy(p, what="keypoints file")
     # start-up time: the stage loads when the command runs
     from dressmeup.io.npz import load_npz
 
     return load_npz(p, what="keypoints file")
+
+
+def _fit_options(args: argparse.Namespace) -> dict:
+    """The registrar's options from the command line, every one checked (before any file
+    is read or model built)."""
+    if args.registrar == "from-file":
+        if not args.params:
+            raise InputError("--registrar from-file needs --params FILE")
+        return {"path": args.params, "format": args.format}
+    if args.format != "auto" or args.params:
+        raise InputError("--format and --params go with --registrar from-file")
+    options: dict = {"preset": args.preset, "seed": args.seed, "init_route": args.init_route,
+                     "remove_support": not args.keep_support, "up": args.up}
+    if args.iterations:
+        try:
+            its = tuple(int(x) for x in args.iterations.split(","))
+        except ValueError:
+            its = ()
+        if len(its) != 3 or min(its) < 0 or max(its) > MAX_ITERATIONS:
+            raise InputError(f"--iterations: expected three counts from 0 to "
+                             f"{MAX_ITERATIONS:,} like 60,160,160, got {args.iterations!r}")
+        options["iterations"] = its
+    return options
+
+
+def _checked_scan(args: argparse.Namespace):
+    """The scan, and when ``--up`` names another axis, checked to look upright once turned."""
+    scan = _load_scan(args.scan)
+    if args.up not in (None, "y"):
+        # start-up time: the stage loads when the command runs
+        from dressmeup.body.registration.scan import check_upright, rotate_scan, up_rotation
+
+        turned = rotate_scan(scan, up_rotation(args.up))
+        check_upright(turned[0] if isinstance(turned, tuple) else turned,
+                      f"{args.scan} turned by --up {args.up}")
+    return scan
+
+
+def _precheck(path: str) -> None:
+    """Refuse a parameter file whose size or content is out of bounds (a pickle bomb, a
+    damaged .npz) before minutes of model building; the importer reads it afterwards."""
+    # start-up time: the stage loads when the command runs
+    from dressmeup.io.jsonio import parse_json_file
+    from dressmeup.io.npz import npz_arrays_info
+    from dressmeup.io.pickles import read_pickle_bytes
+
+    suffix = Path(path).suffix.lower()
+    if suffix in (".pkl", ".pickle"):
+        read_pickle_bytes(path)
+    elif suffix == ".npz":
+        npz_arrays_info(path, "parameter file")
+    elif suffix == ".json":
+        parse_json_file(path)
 
 
 def _run_register(args: argparse.Namespace) -> int:
@@ -126,30 +224,13 @@ def _run_register(args: argparse.Namespace) -> int:
             kw["model_path"] = args.model_path
     if Path(args.out).is_dir():
         raise InputError(f"--out {args.out} is a folder; give the .npz file to write")
+    options = _fit_options(args)
     keypoints = _load_keypoints(args.keypoints) if args.keypoints else None  # before the fit
+    scan = None if args.registrar == "from-file" else _checked_scan(args)
+    for path in (args.init, args.params):  # bounded reads before the model is built
+        if path:
+            _precheck(path)
     model = get_body_model(args.model, **kw)
-    options: dict = {}
-    if args.registrar == "from-file":
-        if not args.params:
-            raise InputError("--registrar from-file needs --params FILE")
-        options = {"path": args.params, "format": args.format}
-        scan = None
-    else:
-        scan = _load_scan(args.scan)
-        options["preset"] = args.preset
-        options["seed"] = args.seed
-        options["init_route"] = args.init_route
-        options["remove_support"] = not args.keep_support
-        options["up"] = args.up
-        if args.iterations:
-            try:
-                its = tuple(int(x) for x in args.iterations.split(","))
-            except ValueError:
-                its = ()
-            if len(its) != 3 or min(its) < 0:
-                raise InputError(f"--iterations: expected three counts like 60,160,160, got "
-                                 f"{args.iterations!r}")
-            options["iterations"] = its
     init = import_body_params(args.init, body_model=model) if args.init else None
     result = fit(scan, model, init=init, keypoints=keypoints, registrar=args.registrar,
                  return_result=True, **options)
@@ -210,6 +291,12 @@ def _report_fit(model, params, scan, out: Path, picture: bool, seed: int,
     parts = vertex_parts(model)
     m = fit_metrics(posed.vertices, model.faces, pts, parts)
     sys.stdout.write(format_metrics(m) + "\n")
+    if m.get("scan_to_body_p95_mm", 0.0) > POOR_FIT_P95_MM:
+        sys.stderr.write(f"dressmeup register: warning: poor fit: 5 % of the scan is more than "
+                         f"{m['scan_to_body_p95_mm']:.0f} mm from the body. Is the scan upright "
+                         "with y up? An upside-down scan needs --up=-y, a z-up one --up z "
+                         "(or --up=-z); a scan of several people or with large props fits "
+                         "one body only\n")
     metrics_path = out.with_name(out.stem + ".metrics.json")
     atomic_write_text(metrics_path, json.dumps(m, indent=1))
     written = [str(metrics_path)]

@@ -9,13 +9,21 @@ skipped, and a re-run skips the samples already in the dataset.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Any
 
+from dressmeup.cli.checks import device, integer, new_output, number, seed
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_bytes
+from dressmeup.limits import FRAMES, IMAGE_PIXELS, MESH_FACES
+
+#: Smallest TSDF voxel (metres): a person's surface at 0.5 mm is about 16 million voxels.
+MIN_VOXEL_M = 0.0005
+#: Deepest screened Poisson octree (2^14 cells a side; each level about 4x the faces).
+MAX_POISSON_DEPTH = 14
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,16 +38,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("sample", help="dataset sample folder, or 'mannequin'")
     p.add_argument("--rig", default="default-7",
                    help="rig.json path, or 'default-7' (7 Azure-Kinect-like cameras, 640x576)")
-    p.add_argument("--out", required=True, help="session folder to write")
+    p.add_argument("--out", required=True, type=new_output, help="session folder to write")
     p.add_argument("--no-noise", action="store_true", help="exact depth (only quantised to 1 mm)")
-    p.add_argument("--frames", type=int, default=1, help="frames per camera (fresh noise each)")
-    p.add_argument("--perturb-deg", type=float, default=0.0,
+    p.add_argument("--frames", type=integer(1), default=1,
+                   help="frames per camera (fresh noise each)")
+    p.add_argument("--perturb-deg", type=number(0.0, 180.0), default=0.0,
                    help="write a drifted calibration: rotate every camera but the reference by this many degrees")
-    p.add_argument("--perturb-cm", type=float, default=0.0, help="... and shift it by this many centimetres")
-    p.add_argument("--scale", type=float, default=1.0, help="image size factor (0.5: 320x288)")
-    p.add_argument("--subject-up", default="auto", help="the subject's up axis: auto, x, y or z")
-    p.add_argument("--seed", type=int, default=0)
-    p.set_defaults(func=_synth_capture)
+    p.add_argument("--perturb-cm", type=number(0.0, 100.0), default=0.0,
+                   help="... and shift it by this many centimetres")
+    p.add_argument("--scale", type=number(0.05, 16.0), default=1.0,
+                   help="image size factor, 0.05 to 16 (0.5: 320x288)")
+    p.add_argument("--subject-up", default="auto", choices=("auto", "x", "y", "z"),
+                   help="the subject's up axis: auto, x, y or z")
+    p.add_argument("--seed", type=seed, default=0)
+    p.set_defaults(func=_synth_capture, locks=("out",))
     _register_import(subparsers)
 
     p = subparsers.add_parser(
@@ -49,12 +61,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "rig.json (the calibration used) and fusion.json; with --garments also "
                     "SCAN_DIR/garments/<id>/garment.obj (+ .mtl, .png).")
     p.add_argument("session", help="capture session folder (rig.json, session.json, frames)")
-    p.add_argument("--out", required=True, help="scan folder to write")
+    p.add_argument("--out", required=True, type=new_output, help="scan folder to write")
     _fusion_args(p)
     p.add_argument("--garments", action="store_true", help="also cut out, UV-map and texture each garment")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a scan already in --out (default: refuse)")
-    p.set_defaults(func=_fuse)
+    p.set_defaults(func=_fuse, locks=("out",))
 
     p = subparsers.add_parser(
         "build-dataset", help="turn capture sessions into a DressMeUp-style dataset",
@@ -62,7 +74,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "and write one dataset sample per garment. Resumable: samples already in ROOT "
                     "are skipped. A session that fails is reported and skipped.")
     p.add_argument("sessions", nargs="+", help="session folders, or folders containing sessions")
-    p.add_argument("--out", required=True, help="dataset root")
+    p.add_argument("--out", required=True, type=new_output, help="dataset root")
     p.add_argument("--scans", default=None,
                    help="folder of scans made by 'dressmeup fuse' (SCANS/<session name>/"
                         "scan.ply): those sessions are not fused again")
@@ -72,14 +84,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "SESSION/body.npz (an external fit, in the rig frame); 'ground-truth' uses a "
                         "synthetic session's true body (samples are then written in its frame); 'auto' "
                         "tries register, then session, then ground-truth, then none")
-    p.add_argument("--body-model", default="anny", help="body model for registration")
-    p.add_argument("--split", default="train", help="split of the garments written")
+    p.add_argument("--body-model", default="anny",
+                   choices=("anny", "procedural", "smpl", "smplh", "smplx"),
+                   help="body model for registration")
+    p.add_argument("--split", default="train", choices=("train", "val", "test"),
+                   help="split of the garments written")
     p.add_argument("--name", default="captured", help="dataset name in dataset.json")
-    p.add_argument("--target-faces", type=int, default=20000, help="garment face count (decimation)")
-    p.add_argument("--texture-size", type=int, default=1024)
+    p.add_argument("--target-faces", type=integer(1), default=20000,
+                   help="garment face count (decimation)")
+    p.add_argument("--texture-size", type=integer(1), default=1024)
     p.add_argument("--no-texture", action="store_true")
     add_executor_args(p, default_workers=1, what="session")
-    p.set_defaults(func=_build_dataset)
+    p.set_defaults(func=_build_dataset, locks=("out",))
 
 
 def _register_import(subparsers: argparse._SubParsersAction) -> None:
@@ -94,18 +110,18 @@ def _register_import(subparsers: argparse._SubParsersAction) -> None:
                    help="the dataset's layout (open3d-log: the same as redwood)")
     p.add_argument("src", help="the dataset folder (a TUM sequence, a 7-Scenes seq-XX, a Redwood/Open3D "
                                "folder, an ARKitScenes scan)")
-    p.add_argument("--out", required=True, help="session folder to write")
+    p.add_argument("--out", required=True, type=new_output, help="session folder to write")
     p.add_argument("--frames", default=None,
                    help="which frames (of those with a pose): 'all' (default), a slice 'start:stop:step' "
                         "('::10': every 10th) or a list '0,15,30'")
     p.add_argument("--intrinsics", default=None, help="fx,fy,cx,cy in pixels instead of the dataset's own")
-    p.add_argument("--max-time-diff", type=float, default=None,
+    p.add_argument("--max-time-diff", type=number(0.0, 3600.0), default=None,
                    help="seconds between an image and its pose (default: TUM 0.02, ARKitScenes 0.05)")
     p.add_argument("--trajectory", default=None, help="Redwood: the .log trajectory (default: the only one)")
     p.add_argument("--subject", default=None, help="subject id in session.json (default: the folder name)")
     p.add_argument("--pose", default="P0", help="pose id in session.json (default P0)")
     p.add_argument("--overwrite", action="store_true", help="write into an existing session folder")
-    p.set_defaults(func=_import_capture)
+    p.set_defaults(func=_import_capture, locks=("out",))
 
     p = subparsers.add_parser(
         "validate-session", help="check a capture session folder and list every problem",
@@ -131,8 +147,9 @@ def _import_capture(args: argparse.Namespace) -> int:
             intr = tuple(float(v) for v in args.intrinsics.split(","))
         except ValueError:
             intr = ()
-        if len(intr) != 4:
-            raise InputError(f"--intrinsics {args.intrinsics!r}: expected four numbers fx,fy,cx,cy")
+        if len(intr) != 4 or not all(math.isfinite(v) for v in intr) or min(intr[:2]) <= 0:
+            raise InputError(f"--intrinsics {args.intrinsics!r}: expected four finite numbers "
+                             "fx,fy,cx,cy in pixels (fx, fy positive)")
     report = import_capture(args.format, args.src, out, ImportOptions(
         frames=args.frames, intrinsics=intr, max_time_difference=args.max_time_diff,
         trajectory=args.trajectory, subject_id=args.subject, pose_id=args.pose))
@@ -163,8 +180,9 @@ def _validate_session(args: argparse.Namespace) -> int:
 
 
 def _fusion_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--voxel", type=float, default=0.004, help="TSDF voxel size in metres (default 0.004)")
-    p.add_argument("--min-weight", type=float, default=1.0,
+    p.add_argument("--voxel", type=number(MIN_VOXEL_M, 1.0), default=0.004,
+                   help=f"TSDF voxel size in metres, {MIN_VOXEL_M:g} to 1 (default 0.004)")
+    p.add_argument("--min-weight", type=number(1.0, 1e6), default=1.0,
                    help="mesh a voxel only when at least this many frames observed it (default 1: "
                         "every surface any frame saw, including surface seen by one view)")
     p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=False,
@@ -172,16 +190,18 @@ def _fusion_args(p: argparse.ArgumentParser) -> None:
                         "where they lower view-to-view residuals, within --refine-max-deg/-cm and "
                         "--refine-seconds (default off: calibrated rigs and dataset poses are used "
                         "as they are; turn it on for a drifted calibration)")
-    p.add_argument("--refine-max-deg", type=float, default=3.0,
+    p.add_argument("--refine-max-deg", type=number(0.0, 180.0), default=3.0,
                    help="refinement may turn a camera by at most this many degrees (default 3)")
-    p.add_argument("--refine-max-cm", type=float, default=5.0,
+    p.add_argument("--refine-max-cm", type=number(0.0, 1000.0), default=5.0,
                    help="refinement may move a camera by at most this many centimetres (default 5)")
-    p.add_argument("--refine-seconds", type=float, default=60.0,
+    p.add_argument("--refine-seconds", type=number(0.0, 86400.0), default=60.0,
                    help="time limit of the refinement's registrations (default 60)")
     p.add_argument("--colored-icp", action="store_true", help="use coloured ICP at the finest ICP scale")
-    p.add_argument("--device", default="cpu", help="cpu or cuda[:N]")
-    p.add_argument("--poisson-depth", type=int, default=None, help="screened Poisson remesh at this depth")
-    p.add_argument("--decimate", type=int, default=None, help="decimate the scan to this many faces")
+    p.add_argument("--device", default="cpu", type=device, help="cpu or cuda[:N]")
+    p.add_argument("--poisson-depth", type=integer(1, MAX_POISSON_DEPTH), default=None,
+                   help=f"screened Poisson remesh at this depth (1 to {MAX_POISSON_DEPTH})")
+    p.add_argument("--decimate", type=integer(1, MESH_FACES), default=None,
+                   help="decimate the scan to this many faces")
     p.add_argument("--no-cleanup", action="store_true",
                    help="keep the raw TSDF mesh: no component, non-manifold or hole repair (the cleanup "
                         "took about 30 %% of fusing 12 VGA frames of a room)")
@@ -225,6 +245,11 @@ def _synth_capture(args: argparse.Namespace) -> int:
     rig = _load_rig(args.rig)
     if args.scale != 1.0:
         rig = rig.scaled(args.scale)
+    for cam in rig.cameras:
+        IMAGE_PIXELS.check(cam.width * cam.height, f"--scale {args.scale:g}",
+                           f"image of camera {cam.serial} ({cam.width} x {cam.height})")
+    FRAMES.check(args.frames * len(rig.cameras), f"--frames {args.frames}",
+                 f"frames of {len(rig.cameras)} camera(s)")
     if args.sample == "mannequin":
         subject = make_mannequin(seed=args.seed)
         body_src = None
@@ -257,6 +282,10 @@ def _fuse(args: argparse.Namespace) -> int:
     session = open_session(args.session)
     for note in session.notes:
         sys.stdout.write(f"note: {note}\n")
+    views = len(session.rig.cameras) * max(1, session.info.n_frames)
+    if args.min_weight > views:
+        raise InputError(f"--min-weight {args.min_weight:g}: the session has {views} views, so "
+                         "no voxel is seen that often; give at most that many")
     result = fuse_session(session, _fusion_config(args))
     extra: dict[str, Any] = {"session": str(Path(args.session).resolve()),
                              **({"pose_notes": session.notes} if session.notes else {})}
@@ -289,6 +318,8 @@ def _build_dataset(args: argparse.Namespace) -> int:
     from dressmeup.data.from_captures import build_dataset_from_sessions
     from dressmeup.extraction.pipeline import ExtractionConfig
 
+    IMAGE_PIXELS.check(args.texture_size ** 2, f"--texture-size {args.texture_size}",
+                       "texture image")
     report = build_dataset_from_sessions(
         args.sessions, args.out, fusion_config=_fusion_config(args),
         extraction_config=ExtractionConfig(target_faces=args.target_faces,

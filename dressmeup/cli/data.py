@@ -5,11 +5,18 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
+from dressmeup.cli.checks import integer, new_output, number, seed
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
+from dressmeup.limits import MESH_FACES, SAMPLES
+
+#: Largest garment surface the generator makes (a long dress, both sides), m^2: with an
+#: edge length e a garment has about 2.31 * area / e^2 triangles (equilateral ones).
+_GARMENT_AREA_M2 = 2.0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -19,17 +26,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Generate a synthetic dataset: bodies of varied shape in varied poses, "
                     "parametric garments draped by skinning + quasi-static cloth relaxation. "
                     "Deterministic for a seed; re-running on the same OUT resumes.")
-    p.add_argument("out", help="output dataset folder (created; resumed when it exists)")
-    p.add_argument("--subjects", type=int, default=3, help="number of subjects (default 3)")
-    p.add_argument("--garments", type=int, default=4, help="garments per subject (default 4)")
-    p.add_argument("--poses", type=int, default=5, help="poses per garment (default 5)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("out", type=new_output,
+                   help="output dataset folder (created; resumed when it exists)")
+    p.add_argument("--subjects", type=integer(1), default=3,
+                   help="number of subjects (default 3)")
+    p.add_argument("--garments", type=integer(1), default=4,
+                   help="garments per subject (default 4)")
+    p.add_argument("--poses", type=integer(1), default=5, help="poses per garment (default 5)")
+    p.add_argument("--seed", type=seed, default=0, help="random seed (default 0)")
     p.add_argument("--body-model", default="anny", choices=["anny", "procedural"],
                    help="body model (default anny; procedural is tiny, for tests)")
-    p.add_argument("--registration-noise", type=float, default=0.0, metavar="SIGMA",
+    p.add_argument("--registration-noise", type=number(0.0, math.pi), default=0.0,
+                   metavar="SIGMA",
                    help="std of Gaussian noise added to the stored body pose (radians) and "
                         "shape; 0 stores the true parameters (default)")
-    p.add_argument("--edge-length", type=float, default=None,
+    p.add_argument("--edge-length", type=number(0.0, 1.0, lo_open=True), default=None,
                    help="target garment edge length in metres (default: by body model)")
     p.add_argument("--no-scan", action="store_true", help="do not write clothed scan meshes")
     p.add_argument("--edition", default=None,
@@ -39,7 +50,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_executor_args(p, default_workers=1,
                       what="garment of generator 2.x (--edition ...-v3; the data do not depend "
                            "on where they run)")
-    p.set_defaults(func=_synth)
+    p.set_defaults(func=_synth, locks=("out",))
 
     v = subparsers.add_parser(
         "validate-dataset", help="check a dataset folder and report every problem",
@@ -58,15 +69,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "and skipped. Zero samples is an error.")
     i.add_argument("kind", choices=["cloth3d", "4ddress", "thuman"], help="published dataset")
     i.add_argument("root", help="its folder (THuman: the scans folder)")
-    i.add_argument("--out", required=True, help="dataset folder to write (resumed if it exists)")
+    i.add_argument("--out", required=True, type=new_output,
+                   help="dataset folder to write (resumed if it exists)")
     i.add_argument("--split", default="by-garment", choices=["by-garment", "train", "val", "test"],
                    help="by-garment: 60/20/20 stratified by category, seeded (default); or one "
                         "split for every sample")
-    i.add_argument("--seed", type=int, default=0, help="split seed (default 0)")
+    i.add_argument("--seed", type=seed, default=0, help="split seed (default 0)")
     i.add_argument("--frames", default=None,
                    help="comma-separated frames to keep (CLOTH3D: indices; 4D-DRESS: names as "
                         "in the files, e.g. 00011); default all (CLOTH3D: every --stride-th)")
-    i.add_argument("--stride", type=int, default=10, help="CLOTH3D frame step (default 10)")
+    i.add_argument("--stride", type=integer(1), default=10,
+                   help="CLOTH3D frame step (default 10)")
     i.add_argument("--smplx", default=None, help="THuman: folder of <id>/smplx_param.pkl fits")
     i.add_argument("--gender", default=None, choices=["male", "female", "neutral"],
                    help="body gender (default: the dataset's convention: 4D-DRESS official "
@@ -78,10 +91,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="SMPL/SMPL-X model file or folder (bodies of CLOTH3D need it; pictures "
                         "of every dataset use it)")
     i.add_argument("--no-body", action="store_true", help="write garments without bodies")
-    i.add_argument("--pictures", type=int, default=0, metavar="N",
+    i.add_argument("--pictures", type=integer(0), default=0, metavar="N",
                    help="also draw the first N samples (garment on body, front and side) into "
                         "OUT/pictures/")
-    i.set_defaults(func=_import)
+    i.set_defaults(func=_import, locks=("out",))
 
 
 def _generator_1_is_serial(args: argparse.Namespace) -> None:
@@ -134,6 +147,12 @@ def _synth(args: argparse.Namespace) -> int:
     if args.edition:
         return _synth_edition(args)
     _generator_1_is_serial(args)
+    SAMPLES.check(args.subjects * args.garments * args.poses,
+                  "--subjects x --garments x --poses", "samples to generate")
+    if args.edge_length is not None:
+        MESH_FACES.check(round(2.31 * _GARMENT_AREA_M2 / args.edge_length ** 2),
+                         f"--edge-length {args.edge_length:g}",
+                         f"faces of a garment of up to {_GARMENT_AREA_M2:g} m^2")
     kw = {}
     if args.edge_length is not None:
         kw["edge_length"] = args.edge_length

@@ -8,8 +8,10 @@ import sys
 import tempfile
 from pathlib import Path
 
+from dressmeup.cli.checks import integer, new_output, output_file
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.outlock import output_lock
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -38,9 +40,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="comma-separated metrics in table order (default: all of the task)")
     c.add_argument("--primary-metric", default=None,
                    help="metric leaderboards sort by (default: the first)")
-    c.add_argument("--version", type=int, default=1, help="edition version (default 1)")
+    c.add_argument("--version", type=integer(1), default=1, help="edition version (default 1)")
     c.add_argument("--description", default=None, help="free text (default: generated)")
-    c.add_argument("--out", "-o", default=None, help="edition file (default: NAME.json)")
+    c.add_argument("--out", "-o", default=None, type=output_file,
+                   help="edition file (default: NAME.json)")
     c.add_argument("--overwrite", action="store_true", help="replace an existing file")
     c.set_defaults(func=_edition_create)
 
@@ -52,11 +55,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "full data. Checks the data against the edition's pin first.")
     c.add_argument("name", help="edition name or JSON file")
     c.add_argument("--data", "-d", required=True, help="the edition's full data")
-    c.add_argument("--public", default=None, help="new folder for the public part")
-    c.add_argument("--private", default=None, help="new folder for the private part")
+    c.add_argument("--public", default=None, type=new_output,
+                   help="new folder for the public part")
+    c.add_argument("--private", default=None, type=new_output,
+                   help="new folder for the private part")
     c.add_argument("--allow-other-data", action="store_true",
                    help="export data whose manifest differs from the edition's pin")
-    c.set_defaults(func=_export)
+    c.set_defaults(func=_export, locks=("public", "private"))
 
     c = esub.add_parser(
         "pack", help="write a part (or both) as a checksummed archive with its index",
@@ -66,9 +71,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "the pins file an edition ships (dressmeup/bench/editions/parts/NAME.json).")
     c.add_argument("name", help="edition name or JSON file")
     c.add_argument("--data", "-d", required=True, help="the full data or one part")
-    c.add_argument("--out", "-o", required=True, help="folder for archives and indexes")
-    c.add_argument("--pins", default=None, help="write the edition's pins file here")
-    c.set_defaults(func=_pack)
+    c.add_argument("--out", "-o", required=True, type=new_output,
+                   help="folder for archives and indexes")
+    c.add_argument("--pins", default=None, type=output_file,
+                   help="write the edition's pins file here")
+    c.set_defaults(func=_pack, locks=("out", "pins"))
 
     c = esub.add_parser(
         "fetch", help="download a part of an edition's data and verify it",
@@ -80,11 +87,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     c.add_argument("name", help="edition name")
     c.add_argument("--from", dest="source", required=True,
                    help="folder or http(s) URL holding the archives")
-    c.add_argument("--out", "-o", required=True, help="new data folder")
+    c.add_argument("--out", "-o", required=True, type=new_output, help="new data folder")
     c.add_argument("--part", choices=("public", "private"), default="public")
     c.add_argument("--unpinned", action="store_true",
                    help="accept an edition that ships no pins (trust the index)")
-    c.set_defaults(func=_fetch)
+    c.set_defaults(func=_fetch, locks=("out",))
 
     c = esub.add_parser(
         "verify", help="re-check a data folder against its index and the edition's pins",
@@ -98,17 +105,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _edition_create(args: argparse.Namespace) -> int:
     # start-up time: the stage loads when the command runs
-    from dressmeup.bench.edition import create_edition
+    from dressmeup.bench.edition_create import create_edition
 
     out = Path(args.out or f"{args.name}.json")
-    if out.exists() and not args.overwrite:
-        raise InputError(f"{out} already exists: choose another --out or pass --overwrite")
-    metrics = [m.strip() for m in args.metrics.split(",") if m.strip()] if args.metrics \
-        else None
-    ed = create_edition(args.data, args.task, args.name, split=args.split, metrics=metrics,
-                        primary_metric=args.primary_metric, version=args.version,
-                        description=args.description)
-    ed.save(out)
+    with output_lock(out, "--out"):
+        if out.exists() and not args.overwrite:
+            raise InputError(f"{out} already exists: choose another --out or pass --overwrite")
+        metrics = [m.strip() for m in args.metrics.split(",") if m.strip()] \
+            if args.metrics else None
+        ed = create_edition(args.data, args.task, args.name, split=args.split,
+                            metrics=metrics, primary_metric=args.primary_metric,
+                            version=args.version, description=args.description)
+        ed.save(out)
     sys.stdout.write(f"edition {ed.name} written to {out}\n  dataset manifest sha256 "
                      f"{ed.dataset.manifest_sha256}\n  edition hash {ed.hash}\n"
                      f"score with: dressmeup score SUBMISSION --edition {out} --data "

@@ -6,7 +6,9 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from dressmeup.cli.checks import integer
 from dressmeup.executors import make_executor
+from dressmeup.limits import WORKERS
 
 
 def add_executor_args(parser: argparse.ArgumentParser, default_workers: int | None = None,
@@ -28,7 +30,7 @@ def add_executor_args(parser: argparse.ArgumentParser, default_workers: int | No
                    help="local: a process pool on this machine (default); dask: Dask "
                         "distributed (a LocalCluster on 127.0.0.1 of --workers processes, or "
                         "the cluster of --scheduler); needs the 'distributed' extra")
-    g.add_argument("--workers", "-j", type=int, default=None,
+    g.add_argument("--workers", "-j", type=integer(1, WORKERS), default=None,
                    help=f"worker processes: the local pool, or the LocalCluster's size "
                         f"(default: {default})")
     g.add_argument("--scheduler", default=None, metavar="ADDRESS",

@@ -6,7 +6,9 @@ import argparse
 import json
 import sys
 
+from dressmeup.cli.checks import integer, seed
 from dressmeup.errors import InputError
+from dressmeup.limits import SURFACE_SAMPLES
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -27,12 +29,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--samples",
-        type=int,
+        type=integer(1, SURFACE_SAMPLES),
         default=100_000,
         metavar="N",
         help="surface samples per mesh (default 100000)",
     )
-    p.add_argument("--seed", type=int, default=0, metavar="S", help="sampling seed (default 0)")
+    p.add_argument("--seed", type=seed, default=0, metavar="S", help="sampling seed (default 0)")
     p.add_argument(
         "--json",
         action="store_true",
@@ -53,17 +55,30 @@ def _display(m) -> tuple[str, str]:
     return f"{m.value:.4f}", ""
 
 
+def _surface(mesh, what: str):
+    """``mesh`` when some face has a positive area (metrics sample its surface)."""
+    # start-up time: the stage loads when the command runs
+    from dressmeup.geometry.mesh import face_areas
+
+    if not face_areas(mesh.vertices, mesh.faces).sum() > 0:
+        raise InputError(f"{what} {mesh.path}: every face has zero area (degenerate "
+                         "triangles), so there is no surface to measure")
+    return mesh
+
+
 def run(args: argparse.Namespace) -> int:
     """Load the meshes, compute the report and print it."""
     # start-up time: the stage loads when the command runs
     from dressmeup.io.mesh import load_mesh
-    from dressmeup.metrics.report import compare_meshes
+    from dressmeup.metrics.report import compare_meshes, scale_mismatch
 
-    if args.samples < 1:
-        raise InputError(f"--samples: expected a positive number, got {args.samples}")
-    pred = load_mesh(args.pred)
-    gt = load_mesh(args.gt)
-    body = load_mesh(args.body) if args.body else None
+    pred = _surface(load_mesh(args.pred), "PRED")
+    gt = _surface(load_mesh(args.gt), "GT")
+    body = _surface(load_mesh(args.body), "--body") if args.body else None
+    mismatch = scale_mismatch(pred.vertices, gt.vertices, f"prediction {args.pred}",
+                              f"ground truth {args.gt}")
+    if mismatch:
+        sys.stderr.write(f"dressmeup metrics: warning: {mismatch}\n")
     pred_uv = (pred.uv, pred.uv_faces) if pred.uv is not None else None
     rows = compare_meshes(
         (pred.vertices, pred.faces),

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+
+from dressmeup.cli.checks import integer, new_output
+from dressmeup.errors import InputError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -28,17 +32,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--submissions", "-s", nargs="+", action="extend", default=[],
                    help="submission folders, or folders holding them (default: the paths "
                         "recorded in the results)")
-    p.add_argument("--out", "-o", required=True, help="site folder (index.html goes there)")
-    p.add_argument("--images-per-side", type=int, default=5,
+    p.add_argument("--out", "-o", required=True, type=new_output,
+                   help="site folder (index.html goes there)")
+    p.add_argument("--images-per-side", type=integer(0), default=5,
                    help="best and worst items drawn per method (default 5)")
-    p.add_argument("--max-images", type=int, default=120,
+    p.add_argument("--max-images", type=integer(0), default=120,
                    help="pictures of the whole site at most (default 120)")
-    p.set_defaults(func=_report)
+    p.set_defaults(func=_report, locks=("out",))
 
 
 def _report(args: argparse.Namespace) -> int:
     # start-up time: the stage loads when the command runs
     from dressmeup.viz.site import write_site
+
+    for option, paths in (("--data", args.data), ("--submissions", args.submissions)):
+        for p in paths:
+            if not Path(p).is_dir():
+                raise InputError(f"{option} {p}: not a folder")
 
     rep = write_site(args.results, args.out, data_roots=args.data,
                      submissions=args.submissions, images_per_side=args.images_per_side,

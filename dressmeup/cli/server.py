@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+from dressmeup.cli.checks import host, http_url, integer, new_output, number, team_name
 from dressmeup.cli.executor_args import add_executor_args
 from dressmeup.errors import InputError
 from dressmeup.server.client import submit, wait_for
@@ -15,8 +16,8 @@ from dressmeup.server.config import ServerConfig
 
 
 def _root_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--root", required=True, help="the server's folder (database, uploads, "
-                   "results, public pages)")
+    p.add_argument("--root", required=True, type=new_output,
+                   help="the server's folder (database, uploads, results, public pages)")
     p.add_argument("--database", default=None, help="SQLAlchemy URL (default: SQLite in "
                    "ROOT/server.db; e.g. postgresql+psycopg://user:pw@host/db)")
 
@@ -30,12 +31,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "(/team); a background scorer scores accepted submissions against the "
                     "editions' private parts. Add teams and editions with 'dressmeup server'.")
     _root_args(p)
-    p.add_argument("--host", default="127.0.0.1", help="address to listen on (default "
+    p.add_argument("--host", default="127.0.0.1", type=host, help="address to listen on (default "
                    "127.0.0.1; put a reverse proxy in front for the internet)")
-    p.add_argument("--port", type=int, default=8000)
-    p.add_argument("--daily-limit", type=int, default=3,
+    p.add_argument("--port", type=integer(0, 65535), default=8000)
+    p.add_argument("--daily-limit", type=integer(1), default=3,
                    help="accepted submissions per team, edition and UTC day (default 3)")
-    p.add_argument("--max-upload-mb", type=int, default=512)
+    p.add_argument("--max-upload-mb", type=integer(1, 1 << 20), default=512)
     add_executor_args(p, default_workers=1, what="scored item of a submission")
     p.set_defaults(func=_serve)
 
@@ -46,11 +47,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     ssub = p.add_subparsers(dest="server_command", metavar="ACTION", required=True)
     c = ssub.add_parser("add-team", help="create a team and print its API token once")
     _root_args(c)
-    c.add_argument("name")
+    c.add_argument("name", type=team_name)
     c.set_defaults(func=_add_team)
     c = ssub.add_parser("revoke-team", help="revoke a team's token")
     _root_args(c)
-    c.add_argument("name")
+    c.add_argument("name", type=team_name)
     c.set_defaults(func=_revoke_team)
     c = ssub.add_parser("add-edition", help="score an edition, given its private part")
     _root_args(c)
@@ -69,18 +70,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "With --wait, polls until it is scored and prints the summary.")
     p.add_argument("submission", help="submission folder")
     p.add_argument("--edition", "-e", required=True)
-    p.add_argument("--server", required=True, help="base URL, e.g. http://127.0.0.1:8000")
+    p.add_argument("--server", required=True, type=http_url,
+                   help="base URL, e.g. http://127.0.0.1:8000")
     p.add_argument("--token", required=True, help="your team's API token")
     p.add_argument("--wait", action="store_true", help="wait for the score")
-    p.add_argument("--timeout", type=float, default=3600, help="seconds --wait waits")
+    p.add_argument("--timeout", type=number(0.0, 1e7, lo_open=True), default=3600,
+                   help="seconds --wait waits")
     p.set_defaults(func=_submit)
 
 
 def _server(args: argparse.Namespace, **kw):
     # start-up time: the stage loads when the command runs
+    from sqlalchemy.exc import ArgumentError, NoSuchModuleError
+
     from dressmeup.server.service import EvaluationServer
 
-    return EvaluationServer(ServerConfig(Path(args.root), database=args.database, **kw))
+    try:
+        return EvaluationServer(ServerConfig(Path(args.root), database=args.database, **kw))
+    except (ArgumentError, NoSuchModuleError) as exc:
+        raise InputError(f"--database {args.database}: not a database URL this server can use "
+                         f"({exc}); e.g. sqlite:///server.db or "
+                         "postgresql+psycopg://user:pw@host/db") from exc
 
 
 def _serve(args: argparse.Namespace) -> int:

@@ -199,6 +199,11 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     extraction_config = extraction_config or ExtractionConfig()
     writer = DatasetWriter(out, {"name": name, "source": "dressmeup build-dataset",
                                  "body_model": None if body == "none" else body_model})
+    # a resumed build keeps the records of the sessions earlier runs built
+    earlier = writer.previous_info.get("build")
+    built: dict[str, dict[str, Any]] = dict((earlier or {}).get("sessions") or {}) \
+        if isinstance(earlier, dict) else {}
+    settings = {"refine": bool(fusion_config.refine), "voxel_size": fusion_config.voxel_size}
     report = BuildReport()
     todo: list[tuple[Path, list[str]]] = []
     for sdir in folders:
@@ -223,7 +228,6 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     jobs = [{"session": str(sdir), "fusion": fusion_config, "extraction": extraction_config,
              "body": body, "body_model": body_model, "scan_dir": scan_of(sdir)}
             for sdir, _ in todo]
-    built: dict[str, dict[str, str]] = {}
     done = progress(executor.run(build_session, jobs), desc="sessions", total=len(jobs))
     for i, res in in_order(done):
         sdir, ids = todo[i]
@@ -241,16 +245,15 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
                                   texture=g["texture"], sample_id=sid)
                 report.written += 1
             built[Path(sdir).name] = {"scan": res["fusion"], "body": res["body_source"],
-                                      "labels": res["labels_from"]}
+                                      "labels": res["labels_from"], "fusion": settings}
             log.info("%s: %d garment(s), %s, labels from %s, body from %s", sdir,
                      len(res["garments"]), res["fusion"], res["labels_from"],
                      res["body_source"])
         except Exception as exc:  # noqa: BLE001 - one bad session must not stop the build
             report.failed.append((str(sdir), _failure(exc)))
             log.warning("build-dataset: skipped session %s: %s", sdir, _failure(exc))
-    writer.finalize(build={"fusion": {"refine": bool(fusion_config.refine),
-                                      "voxel_size": fusion_config.voxel_size},
-                           "body": body, "sessions": built})
+    writer.finalize(build={"fusion": settings, "body": body,
+                           "sessions": dict(sorted(built.items()))})
     rank = {str(s): k for k, s in enumerate(folders)}
     report.failed.sort(key=lambda f: rank.get(f[0], len(rank)))  # in the order given
     if report.failed:

@@ -16,6 +16,7 @@ to ROOT, uses ``/`` and must stay inside ROOT.
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 from pathlib import Path, PurePosixPath
@@ -68,6 +69,12 @@ def sample_dir(subject_id: str, garment_id: str, pose_id: str) -> str:
     return f"{SAMPLES_DIR}/{subject_id}/{garment_id}/{pose_id}"
 
 
+@functools.lru_cache(maxsize=32)
+def _real_root(root: str) -> str:
+    """The real path of a dataset root (cached: a manifest resolves one path per file)."""
+    return os.path.realpath(root)
+
+
 def resolve_inside(root: str | os.PathLike, rel: str, name: str = "path") -> Path:
     """Resolve a manifest path ``rel`` against ``root`` and refuse it if it escapes ROOT.
 
@@ -84,7 +91,8 @@ def resolve_inside(root: str | os.PathLike, rel: str, name: str = "path") -> Pat
     Raises
     ------
     InputError
-        When ``rel`` is absolute, contains ``..`` segments, or resolves outside ``root``.
+        When ``rel`` is absolute, contains ``..`` segments, resolves outside ``root``, or
+        passes through a symbolic link loop.
     """
     if not isinstance(rel, str) or not rel:
         raise InputError(f"{name}: expected a non-empty relative path, got {rel!r}")
@@ -93,11 +101,13 @@ def resolve_inside(root: str | os.PathLike, rel: str, name: str = "path") -> Pat
         raise InputError(f"{name}: path {rel!r} is absolute; manifest paths are relative to ROOT")
     if ".." in pure.parts or "\\" in rel:
         raise InputError(f"{name}: path {rel!r} escapes the dataset root")
-    root_abs = Path(root).resolve()
-    full = (root_abs / Path(*pure.parts)).resolve()
-    try:
-        full.relative_to(root_abs)
-    except ValueError:
+    try:  # os.path: the same resolution as pathlib, several times faster per row
+        root_abs = _real_root(os.path.abspath(os.fspath(root)))
+        full = os.path.realpath(os.path.join(root_abs, *pure.parts), strict=False)
+    except (RuntimeError, OSError) as exc:
+        raise InputError(f"{name}: path {rel!r} cannot be resolved under {root} ({exc}): a "
+                         "symbolic link loop?") from exc
+    if full != root_abs and not full.startswith(root_abs.rstrip(os.sep) + os.sep):
         raise InputError(f"{name}: path {rel!r} resolves outside the dataset root "
-                         f"({full})") from None
-    return full
+                         f"({full})")
+    return Path(full)

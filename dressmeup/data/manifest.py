@@ -15,6 +15,7 @@ import pyarrow.parquet as pq
 
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path
+from dressmeup.io.tables import read_table
 
 MANIFEST_VERSION = "1.0"
 #: the manifest of a public part (:mod:`dressmeup.data.parts`): version 1.0 plus the column
@@ -114,17 +115,11 @@ def read_manifest(path: str | os.PathLike) -> pa.Table:
     Raises
     ------
     InputError
-        When the file is unreadable (e.g. truncated), of a newer major version, or lacks
-        required columns.
+        When the file is unreadable (e.g. truncated), over the ``table_rows`` limit, of a
+        newer major version, or lacks required columns.
     """
     path = Path(path)
-    try:
-        table = pq.read_table(path)
-    except FileNotFoundError:
-        raise
-    except Exception as exc:  # pyarrow raises ArrowInvalid / OSError on damaged files
-        raise InputError(f"{path}: cannot read the Parquet manifest ({exc}); "
-                         "the file is damaged or truncated: rebuild it") from exc
+    table = read_table(path, "manifest")  # rows and size bounded first (dressmeup.limits)
     meta = table.schema.metadata or {}
     version = meta.get(VERSION_KEY, b"").decode() or "unknown"
     if version != "unknown" and version.split(".")[0] != MANIFEST_VERSION.split(".")[0]:

@@ -39,6 +39,7 @@ from dressmeup.data.manifest import (
 )
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_dir, atomic_write_text
+from dressmeup.io.jsonio import parse_json_file
 
 PARTS = ("full", "public", "private")
 #: manifest fields a part may withhold: the file columns without their ``_path``
@@ -83,8 +84,8 @@ def read_info(root: str | os.PathLike) -> dict[str, Any]:
     """The ``dataset.json`` of ``root`` as a dict ({} when absent or unreadable)."""
     path = Path(root) / layout.DATASET_JSON
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        data = parse_json_file(path)  # bounded; damage of any kind reads as "nothing said"
+    except (OSError, InputError):
         return {}
     return data if isinstance(data, dict) else {}
 

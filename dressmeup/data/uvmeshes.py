@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
+import pyarrow.parquet as pq
 
 from dressmeup.data.layout import resolve_inside
 from dressmeup.data.shapes import SHAPES_VERSION, make_test_mesh, parse_mesh_id
@@ -30,6 +31,7 @@ from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path, atomic_write_text
 from dressmeup.io.hashing import sha256_file
 from dressmeup.io.mesh import load_mesh, save_mesh
+from dressmeup.io.tables import read_frame, table_size
 from dressmeup.progress import progress
 
 GENERATOR = "dressmeup-uvparam-shapes"
@@ -134,12 +136,40 @@ def _garment_rows(root: Path, garments: dict[str, Any]) -> list[dict[str, Any]]:
     return rows
 
 
+#: the columns that make a manifest a mesh set's (a garment dataset has ``sample_id``)
+MESH_SET_COLUMNS = ("mesh_id", "category", "split", "path", "n_vertices", "n_faces", "sha256")
+
+
+def is_mesh_set(data_root: str | os.PathLike) -> bool:
+    """Whether ``data_root/manifest.parquet`` is a mesh set's (not a garment dataset's).
+
+    Raises
+    ------
+    FileNotFoundError, InputError
+        No manifest, or one that is not a readable Parquet table.
+    """
+    path = Path(data_root) / "manifest.parquet"
+    table_size(path, "manifest")
+    names = set(pq.read_schema(path).names)
+    return "sample_id" not in names and set(MESH_SET_COLUMNS) <= names
+
+
 def meshes(data_root: str | os.PathLike, split: str | None = None) -> list[UVMesh]:
     """The meshes of a mesh set folder, sorted by id (paths checked to stay inside ROOT).
 
-    ``split`` keeps only that split's meshes (``train``/``val``/``test``)."""
+    ``split`` keeps only that split's meshes (``train``/``val``/``test``).
+
+    Raises
+    ------
+    InputError
+        The folder is not a mesh set (e.g. a garment dataset), or its manifest is damaged.
+    """
     root = Path(data_root)
-    df = pd.read_parquet(root / "manifest.parquet")
+    if not is_mesh_set(root):
+        raise InputError(f"{root}: not a UV mesh set (its manifest lacks "
+                         f"{', '.join(MESH_SET_COLUMNS)}): build one with 'dressmeup synth "
+                         "OUT --edition <a uvparam edition>'")
+    df = read_frame(root / "manifest.parquet", "mesh set manifest")
     if split is not None:
         df = df[df["split"] == split]
     out = [UVMesh(r.mesh_id, r.category, resolve_inside(root, r.path, "path"),

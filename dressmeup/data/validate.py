@@ -19,8 +19,10 @@ from dressmeup.data.manifest import HASH_OF, PATH_COLUMNS, columns, read_manifes
 from dressmeup.data.parts import part_record, withheld_fields
 from dressmeup.errors import InputError
 from dressmeup.io.hashing import sha256_file
+from dressmeup.io.images import image_header
 from dressmeup.io.jsonio import parse_json_file, schema_problems
 from dressmeup.io.mesh import load_mesh
+from dressmeup.io.npz import load_npz
 
 KNOWN_SPLITS = ("train", "val", "test")
 #: Largest plausible extent of a garment or scan in metres (a person is under 3 m; a
@@ -62,10 +64,9 @@ class ValidationReport:
 
 def _check_body(path: Path, where: str, problems: list[str]) -> None:
     try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {k: data[k] for k in data.files}
-    except Exception as exc:  # noqa: BLE001 - any unreadable file is a problem to report
-        problems.append(f"{where}: body file {path.name} unreadable without pickle ({exc})")
+        arrays = load_npz(path, what="body file")  # bounded, pickle-free
+    except (InputError, OSError) as exc:
+        problems.append(f"{where}: body file {path.name} unreadable ({exc})")
         return
     for k in ("model", "shape", "pose"):
         if k not in arrays:
@@ -99,6 +100,23 @@ def _check_mesh(path: Path, where: str, what: str, n_v, n_f, problems: list[str]
     if n_f is not None and not _isnull(n_f) and int(n_f) != len(m.faces):
         problems.append(f"{where}: {what} has {len(m.faces)} faces, manifest says {int(n_f)}")
     return m
+
+
+def _files_under(folder: Path, problems: list[str]) -> list[Path]:
+    """Regular files under ``folder`` (links to folders not followed; a link that cannot be
+    resolved, e.g. a loop, is a problem)."""
+    out = []
+    for dirpath, dirnames, filenames in os.walk(folder):
+        for name in dirnames + filenames:
+            p = Path(dirpath) / name
+            if p.is_symlink():
+                try:
+                    p.resolve(strict=True)
+                except (OSError, RuntimeError) as exc:
+                    problems.append(f"{p}: a symbolic link that cannot be resolved ({exc})")
+                    continue
+        out += [Path(dirpath) / n for n in filenames if (Path(dirpath) / n).is_file()]
+    return out
 
 
 def _isnull(v) -> bool:
@@ -235,6 +253,11 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
                 _check_mesh(full, where, "scan", r.get("scan_vertices"), r.get("scan_faces"), P)
             elif col == "body_path":
                 _check_body(full, where, P)
+            elif col == "texture_path":
+                try:  # size bounded from the header, structure verified, nothing decoded
+                    image_header(full, "texture", verify=True)
+                except (InputError, OSError) as exc:
+                    P.append(f"{where}: {exc}")
     if check_meshes:
         for g, faces in faces_of.items():
             claimed = {r.get("topology_shared") for r in rows if r.get("garment_id") == g}
@@ -248,8 +271,8 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
                 rep.warnings.append(f"garment {g!r}: poses share faces but topology_shared is false")
     samples = root / layout.SAMPLES_DIR
     if samples.is_dir():
-        for p in sorted(samples.rglob("*")):
-            if p.is_file() and p.resolve() not in referenced:
+        for p in sorted(_files_under(samples, P)):
+            if p.resolve() not in referenced:
                 kind = "temporary file of an interrupted write" if ".tmp" in p.name else \
                     "file not in the manifest"
                 rep.warnings.append(f"{p.relative_to(root)}: {kind}")

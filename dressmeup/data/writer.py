@@ -9,6 +9,7 @@ a generator what to skip) and rewrites any stray files of the unfinished sample.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import logging
@@ -18,7 +19,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from PIL import Image
 
 from dressmeup import __version__
 from dressmeup.cache import hash_arrays
@@ -27,8 +27,11 @@ from dressmeup.data.manifest import MANIFEST_VERSION, read_manifest, write_manif
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
 from dressmeup.io.hashing import sha256_file
+from dressmeup.io.images import read_image
 from dressmeup.io.jsonable import json_default
+from dressmeup.io.jsonio import parse_json_file
 from dressmeup.io.mesh import save_mesh
+from dressmeup.io.outlock import output_lock
 
 log = logging.getLogger(__name__)
 
@@ -85,7 +88,14 @@ class DatasetWriter:
     info : fields of ``dataset.json`` (name, version, licence, body model, categories,
         citation, generator provenance, ...). When ``root`` already holds a dataset, its
         ``dataset.json`` must agree with ``info`` (the build resumes), else
-        :class:`InputError` is raised.
+        :class:`InputError` is raised. One writer per folder: the writer holds the folder's
+        lock (:func:`dressmeup.io.outlock.output_lock`) until :meth:`finalize`, so a second
+        process writing the same dataset meanwhile is refused.
+
+    Attributes
+    ----------
+    previous_info : ``dataset.json`` as an earlier run left it ({} for a new dataset), e.g.
+        the build records a resumed build keeps.
 
     Examples
     --------
@@ -98,14 +108,23 @@ class DatasetWriter:
 
     def __init__(self, root: str | os.PathLike, info: Mapping[str, Any]) -> None:
         self.root = Path(root)
+        self._lock = contextlib.ExitStack()
+        self._lock.enter_context(output_lock(self.root, "dataset"))
+        try:
+            self._open(info)
+        except BaseException:
+            self._lock.close()
+            raise
+
+    def _open(self, info: Mapping[str, Any]) -> None:
         self.root.mkdir(parents=True, exist_ok=True)
         self.info = _jsonable(dict(info))
         info_path = self.root / layout.DATASET_JSON
         if info_path.exists():
-            try:
-                old = json.loads(info_path.read_text())
-            except json.JSONDecodeError as exc:
-                raise InputError(f"{info_path}: not valid JSON ({exc})") from exc
+            old = parse_json_file(info_path)  # bounded; UTF-8 and JSON checked
+            if not isinstance(old, dict):
+                raise InputError(f"{info_path}: a JSON {type(old).__name__}, expected the "
+                                 "dataset's description (an object); choose another folder")
             # keys given now must match; keys only in the old file (added by finalize or
             # by a later writer version) are kept
             diff = sorted(k for k in self.info
@@ -113,7 +132,8 @@ class DatasetWriter:
             if diff:
                 raise InputError(f"{self.root} already holds a different dataset (dataset.json "
                                  f"differs in {diff}); choose another folder or delete it")
-        full = {**(old if info_path.exists() else {}),
+        self.previous_info: dict[str, Any] = dict(old) if info_path.exists() else {}
+        full = {**self.previous_info,
                 "format": "dressmeup-dataset", "manifest_version": MANIFEST_VERSION,
                 "units": "m", **self.info, "complete": False,
                 "toolkit_version": __version__}
@@ -241,12 +261,8 @@ class DatasetWriter:
     def _texture_array(texture: Any) -> np.ndarray:
         """An (h, w, 3|4) uint8 image from bytes, a PIL image, an array or a path."""
 
-        if isinstance(texture, (bytes, bytearray)):
-            with Image.open(io.BytesIO(bytes(texture))) as im:
-                return np.asarray(im.convert("RGB"))
-        if isinstance(texture, (str, os.PathLike)):
-            with Image.open(texture) as im:
-                return np.asarray(im.convert("RGB"))
+        if isinstance(texture, (bytes, bytearray, str, os.PathLike)):
+            return read_image(texture, "texture")
         if hasattr(texture, "convert"):
             return np.asarray(texture.convert("RGB"))
         arr = np.asarray(texture)
@@ -293,7 +309,7 @@ class DatasetWriter:
         The dataset root.
         """
         info_path = self.root / layout.DATASET_JSON
-        info = json.loads(info_path.read_text())
+        info = parse_json_file(info_path)
         splits: dict[str, list[str]] = {}
         for r in self._rows:
             ids = splits.setdefault(r["split"], [])
@@ -308,4 +324,5 @@ class DatasetWriter:
         atomic_write_text(info_path, json.dumps(info, indent=2, sort_keys=True) + "\n")
         for tmp in self.root.rglob(".*.tmp*"):
             tmp.unlink()
+        self._lock.close()
         return self.root

@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from dressmeup.errors import InputError
+from dressmeup.io.jsonio import parse_json_file
 
 LOOPBACK = "127.0.0.1"
 
@@ -148,6 +149,26 @@ def _worker_plugin() -> Any:
 
 
 # ----------------------------------------------------------------------------- client side
+def _scheduler_address(scheduler: str) -> str:
+    """The address of ``--scheduler``: the text itself, or the ``address`` a scheduler file
+    (the JSON ``dask scheduler --scheduler-file`` writes) holds.
+
+    Raises
+    ------
+    InputError
+        A file that is not a scheduler file (no ``address``, not JSON, too large).
+    """
+    if not Path(scheduler).is_file():
+        return scheduler
+    info = parse_json_file(scheduler)  # bounded (json_bytes), UTF-8 and JSON checked
+    address = info.get("address") if isinstance(info, dict) else None
+    if not isinstance(address, str) or "://" not in address:
+        raise InputError(f"--scheduler {scheduler}: not a Dask scheduler file (no "
+                         "'address' such as tcp://host:8786); give the file 'dask scheduler "
+                         "--scheduler-file' wrote, or the scheduler's address")
+    return address
+
+
 class DaskExecutor:
     """Jobs as Dask futures on a LocalCluster (loopback only) or an existing scheduler.
 
@@ -223,12 +244,11 @@ class DaskExecutor:
         distributed = _import_distributed()
         t0 = time.perf_counter()
         if self.scheduler:
-            kw = ({"scheduler_file": self.scheduler} if Path(self.scheduler).is_file()
-                  else {"address": self.scheduler})
+            kw = {"address": _scheduler_address(self.scheduler)}
             try:
                 self._client = distributed.Client(timeout="20s", **kw)
                 self._client.wait_for_workers(1, timeout=120)
-            except (OSError, TimeoutError) as exc:
+            except (OSError, TimeoutError, ValueError) as exc:
                 raise InputError(f"--scheduler {self.scheduler}: cannot use that Dask "
                                  f"scheduler ({type(exc).__name__}: {exc}); start one with "
                                  f"'dask scheduler' and 'dask worker', or drop --scheduler "

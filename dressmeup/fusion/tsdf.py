@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from dressmeup.capture.frame import RGBDFrame, frame_camera
+from dressmeup.errors import InputError
 
 __all__ = ["resolve_device", "integrate_grid", "integrate_tsdf"]
 
@@ -34,7 +35,7 @@ def resolve_device(device: str = "cpu") -> str:
     if dev.startswith("cuda"):
         idx = dev.split(":")[1] if ":" in dev else "0"
         if not o3d.core.cuda.is_available():
-            raise ValueError(f"device: {device!r} asked for, but this open3d build has no usable CUDA "
+            raise InputError(f"device: {device!r} asked for, but this open3d build has no usable CUDA "
                              "(open3d-cpu, or no GPU); use --device cpu")
         return f"CUDA:{idx}"
     raise ValueError(f"device: expected 'cpu' or 'cuda[:N]', got {device!r}")
@@ -95,7 +96,7 @@ def integrate_grid(frames: Sequence[RGBDFrame], voxel_size: float = 0.004, trunc
         inputs.append((o3d.t.geometry.Image(o3c.Tensor(depth_m, device=dev)), rgb,
                        o3c.Tensor(cam.K, o3c.float64), o3c.Tensor(cam.world_to_camera, o3c.float64)))
     if not inputs:
-        raise ValueError("frames: no frame has valid depth")
+        raise InputError("frames: no frame has valid depth")
     probe = grid(16)
     touched = [probe.compute_unique_block_coordinates(d, K, ext, 1.0, depth_max, trunc_voxels).cpu().numpy()
                for d, _, K, ext in inputs]
@@ -143,7 +144,7 @@ def integrate_tsdf(frames: Sequence[RGBDFrame], voxel_size: float = 0.004,
     # open3d meshes voxels whose weight is strictly above the threshold; weights count frames
     mesh = vbg.extract_triangle_mesh(weight_threshold=float(min_weight) - 0.5)
     if "indices" not in mesh.triangle or mesh.triangle.indices.shape[0] == 0:
-        raise ValueError("TSDF fusion produced an empty mesh: check the extrinsics, depth scale and "
+        raise InputError("TSDF fusion produced an empty mesh: check the extrinsics, depth scale and "
                          "depth range (are the cameras looking at the same place?)")
     V = mesh.vertex.positions.cpu().numpy().astype(np.float64)
     F = mesh.triangle.indices.cpu().numpy().astype(np.int64)

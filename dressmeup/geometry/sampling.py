@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from dressmeup.errors import InputError
 from dressmeup.geometry.mesh import as_arrays, face_areas
 
 __all__ = ["sample_surface", "barycentric_to_points"]
@@ -36,7 +37,8 @@ def sample_surface(
     Raises
     ------
     ValueError
-        Bad mesh arrays, ``n < 1``, or a surface of zero total area.
+        Bad mesh arrays or ``n < 1``; an ``InputError`` (a ``ValueError``) for a surface of
+        zero total area.
     """
     V, F = as_arrays(V, F, name="mesh")
     if int(n) != n or n < 1:
@@ -46,7 +48,8 @@ def sample_surface(
     areas = face_areas(V, F)
     total = areas.sum()
     if not total > 0:
-        raise ValueError("mesh: total surface area is zero, cannot sample points on it")
+        raise InputError("mesh: every face has zero area (all its triangles are degenerate), "
+                         "so no point can be sampled on its surface")
     cdf = np.cumsum(areas)
     cdf /= cdf[-1]
     face_ids = np.searchsorted(cdf, rng.random(n), side="right")

@@ -19,10 +19,9 @@ from typing import Any
 import jsonschema
 
 from dressmeup.errors import InputError
+from dressmeup.limits import JSON_BYTES
 
 SCHEMA_DIR = Path(__file__).resolve().parent / "schemas"
-#: Refuse JSON files larger than this before reading them (metadata files are small).
-MAX_JSON_BYTES = 64 << 20
 
 
 @functools.cache
@@ -43,8 +42,11 @@ def schema_problems(data: Any, schema: str, source: str = "JSON") -> list[str]:
     """One message per place where ``data`` does not fit schema ``schema`` (empty: fits)."""
 
     validator = jsonschema.Draft202012Validator(load_schema(schema))
-    errors = sorted(validator.iter_errors(data), key=lambda e: (list(map(str, e.path)),
-                                                                 e.message))
+    try:
+        errors = sorted(validator.iter_errors(data), key=lambda e: (list(map(str, e.path)),
+                                                                     e.message))
+    except RecursionError:
+        return [f"{source}: field (top level): nested too deeply"]
     out = []
     for e in errors:
         path = list(e.absolute_path)
@@ -73,26 +75,39 @@ def validate_json(data: Any, schema: str, source: str = "JSON") -> Any:
     return data
 
 
-def parse_json_file(path: str | os.PathLike, max_bytes: int = MAX_JSON_BYTES) -> Any:
+def parse_json_file(path: str | os.PathLike, max_bytes: int | None = None) -> Any:
     """Parse a JSON file; errors name the file (and line/column of a syntax error).
+
+    ``max_bytes``: refuse larger files before reading them (default: the ``json_bytes``
+    limit of :mod:`dressmeup.limits`).
 
     Raises
     ------
     FileNotFoundError
         When the file does not exist.
     InputError
-        Not a regular file, larger than ``max_bytes``, not UTF-8, or not JSON.
+        Not a regular file, larger than the limit, not UTF-8, or not JSON.
     """
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(2, "No such file or directory", str(path))
     if not path.is_file():
         raise InputError(f"{path}: not a regular file (expected a JSON file)")
-    size = path.stat().st_size
-    if size > max_bytes:
-        raise InputError(f"{path}: {size} bytes is too large for a JSON metadata file "
-                         f"(limit {max_bytes})")
-    raw = path.read_bytes()
+    JSON_BYTES.check(path.stat().st_size, str(path), limit=max_bytes)
+    return parse_json_bytes(path.read_bytes(), str(path), max_bytes)
+
+
+def parse_json_bytes(raw: bytes, source: str, max_bytes: int | None = None) -> Any:
+    """Parse JSON bytes read from ``source`` (a file or URL named in errors).
+
+    Raises
+    ------
+    InputError
+        Larger than ``max_bytes`` (default: the ``json_bytes`` limit), not UTF-8, or not
+        JSON.
+    """
+    path = source
+    JSON_BYTES.check(len(raw), source, limit=max_bytes)
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:

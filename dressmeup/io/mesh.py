@@ -33,15 +33,14 @@ from PIL import Image
 from dressmeup.errors import InputError
 from dressmeup.geometry.mesh import as_arrays, as_faces, as_points
 from dressmeup.io.atomic import atomic_write_bytes, atomic_write_text
+from dressmeup.io.images import image_header, read_image
+from dressmeup.limits import MESH_BYTES
 
 __all__ = ["MeshData", "load_mesh", "save_mesh", "write_ply"]
 
 log = logging.getLogger(__name__)
 
 MESH_SUFFIXES = (".ply", ".obj")
-#: Largest mesh file read (bytes; ``DRESSMEUP_MAX_MESH_BYTES`` overrides): a bound on memory,
-#: checked before reading (the OBJ reader holds Python lists, about 2x the file size).
-MAX_MESH_BYTES = 1 << 30
 _PLY_HEADER_MAX = 65536
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2,
               "int16": 2, "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4,
@@ -116,11 +115,7 @@ def load_mesh(path: str | os.PathLike) -> MeshData:
     suffix = path.suffix.lower()
     if suffix not in MESH_SUFFIXES:
         raise InputError(f"{path}: unsupported mesh format {suffix!r} (expected .ply or .obj)")
-    size = path.stat().st_size
-    limit = int(os.environ.get("DRESSMEUP_MAX_MESH_BYTES", MAX_MESH_BYTES))
-    if size > limit:
-        raise InputError(f"{path}: {size / 1e6:.0f} MB is over the mesh size limit of "
-                         f"{limit / 1e6:.0f} MB (set DRESSMEUP_MAX_MESH_BYTES to allow it)")
+    MESH_BYTES.check(path.stat().st_size, str(path))  # before reading (dressmeup.limits)
     if suffix == ".ply":
         check_ply_header(path)
     try:
@@ -425,11 +420,11 @@ def _texture_bytes(texture) -> bytes:
         if not src.is_file():
             raise FileNotFoundError(f"texture file not found: {src}")
         if src.suffix.lower() == ".png":
+            image_header(src, "texture", verify=True)
             return src.read_bytes()
-        with Image.open(src) as im:
-            buf = io.BytesIO()
-            im.convert("RGB").save(buf, format="PNG")
-            return buf.getvalue()
+        buf = io.BytesIO()
+        Image.fromarray(read_image(src, "texture")).save(buf, format="PNG")
+        return buf.getvalue()
     arr = np.asarray(texture)
     if (
         arr.ndim not in (2, 3)

@@ -28,7 +28,12 @@ from dressmeup.metrics.penetration import interpenetration_ratio, penetrating_ve
 from dressmeup.metrics.uv import ase_details, qce_details
 from dressmeup.metrics.uv_layout import uv_validity
 
-__all__ = ["MetricValue", "compare_meshes", "uv_report"]
+__all__ = ["MetricValue", "compare_meshes", "uv_report", "scale_mismatch"]
+
+#: Extent ratio beyond which two meshes of the same thing are taken to be in different
+#: units (centimetres against metres is 100, millimetres 1000; a garment on another body
+#: changes its extent by tens of per cent).
+UNIT_RATIO = 20.0
 
 
 @dataclass
@@ -193,3 +198,29 @@ def uv_report(
             f"grid estimate at {v.resolution} samples",
         ),
     ]
+
+
+def scale_mismatch(V: np.ndarray, reference: np.ndarray, name: str = "prediction",
+                   reference_name: str = "ground truth") -> str | None:
+    """Why ``V`` looks like it is in other units than ``reference``, or None.
+
+    Parameters
+    ----------
+    V, reference : (n, 3), (r, 3) float vertices.
+
+    Returns
+    -------
+    A sentence naming both extents (bounding-box diagonals) when their ratio is beyond
+    :data:`UNIT_RATIO` either way (e.g. millimetres against metres), else None.
+    """
+    a = float(np.linalg.norm(np.ptp(np.asarray(V, float), axis=0))) if len(V) else 0.0
+    b = float(np.linalg.norm(np.ptp(np.asarray(reference, float), axis=0))) \
+        if len(reference) else 0.0
+    if a <= 0 or b <= 0 or not np.isfinite(a / b):
+        return None
+    ratio = a / b
+    if 1.0 / UNIT_RATIO <= ratio <= UNIT_RATIO:
+        return None
+    return (f"the {name} spans {a:.4g} units, the {reference_name} {b:.4g} ({ratio:.3g} "
+            "times): are they in different units (millimetres or centimetres against "
+            "metres)? every file is in metres")

@@ -11,10 +11,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from PIL import Image
 
 from dressmeup.body import get_body_model
 from dressmeup.errors import InputError
+from dressmeup.io.images import read_image
 from dressmeup.viz.figure import save_png
 
 
@@ -125,8 +125,7 @@ def _face_colors_from_texture(g) -> np.ndarray | None:
     if g.uv is None or g.texture_path is None:
         return None
 
-    with Image.open(g.texture_path) as im:
-        tex = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
+    tex = read_image(g.texture_path, "texture").astype(np.float64) / 255.0
     uvf = g.uv_faces if g.uv_faces is not None else g.faces
     c = g.uv[uvf].mean(1)
     h, w = tex.shape[:2]

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from dressmeup.bench import load_edition, validate_submission
-from dressmeup.bench.edition import create_edition
+from dressmeup.bench.edition_create import create_edition
 from dressmeup.cli import main
 from dressmeup.errors import InputError
 from dressmeup.io.hashing import sha256_file

@@ -36,7 +36,7 @@ def data(tmp_path_factory):
 
 
 def test_runner_writes_a_scoreable_submission(data, tmp_path):
-    from dressmeup.bench.edition import create_edition
+    from dressmeup.bench.edition_create import create_edition
     from dressmeup.bench.score import score_submission
 
     # the edition's protocol on this small dataset (an edition pinned by its manifest)

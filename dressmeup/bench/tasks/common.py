@@ -15,6 +15,7 @@ from dressmeup.errors import InputError
 from dressmeup.io.hashing import sha256_file
 from dressmeup.io.jsonio import parse_json_file, schema_problems
 from dressmeup.io.npz import load_npz
+from dressmeup.limits import PREDICTION_BYTES
 
 
 @functools.lru_cache(maxsize=4)
@@ -143,25 +144,22 @@ def _norm(v: Any) -> Any:
     return v
 
 
-#: Bound on the declared uncompressed size of one prediction file (checked before reading).
-MAX_PREDICTION_BYTES = 512 << 20
 #: Bound on the magnitude of a predicted coordinate (metres, or UV units).
 MAX_COORDINATE = 1e4
 
 
-def load_npz_arrays(path: Path, keys: tuple[str, ...],
-                    max_bytes: int = MAX_PREDICTION_BYTES) -> dict[str, np.ndarray]:
+def load_npz_arrays(path: Path, keys: tuple[str, ...]) -> dict[str, np.ndarray]:
     """Read ``keys`` (those present) from an ``.npz`` without pickle, after checking the
     declared sizes of its arrays (:func:`dressmeup.io.npz.load_npz`).
 
     Raises
     ------
     InputError
-        Unreadable or damaged file, an object array (pickles are refused), or arrays that
-        declare more than ``max_bytes`` uncompressed.
+        Unreadable or damaged file, an object array (pickles are refused), too many members,
+        or arrays that declare more than the ``prediction_bytes`` limit uncompressed.
     """
 
-    arrays = load_npz(path, what="prediction", max_bytes=max_bytes)
+    arrays = load_npz(path, what="prediction", limit=PREDICTION_BYTES)
     return {k: np.asarray(arrays[k]) for k in keys if k in arrays}
 
 

@@ -3,6 +3,7 @@ as :class:`dressmeup.data.Dataset`, and a restricted pickle loader."""
 
 from __future__ import annotations
 
+import hashlib
 import re
 from collections import Counter
 from collections.abc import Iterator, Sequence
@@ -20,6 +21,16 @@ def clean_id(text: str) -> str:
     """Make a valid id from foreign names: any other character becomes ``_``."""
     out = re.sub(r"[^A-Za-z0-9_-]", "_", str(text))
     return out or "_"
+
+
+def distinct_id(text: str) -> str:
+    """A valid id for a foreign name that no other name maps to: the name itself when it is
+    valid, else :func:`clean_id` plus ``-`` and 8 hex digits of the name's sha1 (``"a b"``
+    -> ``"a_b-3ea5b5f6"``, never the id of a scan named ``a_b``)."""
+    out = clean_id(text)
+    if out == str(text):
+        return out
+    return f"{out}-{hashlib.sha1(str(text).encode('utf-8')).hexdigest()[:8]}"
 
 
 def load_pickle(path) -> Any:
@@ -86,6 +97,12 @@ class SampleCollection:
     def __init__(self, samples: Sequence[Sample], source: str = "",
                  report: ReadReport | None = None) -> None:
         self._samples = list(samples)
+        seen: dict[str, int] = {}
+        for i, s in enumerate(self._samples):
+            j = seen.setdefault(s.sample_id, i)
+            if j != i:
+                raise InputError(f"{source}: two items map to sample id {s.sample_id!r} (rows "
+                                 f"{j} and {i}); rename one of them")
         self.source = source
         self.report = report if report is not None else ReadReport("", source)
 
@@ -153,3 +170,80 @@ def as_array(value: Any, name: str, source: str) -> np.ndarray:
         return np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise InputError(f"{source}: field {name!r} is not numeric ({exc})") from exc
+
+
+def as_vector(value: Any, name: str, source: str, size: int | None = None) -> np.ndarray:
+    """A flat float64 array of ``size`` finite numbers (any size when None).
+
+    Raises
+    ------
+    InputError
+    """
+    a = as_array(value, name, source).reshape(-1)
+    if (size is not None and a.size != size) or not np.isfinite(a).all():
+        raise InputError(f"{source}: field {name!r} must hold "
+                         f"{size if size is not None else 'some'} finite numbers, got "
+                         f"{a.size} ({int((~np.isfinite(a)).sum())} not finite)")
+    return a
+
+
+def require_fields(param: Any, keys: Sequence[str], source: str) -> dict:
+    """``param`` when it is a dict holding every key of ``keys``.
+
+    Raises
+    ------
+    InputError
+        Not a dict, or a key missing (the message names it).
+    """
+    if not isinstance(param, dict):
+        raise InputError(f"{source}: expected a dict of parameters, got "
+                         f"{type(param).__name__}")
+    for k in keys:
+        if k not in param:
+            raise InputError(f"{source}: missing field {k!r}")
+    return param
+
+
+def as_indices(value: Any, name: str, source: str) -> np.ndarray:
+    """An int64 array of whole numbers from pickled data (labels, faces).
+
+    Raises
+    ------
+    InputError
+        Not numeric, or numbers that are not whole (e.g. labels stored as strings).
+    """
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{source}: field {name!r} is not an array ({exc})") from exc
+    if a.dtype.kind in "iu":
+        return a.astype(np.int64)
+    if a.dtype.kind == "f" and a.size and np.isfinite(a).all() and (a == np.round(a)).all():
+        return a.astype(np.int64)
+    if a.dtype.kind == "f" and not a.size:
+        return a.astype(np.int64)
+    raise InputError(f"{source}: field {name!r} holds {a.dtype} values, expected whole "
+                     "numbers")
+
+
+def mesh_fields(d: Any, source: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(vertices (n, 3) float64, faces (m, 3) int64)`` of a pickled mesh dict, checked:
+    both fields present, finite vertices, triangles indexing the vertices.
+
+    Raises
+    ------
+    InputError
+    """
+    if not isinstance(d, dict) or "vertices" not in d or "faces" not in d:
+        found = sorted(map(str, d)) if isinstance(d, dict) else type(d).__name__
+        raise InputError(f"{source}: expected a mesh dict with 'vertices' and 'faces', got "
+                         f"{found}")
+    V = as_array(d["vertices"], "vertices", source)
+    F = as_indices(d["faces"], "faces", source)
+    if V.ndim != 2 or V.shape[1] != 3 or not np.isfinite(V).all():
+        raise InputError(f"{source}: 'vertices' must be finite (n, 3), got {V.shape}")
+    if F.ndim != 2 or F.shape[1] != 3 or (F.size and (F.min() < 0 or F.max() >= len(V))):
+        raise InputError(f"{source}: 'faces' must be (m, 3) triangles indexing the {len(V)} "
+                         f"vertices (got shape {F.shape}"
+                         + (f", indices {F.min()}..{F.max()})" if F.size else ")"))
+    return V, F

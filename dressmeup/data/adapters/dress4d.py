@@ -53,10 +53,13 @@ from dressmeup.body.params import BodyParams
 from dressmeup.data.adapters.base import (
     ReadReport,
     SampleCollection,
-    as_array,
+    as_indices,
+    as_vector,
     clean_id,
     load_pickle,
     make_row,
+    mesh_fields,
+    require_fields,
 )
 from dressmeup.data.dataset import GarmentMesh, Sample
 from dressmeup.errors import InputError
@@ -76,19 +79,16 @@ def dress4d_body(param: dict, gender: str = "neutral", source: str = "smpl.pkl")
     """Convert a 4D-DRESS SMPL parameter dict into :class:`~dressmeup.body.BodyParams`
     (``pose = [global_orient, body_pose]`` as 24 x 3 axis-angles, ``transl``, ``scale = 1``)."""
 
-    for k in ("global_orient", "body_pose", "betas"):
-        if k not in param:
-            raise InputError(f"{source}: missing field {k!r} (a 4D-DRESS SMPL file has "
-                             "global_orient, body_pose, transl, betas)")
-    pose = np.concatenate([as_array(param["global_orient"], "global_orient", source).reshape(-1),
-                           as_array(param["body_pose"], "body_pose", source).reshape(-1)])
+    require_fields(param, ("global_orient", "body_pose", "betas"), source)
+    pose = np.concatenate([as_vector(param["global_orient"], "global_orient", source),
+                           as_vector(param["body_pose"], "body_pose", source)])
     if pose.size % 3:
         raise InputError(f"{source}: pose size {pose.size} is not a multiple of 3")
     return BodyParams(model="smpl", gender=gender,
-                      shape=as_array(param["betas"], "betas", source).reshape(-1),
+                      shape=as_vector(param["betas"], "betas", source),
                       pose=pose.reshape(-1, 3),
-                      transl=as_array(param.get("transl", np.zeros(3)), "transl",
-                                      source).reshape(3), scale=1.0)
+                      transl=as_vector(param.get("transl", np.zeros(3)), "transl", source, 3),
+                      scale=1.0)
 
 
 def _frame_name(frame: Any) -> str:
@@ -133,7 +133,7 @@ def _scan_labels(path: Path) -> np.ndarray:
     d = load_pickle(path)
     if not isinstance(d, dict) or "scan_labels" not in d:
         raise InputError(f"{path}: expected a dict with 'scan_labels' (one label per scan vertex)")
-    return np.asarray(d["scan_labels"]).astype(np.int64).ravel()
+    return as_indices(d["scan_labels"], "scan_labels", str(path)).ravel()
 
 
 def cut_label_mesh(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, label: int
@@ -174,23 +174,22 @@ def _load_garment(take: Path, frame: str, label: str) -> GarmentMesh:
     cloth = take / "Semantic" / "clothes" / f"cloth-f{frame}.pkl"
     if cloth.is_file():
         d = load_pickle(cloth)
-        if label not in d:
-            raise InputError(f"{cloth}: no garment {label!r} (has {sorted(d)})")
+        if not isinstance(d, dict) or label not in d:
+            found = sorted(map(str, d)) if isinstance(d, dict) else type(d).__name__
+            raise InputError(f"{cloth}: no garment {label!r} (has {found})")
         g = d[label]
-        V = as_array(g["vertices"], "vertices", str(cloth))
-        F = np.asarray(g["faces"], np.int64)
+        V, F = mesh_fields(g, f"{cloth} [{label!r}]")
         uv = g.get("uvs")
         has_colors = g.get("colors") is not None
     else:
         names = dress4d_meta()["surface_labels"]
         scan = load_pickle(mesh_pkl)
         labels = _scan_labels(take / "Semantic" / "labels" / f"label-f{frame}.pkl")
-        SV = as_array(scan["vertices"], "vertices", str(mesh_pkl))
+        SV, SF = mesh_fields(scan, str(mesh_pkl))
         if len(labels) != len(SV):
             raise InputError(f"{take}/Semantic/labels/label-f{frame}.pkl: {len(labels)} labels "
                              f"for {len(SV)} scan vertices")
-        V, F, keep = cut_label_mesh(SV, np.asarray(scan["faces"], np.int64), labels,
-                                    names.index(label))
+        V, F, keep = cut_label_mesh(SV, SF, labels, names.index(label))
         uv = None if scan.get("uvs") is None else np.asarray(scan["uvs"])[keep]
         has_colors = scan.get("colors") is not None
     uv = None if uv is None else np.asarray(uv, np.float64).reshape(-1, 2)
@@ -237,6 +236,9 @@ def read_4ddress(root: str | os.PathLike, frames: list[str] | None = None,
         subject, outfit = take.parents[1].name, take.parent.name
         tag = f"{subject}/{outfit}/{take.name}"
         info = load_pickle(take / "basic_info.pkl")
+        if not isinstance(info, dict):
+            raise InputError(f"{take / 'basic_info.pkl'}: expected a dict (scan_frames, "
+                             f"rotation, offset), got {type(info).__name__}")
         g = gender or (info.get("gender") if isinstance(info, dict) else None) or \
             meta["gender"].get(subject)
         if g is None:
@@ -277,9 +279,7 @@ def read_4ddress(root: str | os.PathLike, frames: list[str] | None = None,
                         else None
 
                 def s_loader(mesh=mesh):
-                    d = load_pickle(mesh)
-                    return (as_array(d["vertices"], "vertices", str(mesh)),
-                            np.asarray(d["faces"], np.int64))
+                    return mesh_fields(load_pickle(mesh), str(mesh))
 
                 samples.append(Sample(row, None, {
                     "garment": functools.partial(_load_garment, take, f, label),

@@ -38,10 +38,11 @@ from dressmeup.body.params import BodyParams
 from dressmeup.data.adapters.base import (
     ReadReport,
     SampleCollection,
-    as_array,
-    clean_id,
+    as_vector,
+    distinct_id,
     load_pickle,
     make_row,
+    require_fields,
 )
 from dressmeup.data.dataset import GarmentMesh, Sample
 from dressmeup.errors import InputError
@@ -53,6 +54,7 @@ CONVENTIONS = ("auto", "icon", "transl")
 def thuman_convention(param: dict, source: str = "smplx_param.pkl") -> str:
     """``icon`` when the fit has ``scale`` and ``translation``, else ``transl`` when it has
     ``transl``; raises :class:`InputError` when it has neither."""
+    require_fields(param, (), source)
     if "scale" in param and "translation" in param:
         return "icon"
     if "transl" in param:
@@ -75,12 +77,10 @@ def thuman_body(param: dict, source: str = "smplx_param.pkl", gender: str = "mal
 
     if convention not in CONVENTIONS:
         raise InputError(f"convention: expected one of {CONVENTIONS}, got {convention!r}")
-    for k in ("betas", "global_orient", "body_pose"):
-        if k not in param:
-            raise InputError(f"{source}: missing field {k!r}")
-    betas = as_array(param["betas"], "betas", source).reshape(-1)
-    pose = np.concatenate([as_array(param["global_orient"], "global_orient", source).reshape(-1),
-                           as_array(param["body_pose"], "body_pose", source).reshape(-1)])
+    require_fields(param, ("betas", "global_orient", "body_pose"), source)
+    betas = as_vector(param["betas"], "betas", source)
+    pose = np.concatenate([as_vector(param["global_orient"], "global_orient", source),
+                           as_vector(param["body_pose"], "body_pose", source)])
     if pose.size % 3:
         raise InputError(f"{source}: pose size {pose.size} is not a multiple of 3")
     conv = thuman_convention(param, source) if convention == "auto" else convention
@@ -88,13 +88,13 @@ def thuman_body(param: dict, source: str = "smplx_param.pkl", gender: str = "mal
         for k in ("scale", "translation"):
             if k not in param:
                 raise InputError(f"{source}: convention 'icon' needs field {k!r}")
-        scale = float(as_array(param["scale"], "scale", source).reshape(-1)[0])
-        transl = as_array(param["translation"], "translation", source).reshape(3)
+        scale = float(as_vector(param["scale"], "scale", source, 1)[0])
+        transl = as_vector(param["translation"], "translation", source, 3)
     else:
         if "transl" not in param:
             raise InputError(f"{source}: convention 'transl' needs field 'transl'")
         scale = 1.0
-        transl = as_array(param["transl"], "transl", source).reshape(3)
+        transl = as_vector(param["transl"], "transl", source, 3)
     return BodyParams(model="smplx", gender=gender, shape=betas, pose=pose.reshape(-1, 3),
                       transl=transl, scale=scale)
 
@@ -123,7 +123,7 @@ def read_thuman(scans: str | os.PathLike, smplx: str | os.PathLike | None = None
                 + (" (ICON's THuman2.0 convention)" if gender == "male" else ""))
     samples = []
     for obj in objs:
-        sid = clean_id(obj.stem)
+        sid = distinct_id(obj.stem)  # "a b" and "a_b" stay two samples
         pkl = Path(smplx) / obj.stem / "smplx_param.pkl" if smplx is not None else None
         if pkl is not None and not pkl.is_file():
             report.note(f"{obj.stem}: no smplx_param.pkl, the sample has no body")

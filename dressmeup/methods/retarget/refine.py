@@ -40,9 +40,10 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from dressmeup.errors import MissingModelError
+from dressmeup.errors import InputError, MissingModelError
 from dressmeup.geometry.mesh import edges as mesh_edges
 from dressmeup.io.atomic import atomic_write_bytes
+from dressmeup.methods.nn.checkpoint import load_checkpoint
 from dressmeup.methods.retarget.base import body_context, check_garment
 from dressmeup.methods.retarget.isomap import IsomapRetarget
 from dressmeup.methods.retarget.refine_config import PRESETS, RefineConfig, get_config
@@ -300,23 +301,24 @@ class IsomapRefine(IsomapRetarget):
     @classmethod
     def load(cls, path, device: str = "cpu") -> IsomapRefine:
         """Read a checkpoint written by :meth:`save` (hyperparameters included)."""
-        # heavy: torch (~1.1 s to import)
-        import torch
-
         path = Path(path)
         if not path.is_file():
             raise MissingModelError(f"{cls.name} weights not found: {path}; train them with "
                                     f"'dressmeup baseline train-retarget --data ROOT --out {path}'")
-        ckpt = torch.load(path, map_location="cpu", weights_only=True)
-        if not isinstance(ckpt, dict) or ckpt.get("format") != cls._format:
-            raise MissingModelError(f"{path}: not an {cls.name} checkpoint (format {cls._format} expected)")
+        ckpt = load_checkpoint(path, f"{cls.name} weights", cls._format,
+                               ("hyperparameters", "state_dict"))
         obj = cls(device=device, weights=str(path), **ckpt["hyperparameters"])
         obj._load_state(ckpt)
         return obj
 
     def _load_state(self, ckpt: dict) -> None:
         net = self.new_network()
-        net.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in ckpt["state_dict"].items()})
+        try:
+            net.load_state_dict({k: v.float() if v.is_floating_point() else v
+                                 for k, v in ckpt["state_dict"].items()})
+        except (RuntimeError, AttributeError, TypeError) as exc:
+            raise InputError(f"{self.name} weights {self.weights}: they do not fit the "
+                             f"network ({str(exc).splitlines()[0][:200]})") from exc
         net.eval()
         self.network_ = net
         self.body_model_name_ = ckpt.get("body_model", "")
@@ -325,18 +327,14 @@ class IsomapRefine(IsomapRetarget):
         """Load the weights (``weights`` or the shipped file of ``body_model``) unless fitted or loaded."""
         if hasattr(self, "network_"):
             return
-        # heavy: torch (~1.1 s to import)
-        import torch
-
         path = Path(self.weights) if self.weights else WEIGHTS_DIR / f"{self.weights_stem}_{body_model.name}.pt"
         if not path.is_file():
             raise MissingModelError(
                 f"{self.name}: no trained weights for body model {body_model.name!r} (looked for {path}); "
                 "train them with 'dressmeup baseline train-retarget --data ROOT --out WEIGHTS.pt' and pass "
                 "weights=WEIGHTS.pt (CLI: --weights)")
-        ckpt = torch.load(path, map_location="cpu", weights_only=True)
-        if ckpt.get("format") != self._format:
-            raise MissingModelError(f"{path}: not an {self.name} checkpoint (format {self._format} expected)")
+        ckpt = load_checkpoint(path, f"{self.name} weights", self._format,
+                               ("hyperparameters", "state_dict"))
         keep = ("correspondence_noise", "steps", "lr", "carry_offset", "precompute")
         self.set_params(**{k: v for k, v in ckpt["hyperparameters"].items() if k not in keep})
         self._load_state(ckpt)

@@ -24,7 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_bytes
+from dressmeup.methods.nn.checkpoint import load_checkpoint
 from dressmeup.methods.nn.convergence import converged
 from dressmeup.progress import progress
 
@@ -141,13 +143,17 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
     best_state, best_score = None, np.inf
     ckpt_path = Path(checkpoint) if checkpoint else None
     if ckpt_path is not None and ckpt_path.is_file():
-        ck = torch.load(ckpt_path, map_location="cpu", weights_only=True)
-        if not isinstance(ck, dict) or ck.get("format") != _CKPT_FORMAT:
-            raise ValueError(f"{ckpt_path}: not a training checkpoint ({_CKPT_FORMAT})")
-        net.load_state_dict(ck["network"])
-        opt.load_state_dict(ck["optimizer"])
-        start = int(ck["step"])
-        history = TrainHistory.from_dict(ck["history"])
+        ck = load_checkpoint(ckpt_path, "training checkpoint", _CKPT_FORMAT,
+                             ("network", "optimizer", "step", "history"))
+        try:
+            net.load_state_dict(ck["network"])
+            opt.load_state_dict(ck["optimizer"])
+            start = int(ck["step"])
+            history = TrainHistory.from_dict(ck["history"])
+        except (RuntimeError, ValueError, TypeError, KeyError) as exc:
+            raise InputError(f"training checkpoint {ckpt_path}: it does not fit this run's "
+                             f"network ({str(exc).splitlines()[0][:200]}); delete it to start "
+                             "over") from exc
         best_state, best_score = ck["best_state"], float(ck["best_score"])
         log.info("resumed %s at step %d", ckpt_path, start)
     rng = np.random.default_rng(int(method.seed))

@@ -14,6 +14,7 @@ Methods (all return per-corner UVs, see :class:`UVResult`):
 from __future__ import annotations
 
 import importlib
+import inspect
 from typing import Any
 
 from dressmeup.errors import InputError
@@ -46,10 +47,17 @@ def get_method(name: str, **hyperparameters: Any):
 
     Raises
     ------
-    ValueError
-        Unknown method name.
+    InputError
+        Unknown method name, or a hyperparameter the method does not have.
     """
     if name not in METHODS:
         raise InputError(f"method: expected one of {', '.join(METHODS)}, got {name!r}")
-    module, cls = METHODS[name]
-    return getattr(importlib.import_module(module), cls)(**hyperparameters)
+    module, cls_name = METHODS[name]
+    cls = getattr(importlib.import_module(module), cls_name)
+    params = inspect.signature(cls.__init__).parameters
+    if not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        known = [p for p in params if p != "self"]
+        bad = sorted(set(hyperparameters) - set(known))
+        if bad:
+            raise InputError(f"{name}: unknown hyperparameter(s) {bad}; known: {known}")
+    return cls(**hyperparameters)

@@ -28,6 +28,7 @@ from dressmeup.bench.tasks.common import (
 )
 from dressmeup.errors import InputError
 from dressmeup.io.mesh import load_mesh
+from dressmeup.metrics.report import scale_mismatch
 
 FILE_SUFFIXES = (".npz", ".ply", ".obj")
 
@@ -123,11 +124,17 @@ def items(edition: Any, data_root: Path) -> list[Item]:
 
 
 @functools.lru_cache(maxsize=64)
+def source_garment(root: str, sample_id: str) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices ``(n, 3) float64`` and faces ``(m, 3) int64`` of a sample's garment
+    (cached)."""
+    ds = open_dataset(root)
+    g = _sample(ds, sample_id).garment()
+    return np.asarray(g.vertices, dtype=np.float64), np.asarray(g.faces, dtype=np.int64)
+
+
 def source_faces(root: str, sample_id: str) -> np.ndarray:
     """Faces ``(m, 3) int64`` of a sample's garment (cached)."""
-    ds = open_dataset(root)
-    sample = _sample(ds, sample_id)
-    return np.asarray(sample.garment().faces, dtype=np.int64)
+    return source_garment(root, sample_id)[1]
 
 
 def _sample(ds, sample_id: str):
@@ -172,6 +179,14 @@ def check_file(path: Path, item: Item, edition: Any) -> list[str]:
         return [f"unreadable: {exc}"]
     n = item.expect["n_vertices"]
     problems = array_problems("vertices", V, 3, n)
+    if not problems:
+        try:
+            src_V = source_garment(item.meta["data_root"], item.meta["source_id"])[0]
+        except (InputError, OSError):  # the dataset's own problems are reported elsewhere
+            src_V = np.zeros((0, 3))
+        mismatch = scale_mismatch(V, src_V, "prediction", "source garment")
+        if mismatch:
+            problems.append(f"'vertices': {mismatch}")
     if F is not None:
         fp = faces_problems("faces", F, V.shape[0] if V.ndim == 2 else 0)
         if fp:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -14,6 +13,7 @@ import numpy as np
 from dressmeup.bench.tasks.base import STATUS_OK, Item
 from dressmeup.bench.tasks.uvparam.data import read_prediction
 from dressmeup.errors import InputError
+from dressmeup.io.jsonio import parse_json_file
 from dressmeup.io.mesh import load_mesh
 from dressmeup.metrics.uv import ase_details, qce_details
 from dressmeup.metrics.uv_layout import uv_seams, uv_validity
@@ -46,8 +46,8 @@ def submission_track(folder: Path, tracks: Sequence[str]) -> str:
 
     path = Path(folder) / "submission.json"
     try:
-        info = json.loads(path.read_text())
-    except (OSError, ValueError):
+        info = parse_json_file(path)
+    except (OSError, InputError):
         info = {}
     track = info.get("track", "per-mesh") if isinstance(info, dict) else "per-mesh"
     if track not in tracks:

@@ -19,9 +19,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
+from dressmeup.errors import InputError
 from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
 from dressmeup.geometry.uv_atlas import split_charts
 from dressmeup.io.atomic import atomic_write_bytes
+from dressmeup.methods.nn.checkpoint import load_checkpoint
 from dressmeup.methods.nn.diffusion_net import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
 from dressmeup.methods.uvparam.neural.patchnet import (
@@ -409,27 +411,27 @@ def load_model(path: str | Path) -> NeuralUVModel:
     ------
     FileNotFoundError
         Missing file.
-    ValueError
-        Not a neural-UV checkpoint.
+    InputError
+        Not a neural-UV checkpoint (or over the limits of :mod:`dressmeup.limits`).
     """
-    # heavy: torch (~1.1 s to import)
-    import torch
-
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"neural UV checkpoint {path} does not exist (train one with "
                                 "'dressmeup baseline train-uvparam')")
-    state = torch.load(path, map_location="cpu", weights_only=True)
-    if not isinstance(state, dict) or state.get("format") != "dressmeup-neural-uv-v1":
-        raise ValueError(f"{path}: not a dressmeup neural UV checkpoint")
-    c = dict(state["config"])
-    c["weights"] = tuple(c["weights"])
-    cfg = NeuralConfig(**c)
-    patchnet, fwd, bwd = _build_modules(cfg)
+    state = load_checkpoint(path, "neural UV checkpoint", "dressmeup-neural-uv-v1",
+                            ("config", "patchnet", "forward_mlp", "backward_mlp"))
     def weights(sd):  # float16 checkpoints (shipped ones) back to float32
         return {k: (v.float() if v.is_floating_point() else v) for k, v in sd.items()}
 
-    patchnet.load_state_dict(weights(state["patchnet"]))
-    fwd.load_state_dict(weights(state["forward_mlp"]))
-    bwd.load_state_dict(weights(state["backward_mlp"]))
+    try:
+        c = dict(state["config"])
+        c["weights"] = tuple(c["weights"])
+        cfg = NeuralConfig(**c)
+        patchnet, fwd, bwd = _build_modules(cfg)
+        patchnet.load_state_dict(weights(state["patchnet"]))
+        fwd.load_state_dict(weights(state["forward_mlp"]))
+        bwd.load_state_dict(weights(state["backward_mlp"]))
+    except (RuntimeError, ValueError, TypeError, KeyError, AttributeError) as exc:
+        raise InputError(f"neural UV checkpoint {path}: damaged or of another version "
+                         f"({str(exc).splitlines()[0][:200]})") from exc
     return NeuralUVModel(cfg, patchnet.eval(), fwd.eval(), bwd.eval(), state.get("history", {}))
