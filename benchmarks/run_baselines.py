@@ -1,9 +1,13 @@
 """Regenerate the reference leaderboards in benchmarks/results/.
 
-For each edition: generate (or reuse) its pinned data, run every available baseline into
-submissions, score them into a NEW run folder, then rewrite
-``benchmarks/results/<edition>.{md,csv,tex,html}`` on purpose (``dressmeup score`` itself
-never overwrites anything; this script owns those four files).
+For each edition: generate (or reuse) its pinned data and split it into its public and
+private parts, run every available baseline on the public part into submissions, score them
+against the private part into a NEW run folder, then rewrite on purpose
+``benchmarks/results/<edition>/<method>/`` (each result's ``summary.json``,
+``per_sample.parquet`` and ``edition.json``, so that anyone can recheck a figure:
+``dressmeup leaderboard benchmarks/results/<edition>/*`` recomputes the table and its
+intervals from them) and ``benchmarks/results/<edition>.{md,csv,tex,html}`` (``dressmeup
+score`` itself never overwrites anything; this script owns those files).
 
     python benchmarks/run_baselines.py                              # every reference edition
     python benchmarks/run_baselines.py --editions synth-uvparam-v1 --methods xatlas lscm
@@ -26,7 +30,8 @@ import sys
 import time
 from pathlib import Path
 
-REFERENCE_EDITIONS = ("synth-retarget-v3", "synth-retarget-mini-v3", "synth-uvparam-v1")
+REFERENCE_EDITIONS = ("synth-retarget-v3", "synth-retarget-thesis-v3", "synth-retarget-mini-v3",
+                      "synth-uvparam-v2")
 RESULTS = Path(__file__).resolve().parent / "results"
 
 
@@ -61,7 +66,8 @@ def main(argv: list[str] | None = None) -> int:
 def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
     """Every edition of ``args``: data, baselines (through ``baseline_executor``; None: in
     this process), scoring (through ``executor``), tables."""
-    from dressmeup.bench import load_edition, runs
+    from dressmeup import runs
+    from dressmeup.bench import load_edition
     from dressmeup.bench.leaderboard import write_leaderboard
     from dressmeup.cache import cache_dir
 
@@ -73,25 +79,44 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
         t0 = time.perf_counter()
         ed = load_edition(name)
         log(f"== {ed.name} ({ed.task}) ==")
-        data = runs.build_data(ed, work / "data" / ed.name, log=log)
+        parts = runs.build_parts(ed, work / "data" / ed.name, log=log)
         kw = {"train_steps": args.train_steps} if ed.task == "retarget" else {}
-        subs = runs.run_baselines(ed, data, run / "submissions" / ed.name,
+        subs = runs.run_baselines(ed, parts.public, run / "submissions" / ed.name,
                                   methods=args.methods, log=log, executor=baseline_executor,
                                   **kw)
         if not subs:
             log(f"no submissions for {ed.name}; tables left unchanged")
             continue
-        results = runs.score_many(subs, ed, data, run / "results" / ed.name,
+        results = runs.score_many(subs, ed, parts.private, run / "results" / ed.name,
                                   executor=executor, log=log)
         results += _kept_results(args.keep_results, ed.name, {r.name for r in results}, log)
         out = Path(args.results)
         out.mkdir(parents=True, exist_ok=True)
+        results = _commit_results(results, out / ed.name)
         for fmt, ext in (("md", "md"), ("csv", "csv"), ("latex", "tex"), ("html", "html")):
             write_leaderboard(results, fmt, out / f"{ed.name}.{ext}")
         log(write_leaderboard(results, "md"))
         log(f"{ed.name}: rewrote {out}/{ed.name}.{{md,csv,tex,html}} "
             f"({time.perf_counter() - t0:.0f} s; run folder {run})")
     return 0
+
+
+def _commit_results(results: list[Path], dest: Path) -> list[Path]:
+    """Copy each result folder's summary, per-item table and edition to ``dest/<method>/``
+    (replacing the edition's previously committed results) and return the copies."""
+    import shutil
+
+    if dest.exists():
+        shutil.rmtree(dest)
+    out = []
+    for res in results:
+        target = dest / Path(res).name
+        target.mkdir(parents=True)
+        for name in ("summary.json", "per_sample.parquet", "edition.json"):
+            if (Path(res) / name).is_file():
+                shutil.copyfile(Path(res) / name, target / name)
+        out.append(target)
+    return out
 
 
 def _kept_results(keep: list[str] | None, edition: str, fresh: set[str], log) -> list[Path]:

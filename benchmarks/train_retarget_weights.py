@@ -83,7 +83,7 @@ def main() -> None:
     import torch
 
     from dressmeup.data import Dataset
-    from dressmeup.methods.retarget.train import train_from_dataset
+    from dressmeup.methods.retarget.train_dataset import train_from_dataset
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", required=True)

@@ -39,7 +39,7 @@ WARP_SHAPES = ("sphere-2k", "torus-2k", "blob-2k", "sheet-2k", "skirt-2k")
 def warped(mesh_id: str, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """A smooth random deformation of a test shape (anisotropic scale + two sine waves):
     a different mesh of a similar kind, so the general model never sees the test meshes."""
-    from dressmeup.methods.uvparam.shapes import make_test_mesh
+    from dressmeup.data.shapes import make_test_mesh
 
     V, F = make_test_mesh(mesh_id)
     rng = np.random.default_rng(seed)

@@ -39,7 +39,7 @@ RUNS = {
 
 
 def run(name: str, data: Path, work: Path) -> Path:
-    from dressmeup.bench import runs
+    from dressmeup import runs
     from dressmeup.bench.score import score_submission
 
     method, params, display = RUNS[name]

@@ -1,13 +1,17 @@
 """The import arrows of docs/architecture.md point one way: a stage imports only stages below it.
 
-Parses every module of the package (no import is executed) and checks each ``dressmeup.*``
-import against the layer table below, so that a cycle or an upward arrow fails here instead of
-surfacing later as a circular import or a tangled design.
+Parses every module of the package (no import is executed) and checks every ``dressmeup.*``
+import, at module level and inside functions, against the layer table below; the whole
+import graph (function-level imports included) must have no cycle; and an import inside a
+function must say in a comment why it is not at module level (a heavy optional dependency,
+start-up time of ``import dressmeup`` / ``dressmeup --help``).
 """
 
 from __future__ import annotations
 
 import ast
+import io
+import tokenize
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "dressmeup"
@@ -16,7 +20,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "dressmeup"
 # SIBLINGS_MAY_IMPORT; otherwise only units of lower layers.
 LAYERS: list[set[str]] = [
     {"dressmeup", "errors", "cache", "progress", "io.atomic", "io.jsonable", "io.jsonio",
-     "io.npz", "executors", "hyperparameters"},
+     "io.npz", "io.hashing", "executors", "hyperparameters"},
     {"geometry"},
     {"metrics", "io.mesh"},
     {"body"},
@@ -24,14 +28,31 @@ LAYERS: list[set[str]] = [
     {"fusion"},
     {"extraction"},
     {"data"},
+    {"bench"},
     {"methods.nn"},
     {"methods.retarget", "methods.uvparam"},
-    {"bench"},
-    {"viz"},
+    {"viz", "runs"},
+    {"server"},
     {"demo"},
     {"cli", "__main__"},
 ]
-SIBLINGS_MAY_IMPORT = {("dressmeup", "errors"), ("executors", "errors"), ("hyperparameters", "errors"), ("io.jsonio", "errors"), ("io.npz", "errors"), ("cli", "__main__"), ("__main__", "cli")}
+SIBLINGS_MAY_IMPORT = {("dressmeup", "errors"), ("executors", "errors"),
+                       ("hyperparameters", "errors"), ("io.jsonio", "errors"),
+                       ("io.npz", "errors"), ("cli", "__main__"), ("__main__", "cli")}
+# what the evaluation devkit may import: it must never run or favour a method
+BENCH_MAY_NOT_IMPORT = ("methods.nn", "methods.retarget", "methods.uvparam", "runs", "viz",
+                        "server", "demo", "cli")
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE.parent).with_suffix("")
+        out[".".join(rel.parts).removesuffix(".__init__")] = path
+    return out
+
+
+MODULES = _modules()
 
 
 def _unit(module: str) -> str | None:
@@ -52,23 +73,76 @@ def _level(unit: str) -> int:
     raise AssertionError(f"unit {unit!r} is not in the layer table of tests/test_architecture.py")
 
 
-def _imports() -> list[tuple[str, str, str]]:
-    """(file, importing unit, imported unit) for every absolute dressmeup import."""
+def _type_checking_nodes(tree: ast.AST) -> set[int]:
+    """ids of the import nodes under ``if TYPE_CHECKING:`` (they never run)."""
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            out |= {id(n) for n in ast.walk(node)}
+    return out
+
+
+def _targets(node: ast.AST, module: str, is_package: bool) -> set[str]:
+    """The package modules an import node imports (``from a.b import c`` is ``a.b.c`` when
+    that is a module, else ``a.b``; relative imports resolved)."""
+    names: set[str] = set()
+    if isinstance(node, ast.Import):
+        names = {a.name for a in node.names}
+    elif isinstance(node, ast.ImportFrom):
+        base = node.module or ""
+        if node.level:
+            parts = module.split(".") if is_package else module.split(".")[:-1]
+            parts = parts[:len(parts) - (node.level - 1)]
+            base = ".".join(parts + ([base] if base else []))
+        for a in node.names:
+            sub = f"{base}.{a.name}"
+            names.add(sub if sub in MODULES else base)
+    out = set()
+    for name in names:
+        while name not in MODULES and "." in name:
+            name = name.rsplit(".", 1)[0]
+        if name in MODULES and name.startswith("dressmeup"):
+            out.add(name)
+    return out
+
+
+def _import_nodes() -> list[tuple[str, Path, ast.AST, bool]]:
+    """(module, path, import node, inside a function) for every import that runs."""
     out = []
-    for path in sorted(PACKAGE.rglob("*.py")):
-        rel = path.relative_to(PACKAGE.parent).with_suffix("")
-        module = ".".join(rel.parts).removesuffix(".__init__")
+    for module, path in MODULES.items():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        skip = _type_checking_nodes(tree)
+        in_function = set()
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                in_function |= {id(n) for n in ast.walk(node)}
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.Import, ast.ImportFrom)) and id(node) not in skip:
+                out.append((module, path, node, id(node) in in_function))
+    return out
+
+
+NODES = _import_nodes()
+
+
+def _graph(function_level: bool = True) -> dict[str, set[str]]:
+    graph: dict[str, set[str]] = {m: set() for m in MODULES}
+    for module, path, node, inside in NODES:
+        if inside and not function_level:
+            continue
+        graph[module] |= _targets(node, module, path.name == "__init__.py") - {module}
+    return graph
+
+
+def _imports() -> list[tuple[str, str, str]]:
+    """(file, importing unit, imported unit) for every package import, at any depth."""
+    out = []
+    for module, path, node, _ in NODES:
         src = _unit(module)
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            names = []
-            if isinstance(node, ast.Import):
-                names = [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-                names = [node.module]
-            for name in names:
-                dst = _unit(name)
-                if dst is not None and dst != src:
-                    out.append((str(rel), src, dst))
+        for target in _targets(node, module, path.name == "__init__.py"):
+            dst = _unit(target)
+            if dst is not None and dst != src:
+                out.append((str(path.relative_to(PACKAGE.parent)), src, dst))
     return out
 
 
@@ -87,45 +161,20 @@ def test_imports_point_down_the_journey():
     assert not upward, "imports against the architecture:\n" + "\n".join(upward)
 
 
-def test_the_checker_sees_an_upward_import():
+def test_the_devkit_imports_no_method():
+    bad = [f"{path}: imports {dst}" for path, src, dst in _imports()
+           if src == "bench" and dst in BENCH_MAY_NOT_IMPORT]
+    assert not bad, "bench must not import methods or what runs them:\n" + "\n".join(bad)
+    assert all(_level(u) > _level("bench") for u in BENCH_MAY_NOT_IMPORT)
+
+
+def test_the_checker_sees_imports_at_every_depth():
     # guard against a checker that silently finds nothing
     found = _imports()
     assert any(src == "bench" and dst == "metrics" for _, src, dst in found)
     assert _level("metrics") < _level("bench")
-
-
-def _module_imports() -> dict[str, set[str]]:
-    """Module -> the package modules it imports at module level (not inside functions).
-
-    ``from a.b import c`` counts as an import of ``a.b.c`` when that is a module, else of
-    ``a.b``; a package's ``__init__`` is the module ``a.b``. Imports under
-    ``if TYPE_CHECKING:`` are left out (they never run).
-    """
-    modules = {}
-    for path in sorted(PACKAGE.rglob("*.py")):
-        rel = path.relative_to(PACKAGE.parent).with_suffix("")
-        modules[".".join(rel.parts).removesuffix(".__init__")] = path
-    graph: dict[str, set[str]] = {}
-    for module, path in modules.items():
-        tree = ast.parse(path.read_text(encoding="utf-8"))
-        out: set[str] = set()
-        todo = list(tree.body)
-        while todo:
-            node = todo.pop()
-            if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-                continue
-            if isinstance(node, (ast.If, ast.Try, ast.With)):  # still module level
-                todo.extend(ast.iter_child_nodes(node))
-                continue
-            if isinstance(node, ast.Import):
-                out.update(a.name for a in node.names if a.name.startswith("dressmeup"))
-            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0 \
-                    and node.module.startswith("dressmeup"):
-                for a in node.names:
-                    sub = f"{node.module}.{a.name}"
-                    out.add(sub if sub in modules else node.module)
-        graph[module] = {m for m in out if m in modules and m != module}
-    return graph
+    # a known import inside a function (the CLI imports its stages lazily)
+    assert any(inside and module.startswith("dressmeup.cli.") for module, _, _, inside in NODES)
 
 
 def _find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
@@ -155,15 +204,86 @@ def _find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
     return None
 
 
-def test_module_level_imports_have_no_cycle():
-    # a cycle works only as long as nobody reorders an import; the layers allow siblings
-    # (e.g. two modules of one unit), so check the module graph itself
-    cycle = _find_cycle(_module_imports())
-    assert cycle is None, "module-level import cycle: " + " -> ".join(cycle)
+def test_the_import_graph_has_no_cycle():
+    # imports inside functions count: a cycle hidden in a function is still two modules that
+    # need each other
+    cycle = _find_cycle(_graph(function_level=True))
+    assert cycle is None, "import cycle: " + " -> ".join(cycle)
 
 
 def test_the_cycle_finder_finds_a_cycle():
     assert _find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
     assert _find_cycle({"a": {"b"}, "b": set()}) is None
-    graph = _module_imports()
+    graph = _graph()
     assert "dressmeup.geometry.topology" in graph["dressmeup.geometry.uv_atlas"]
+
+
+def _comment_lines(source: str) -> set[int]:
+    """Line numbers (1-based) that hold a comment."""
+    lines = set()
+    for tok in tokenize.generate_tokens(io.StringIO(source).readline):
+        if tok.type == tokenize.COMMENT:
+            lines.add(tok.start[0])
+    return lines
+
+
+def _import_runs(tree: ast.AST) -> list[list[ast.AST]]:
+    """Runs of consecutive import statements inside functions (one statement list each)."""
+    runs = []
+    for fn in ast.walk(tree):
+        if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        for node in ast.walk(fn):
+            for field in ("body", "orelse", "finalbody", "handlers"):
+                stmts = getattr(node, field, None)
+                if not isinstance(stmts, list):
+                    continue
+                run: list[ast.AST] = []
+                for stmt in [*stmts, None]:
+                    if isinstance(stmt, (ast.Import, ast.ImportFrom)):
+                        run.append(stmt)
+                    elif run:
+                        runs.append(run)
+                        run = []
+    return runs
+
+
+def _unexplained_function_imports() -> list[str]:
+    """Imports inside functions without a reason: a comment on one of the lines of a run of
+    consecutive imports, or on the line above the run (blank lines skipped)."""
+    out, seen = [], set()
+    for path in MODULES.values():
+        source = path.read_text(encoding="utf-8")
+        tree = ast.parse(source)
+        skip = _type_checking_nodes(tree)
+        comments = _comment_lines(source)
+        lines = source.splitlines()
+        for run in _import_runs(tree):
+            if id(run[0]) in seen or all(id(n) in skip for n in run):
+                continue
+            seen.update(id(n) for n in run)
+            span = set(range(run[0].lineno, run[-1].end_lineno + 1))
+            above = run[0].lineno - 1
+            while above >= 1 and not lines[above - 1].strip():
+                above -= 1
+            if comments & span or (above in comments
+                                   and lines[above - 1].strip().startswith("#")):
+                continue
+            out += [f"{path.relative_to(PACKAGE.parent)}:{n.lineno}: {ast.unparse(n)}"
+                    for n in run]
+    return out
+
+
+def test_imports_inside_functions_say_why():
+    missing = _unexplained_function_imports()
+    assert not missing, (f"{len(missing)} imports inside functions without a '# reason' comment "
+                         "(move them to module level, or say why they are lazy):\n"
+                         + "\n".join(missing))
+
+
+def test_the_reason_check_sees_a_bare_import():
+    src = ("def f():\n    import torch\n    return torch\n\n\n"
+           "def g():\n    # heavy: torch\n    import torch\n    import open3d\n")
+    runs = _import_runs(ast.parse(src))
+    assert [[n.lineno for n in r] for r in runs] == [[2], [8, 9]]
+    assert 7 in _comment_lines(src) and 2 not in _comment_lines(src)

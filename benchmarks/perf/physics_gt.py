@@ -3,7 +3,7 @@
 A garment is made on the slim tall woman (S01) and worn by the heavy short older man (S02),
 the largest shape change of the subject table; the body goes from S01 at rest to S02 at rest
 (shape path) and then to the pose (pose path), with the same intermediate bodies for both
-solvers (:func:`dressmeup.data.synth.dressing.path_bodies`), and the cloth follows from its
+solvers (:func:`dressmeup.data.synth.simulation.path_bodies`), and the cloth follows from its
 designed shape. Per garment, pose and solver: share of the garment's area inside the body
 (face centroids, winding number), self-intersecting faces (pymeshlab), edge strain
 |l/L - 1| (mean, 99th percentile), CPU seconds; for the sensitivity, the median and mean
@@ -83,7 +83,7 @@ class Scene:
 
     def paths(self, gtype: str, pose_name: str, garment_V: np.ndarray, settings):
         """Intermediate bodies: the design body at rest, the shape path, the pose path."""
-        from dressmeup.data.synth.dressing import path_bodies
+        from dressmeup.data.synth.simulation import path_bodies
         from dressmeup.data.synth.poses import pose_axis_angle
 
         s0, s1 = self.shapes
@@ -102,7 +102,7 @@ def perturbed(V: np.ndarray, amount: float = 0.005, seed: int = 1) -> np.ndarray
 
 
 def run_ours(scene: Scene, gtype: str, pose_name: str, run: str) -> dict:
-    from dressmeup.data.synth.dressing import BodyAnchors, Dresser, DressSettings
+    from dressmeup.data.synth.simulation import BodyAnchors, Dresser, DressSettings
 
     g, V0 = scene.garment(gtype)
     settings = DressSettings().longer(2.0) if run == "longer" else DressSettings()
@@ -123,7 +123,7 @@ def run_ours(scene: Scene, gtype: str, pose_name: str, run: str) -> dict:
 
 
 def run_newton(scene: Scene, gtype: str, pose_name: str, run: str, frame_s: float) -> dict:
-    from dressmeup.data.synth.dressing import BodyAnchors, DressSettings
+    from dressmeup.data.synth.simulation import BodyAnchors, DressSettings
 
     g, V0 = scene.garment(gtype)
     settings = DressSettings()

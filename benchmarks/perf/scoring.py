@@ -135,7 +135,7 @@ def main() -> None:
     if args.procedural:
         root, edition = procedural_edition(tmp, args)
     else:
-        from dressmeup.bench import runs
+        from dressmeup import runs
         from dressmeup.cache import cache_dir
 
         edition = load_edition(args.edition)

@@ -49,8 +49,8 @@ def main() -> None:
     args = ap.parse_args()
 
     from dressmeup.body import BodyParams, get_body_model
+    from dressmeup.data.synth.dressing import garment_weights
     from dressmeup.data.synth.garments import BodyFrame, build_garment, sample_params
-    from dressmeup.data.synth.generate import garment_weights
     from dressmeup.data.synth.poses import pose_axis_angle
     from dressmeup.data.synth.wardrobe import (
         BODY_DECIMALS,

@@ -20,7 +20,7 @@ EDITION = "synth-retarget-v2"
 
 
 def main(argv: list[str] | None = None) -> int:
-    from dressmeup.bench.runs import build_data
+    from dressmeup.runs import build_data
     from dressmeup.viz.contact_sheet import render_dataset_contact_sheet
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -25,8 +25,8 @@ SKIN_RGB = (0.72, 0.72, 0.72)
 
 
 def main(argv: list[str] | None = None) -> int:
-    from dressmeup.bench.runs import build_data
     from dressmeup.data import Dataset
+    from dressmeup.runs import build_data
     from dressmeup.viz.contact_sheet import MeshLayer, render_contact_sheet
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

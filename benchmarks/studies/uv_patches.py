@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from dressmeup.data.shapes import make_test_mesh
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.methods.uvparam.evaluate import markdown_table, score_uv
 from dressmeup.methods.uvparam.neural.infer import infer
 from dressmeup.methods.uvparam.neural.train import train
-from dressmeup.methods.uvparam.shapes import make_test_mesh
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 

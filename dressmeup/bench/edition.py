@@ -23,7 +23,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from dressmeup.bench.tasks import get_task
+from dressmeup.bench.tasks.common import manifest_sha256
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_write_text
 
 SCHEMA = "dressmeup-edition/1"
 TASKS = ("retarget", "uvparam", "fusion", "registration", "correspondence")
@@ -80,6 +83,25 @@ class DatasetPin:
 
 
 @dataclass(frozen=True)
+class PrimaryFigure:
+    """The figure an edition's leaderboards rank by.
+
+    Attributes
+    ----------
+    metric : a metric of the edition.
+    track : a track of the edition, or None: the metric over every item.
+    """
+
+    metric: str
+    track: str | None = None
+
+    @property
+    def key(self) -> str:
+        """The leaderboard column: ``metric`` or ``metric#track``."""
+        return self.metric if self.track is None else f"{self.metric}#{self.track}"
+
+
+@dataclass(frozen=True)
 class Edition:
     """A loaded, validated benchmark edition (see the module docstring).
 
@@ -92,12 +114,15 @@ class Edition:
     split : the manifest split scored (``test``).
     metrics : metric names, in table order (a subset of the task's metrics).
     options : metric options, task defaults filled in.
-    primary_metric : the metric leaderboards sort by.
+    primary : the figure leaderboards rank by (:class:`PrimaryFigure`: a metric, over one
+        track or over all items). In the JSON file: ``primary_metric`` and, for a track,
+        ``primary: {"metric": m, "track": t}``.
     per_category : metrics shown per category in leaderboards.
     tracks : names of the tracks scored and shown separately (retarget v3: ``re-pose``,
         ``re-shape``, ``cross``); empty for editions without tracks.
-    primary : ``{"metric": m, "track": t}``, the ranking figure of an edition with tracks, or
-        None (rank by ``primary_metric`` over all items).
+    sensitivity : metric -> the ground truth's measured sensitivity in stored units (how far
+        it moves when its solver runs longer or starts elsewhere): leaderboards never call a
+        smaller difference separated; empty when not measured.
     pairs : retarget pair sampling, ``{"seed": int, "per_track": {track: pairs per source
         garment}}``; empty: every pair of the split.
     description : free text (not hashed).
@@ -111,13 +136,13 @@ class Edition:
     split: str
     metrics: tuple[str, ...]
     options: dict[str, Any]
-    primary_metric: str
+    primary: PrimaryFigure
     per_category: tuple[str, ...] = ()
     description: str = ""
     source: str = ""
     tracks: tuple[str, ...] = ()
-    primary: dict[str, str] | None = None
     pairs: dict[str, Any] = field(default_factory=dict)
+    sensitivity: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self, include_description: bool = True) -> dict[str, Any]:
         """Serialise to the JSON structure of the edition file (defaults filled in)."""
@@ -130,16 +155,18 @@ class Edition:
             "split": self.split,
             "metrics": list(self.metrics),
             "options": copy.deepcopy(self.options),
-            "primary_metric": self.primary_metric,
+            "primary_metric": self.primary.metric,
             "per_category": list(self.per_category),
         }
         # optional fields (editions v3): absent from older editions, so their hash is unchanged
         if self.tracks:
             d["tracks"] = list(self.tracks)
-        if self.primary:
-            d["primary"] = dict(self.primary)
+        if self.primary.track is not None:
+            d["primary"] = {"metric": self.primary.metric, "track": self.primary.track}
         if self.pairs:
             d["pairs"] = copy.deepcopy(self.pairs)
+        if self.sensitivity:
+            d["sensitivity"] = dict(self.sensitivity)
         if include_description:
             d["description"] = self.description
         return d
@@ -161,7 +188,6 @@ class Edition:
 
     def save(self, path: str | os.PathLike) -> None:
         """Write the edition as pretty JSON (atomically)."""
-        from dressmeup.io.atomic import atomic_write_text
 
         atomic_write_text(path, json.dumps(self.to_dict(), indent=2, sort_keys=False) + "\n")
 
@@ -225,7 +251,6 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
     InputError
         Listing every invalid or missing field of the edition.
     """
-    from dressmeup.bench.tasks import get_task
 
     problems: list[str] = []
     if not isinstance(data, dict):
@@ -237,7 +262,7 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
         if key not in data:
             problems.append(f"missing field {key!r}")
     known = set(_REQUIRED) | {"schema", "options", "primary_metric", "per_category",
-                              "description", "tracks", "primary", "pairs"}
+                              "description", "tracks", "primary", "pairs", "sensitivity"}
     for key in sorted(set(data) - known):
         problems.append(f"unknown field {key!r}")
     name = data.get("name", "")
@@ -296,13 +321,25 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
         problems.append(f"per_category must list metrics of the edition, got {per_category!r}")
         per_category = []
     tracks, primary_track, pairs = _parse_tracks(data, metrics, problems)
+    if primary_track is not None and primary_track["metric"] != primary:
+        problems.append(f"primary.metric {primary_track['metric']!r} differs from primary_metric "
+                        f"{primary!r}: an edition ranks by one figure")
+    sensitivity = data.get("sensitivity", {})
+    if not isinstance(sensitivity, dict) or any(
+            m not in metrics or isinstance(v, bool) or not isinstance(v, (int, float)) or v < 0
+            for m, v in sensitivity.items()):
+        problems.append(f"sensitivity must map metrics of the edition to numbers >= 0, got "
+                        f"{sensitivity!r}")
+        sensitivity = {}
     if problems:
         raise InputError(f"edition {source} is invalid:\n  - " + "\n  - ".join(problems))
     return Edition(name=name, version=int(version), task=task_name, dataset=pin,
                    split=split, metrics=tuple(metrics), options=options,
-                   primary_metric=primary, per_category=tuple(per_category),
+                   primary=PrimaryFigure(primary, primary_track and primary_track["track"]),
+                   per_category=tuple(per_category),
                    description=str(data.get("description", "")), source=source,
-                   tracks=tracks, primary=primary_track, pairs=pairs)
+                   tracks=tracks, pairs=pairs,
+                   sensitivity={str(k): float(v) for k, v in sensitivity.items()})
 
 
 def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]
@@ -328,8 +365,13 @@ def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]
     if not isinstance(pairs, dict):
         problems.append(f"pairs must be an object, got {type(pairs).__name__}")
         return tuple(tracks), primary, {}
-    for key in sorted(set(pairs) - {"seed", "per_track"}):
-        problems.append(f"unknown field pairs.{key} (known: seed, per_track)")
+    for key in sorted(set(pairs) - {"seed", "per_track", "categories"}):
+        problems.append(f"unknown field pairs.{key} (known: seed, per_track, categories)")
+    cats = pairs.get("categories")
+    if cats is not None and (not isinstance(cats, list) or not cats
+                             or not all(isinstance(c, str) and c for c in cats)):
+        problems.append(f"pairs.categories must be a non-empty list of category names, "
+                        f"got {cats!r}")
     if pairs:
         seed = pairs.get("seed")
         if not isinstance(seed, int) or isinstance(seed, bool):
@@ -385,15 +427,6 @@ def _parse_pin(d: Any) -> tuple[DatasetPin | None, list[str]]:
     return None, [f"dataset.kind must be 'generated' or 'real', got {kind!r}"]
 
 
-def file_sha256(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
-    """sha256 hex digest of a file's bytes."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        while block := fh.read(chunk):
-            h.update(block)
-    return h.hexdigest()
-
-
 def create_edition(data_root: str | os.PathLike, task: str, name: str, *,
                    split: str = "test", metrics: list[str] | None = None,
                    primary_metric: str | None = None, per_category: list[str] | None = None,
@@ -426,8 +459,6 @@ def create_edition(data_root: str | os.PathLike, task: str, name: str, *,
         Unknown task, a bad name, no dataset at ``data_root``, or no items of the task in
         ``split`` (the message says which).
     """
-    from dressmeup.bench.tasks import get_task
-    from dressmeup.bench.tasks.common import manifest_sha256
 
     if task not in TASKS:
         raise InputError(f"--task must be one of {', '.join(TASKS)}, got {task!r}")

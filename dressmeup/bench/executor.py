@@ -6,12 +6,11 @@ from __future__ import annotations
 from typing import Any
 
 from dressmeup.executors import Executor, LocalExecutor, make_executor
+from dressmeup.executors.dask_executor import DaskExecutor
 
 
 def __getattr__(name: str) -> Any:
     if name == "DaskExecutor":
-        from dressmeup.executors.dask_executor import DaskExecutor
-
         return DaskExecutor
     raise AttributeError(name)
 

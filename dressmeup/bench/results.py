@@ -6,9 +6,9 @@
       per_sample.parquet   one row per item: sample_id, category, each metric (SI units:
                            metres, m² for squared Chamfer, ratios in [0, 1]), status
                            ("ok" / "error"), error, note, seconds, task-specific ids
-      summary.json         schema "dressmeup-result/2" (``schema_version`` 2): means/std
-                           and 95 % bootstrap intervals (``ci95``, over the task's unit
-                           column, see dressmeup.bench.intervals) per metric, per category
+      summary.json         schema "dressmeup-result/3" (``schema_version`` 3): means/std
+                           and 95 % bootstrap intervals (``ci95``, over the factors the
+                           items share, see dressmeup.bench.intervals) per metric, per category
                            and per track (``per_track``, when rows carry ``track``), counts,
                            ``comparable`` (False when scored on other data), the method
                            (submission.json), edition name/version/hash and its full config,
@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,14 +32,18 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from dressmeup.bench.intervals import LEVEL, METHOD, N_RESAMPLES, SEED, crossed_bootstrap
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_dir, atomic_write_text, only_temp_files
+from dressmeup.io.jsonio import parse_json_file, validate_json
 
-RESULT_SCHEMA = "dressmeup-result/2"
+RESULT_SCHEMA = "dressmeup-result/3"
 #: Integer version of :data:`RESULT_SCHEMA` (stored as ``schema_version``).
-RESULT_SCHEMA_VERSION = 2
+RESULT_SCHEMA_VERSION = 3
 #: Result schemas this toolkit reads. ``/1`` results have no intervals and no tracks;
-#: leaderboards show "–" for them.
-READABLE_SCHEMAS = ("dressmeup-result/1", "dressmeup-result/2")
+#: ``/2`` intervals resampled one unit column; ``/3`` every factor the items share.
+#: Leaderboards recompute intervals from ``per_sample.parquet`` whatever the schema.
+READABLE_SCHEMAS = ("dressmeup-result/1", "dressmeup-result/2", "dressmeup-result/3")
 PER_SAMPLE = "per_sample.parquet"
 SUMMARY = "summary.json"
 EDITION_JSON = "edition.json"
@@ -71,7 +76,7 @@ class Result:
 
     @property
     def schema_version(self) -> int:
-        """1 for ``dressmeup-result/1`` (no intervals, no tracks), 2 for ``/2``."""
+        """1 for ``dressmeup-result/1`` (no intervals, no tracks), 2 for ``/2``, ..."""
         return int(str(self.summary.get("schema", "/1")).rsplit("/", 1)[-1] or 1)
 
     @property
@@ -94,7 +99,6 @@ def check_out_dir(out: str | os.PathLike) -> Path:
     InputError
         When ``out`` exists and is a non-empty folder or a file.
     """
-    from dressmeup.io.atomic import only_temp_files
 
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -115,40 +119,46 @@ def stats(values: np.ndarray) -> dict[str, Any]:
     return {"mean": float(v.mean()), "std": float(v.std()), "n": int(v.size)}
 
 
-def metric_stats(values: np.ndarray, units: np.ndarray | None = None) -> dict[str, Any]:
-    """:func:`stats` plus, when ``units`` is given, the 95 % cluster-bootstrap interval
-    (``ci95`` [lo, hi], ``n_units``, ``distinct_resamples``, ``degenerate``)."""
-    from dressmeup.bench.intervals import bootstrap_mean
+def metric_stats(values: np.ndarray, factors: dict[str, np.ndarray] | None = None
+                 ) -> dict[str, Any]:
+    """:func:`stats` plus, when ``factors`` are given, the 95 % interval over them
+    (:func:`~dressmeup.bench.intervals.crossed_bootstrap`: ``ci95`` [lo, hi], ``levels``,
+    ``df``, ``distinct_resamples``, ``degenerate``)."""
 
     out = stats(values)
-    if units is not None and out["n"]:
-        iv = bootstrap_mean(values, units)
+    if factors and out["n"]:
+        iv = crossed_bootstrap(values, factors)
         if iv is not None:
             out.update(iv.to_dict())
     return out
 
 
-def _group_stats(sub: pd.DataFrame, metrics: list[str], unit: str | None) -> dict[str, Any]:
-    units = sub[unit].to_numpy() if unit and unit in sub else None
-    return {m: metric_stats(sub[m].to_numpy(), units) if m in sub else stats(np.array([]))
+def _group_stats(sub: pd.DataFrame, metrics: list[str], units: Sequence[str]
+                 ) -> dict[str, Any]:
+    factors = {c: sub[c].to_numpy() for c in units}
+    return {m: metric_stats(sub[m].to_numpy(), factors) if m in sub else stats(np.array([]))
             for m in metrics}
 
 
+def factors_of(table: pd.DataFrame, unit_columns: Sequence[str]) -> tuple[str, ...]:
+    """The task's factor columns that ``table`` has (older results lack some)."""
+    return tuple(c for c in unit_columns if c in table)
+
+
 def summarise(table: pd.DataFrame, metrics: list[str], extra: list[str],
-              unit_column: str | None = None) -> dict[str, Any]:
+              unit_columns: Sequence[str] = ()) -> dict[str, Any]:
     """Means, intervals and per-category / per-track means of ``metrics`` over OK rows.
 
     Parameters
     ----------
     table : per-item rows (``status``, ``category``, metric columns, optional ``track``).
     metrics, extra : ranked metric columns and unranked extra columns.
-    unit_column : the independent unit of the bootstrap (task ``UNIT_COLUMN``); None or a
-        missing column: no intervals.
+    unit_columns : the factors the items share (task ``UNIT_COLUMNS``), resampled together
+        by the bootstrap; none present: no intervals.
     """
-    from dressmeup.bench.intervals import LEVEL, N_RESAMPLES, SEED
 
     ok = table[table["status"] == "ok"] if len(table) else table
-    unit = unit_column if unit_column and unit_column in table else None
+    unit = factors_of(table, unit_columns)
     out: dict[str, Any] = {
         "counts": {"items": int(len(table)), "ok": int(len(ok)),
                    "failed": int(len(table) - len(ok))},
@@ -156,10 +166,12 @@ def summarise(table: pd.DataFrame, metrics: list[str], extra: list[str],
         "extra": {c: stats(ok[c].to_numpy()) for c in extra if c in ok},
         "per_category": {},
     }
-    if unit is not None:
-        out["bootstrap"] = {"unit": unit, "n_units": int(ok[unit].nunique()) if len(ok) else 0,
+    if unit:
+        out["bootstrap"] = {"factors": list(unit),
+                            "levels": {c: int(ok[c].nunique()) if len(ok) else 0
+                                       for c in unit},
                             "resamples": N_RESAMPLES, "seed": SEED, "level": LEVEL,
-                            "method": "cluster percentile bootstrap of the item mean"}
+                            "method": METHOD}
     for cat in sorted(table["category"].unique()) if len(table) else []:
         sub_all = table[table["category"] == cat]
         sub = ok[ok["category"] == cat]
@@ -200,7 +212,6 @@ def write_result(out: str | os.PathLike, table: pd.DataFrame, summary: dict[str,
     InputError
         When ``out`` already holds anything.
     """
-    from dressmeup.io.atomic import atomic_dir, atomic_write_text
 
     out = check_out_dir(out)
     # built in a hidden sibling and renamed into place: a killed run leaves no folder behind
@@ -227,7 +238,6 @@ def load_result(path: str | os.PathLike, table: bool = True) -> Result:
         hint = (" (interrupted run: per_sample.parquet without summary.json)"
                 if (folder / PER_SAMPLE).is_file() else "")
         raise InputError(f"{folder} is not a result folder: {SUMMARY} not found{hint}")
-    from dressmeup.io.jsonio import parse_json_file, validate_json
 
     summary = parse_json_file(summary_path)
     if isinstance(summary, dict) and summary.get("schema") in READABLE_SCHEMAS:

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from dressmeup import __version__
 from dressmeup.bench.edition import Edition, load_edition
 from dressmeup.bench.executor import Executor, LocalExecutor
 from dressmeup.bench.provenance import environment
@@ -26,9 +27,12 @@ from dressmeup.bench.results import (
 from dressmeup.bench.submission import submission_hash
 from dressmeup.bench.tasks import get_task
 from dressmeup.bench.tasks.base import STATUS_ERROR
+from dressmeup.bench.tasks.common import other_data_reason
 from dressmeup.bench.validate import ValidationReport, validate_submission
+from dressmeup.data.parts import part_of, withheld_message
 from dressmeup.errors import InputError
 from dressmeup.executors import require_shared
+from dressmeup.progress import progress
 
 
 class InvalidSubmissionError(InputError):
@@ -94,20 +98,20 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     dressmeup.data.integrity.ChecksumError
         When a dataset file the items read differs from the manifest's sha256.
     """
-    from dressmeup import __version__
-    from dressmeup.progress import progress
 
     t_start = time.perf_counter()
     started = _now()
     out = check_out_dir(out)
     ed = load_edition(edition)
     task = get_task(ed.task)
+    if part_of(data_root) == "public":
+        raise InputError(withheld_message(data_root, "the ground truth"))
     report = validate_submission(submission, ed, data_root)
     if not report.ok:
         raise InvalidSubmissionError(report)
     other_data = other_data_reason(ed, report.dataset or {}, data_root)
     if other_data and not allow_other_data:
-        raise InputError(f"{other_data}. Regenerate the data (dressmeup.bench.runs.build_data) "
+        raise InputError(f"{other_data}. Regenerate the data (dressmeup.runs.build_data) "
                          "on a supported machine, or pass --allow-other-data to score it anyway "
                          "as 'not comparable'")
     report.dataset["files_verified"] = _verify_data(Path(data_root), report.items)
@@ -136,7 +140,7 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
             rows.append(res)
     table = _to_table(rows, list(ed.metrics), list(task.extra_columns))
     stats = summarise(table, list(ed.metrics), list(task.extra_columns),
-                      unit_column=task.unit_column)
+                      unit_columns=task.unit_columns)
     info = report.info or {}
     summary: dict[str, Any] = {
         "schema": RESULT_SCHEMA,
@@ -168,30 +172,13 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     return ScoreResult(path=path, summary=summary, table=table)
 
 
-def other_data_reason(ed: Edition, dataset: dict[str, Any],
-                      data_root: str | os.PathLike) -> str | None:
-    """Why the data at ``data_root`` is not the edition's pinned data, or None when it is.
-
-    Only generated editions that record ``dataset.expected_manifest_sha256`` (v3) are checked
-    here (a real dataset's pin is checked by validation and cannot be overridden).
-    """
-    pin = ed.dataset
-    expected = pin.expected_manifest_sha256 if pin.kind == "generated" else None
-    got = dataset.get("manifest_sha256")
-    if not expected or got == expected:
-        return None
-    return (f"the data at {data_root} has manifest sha256 {str(got)[:12]}..., but edition "
-            f"{ed.name} expects {expected[:12]}... (what generator {pin.generator} "
-            f"{pin.generator_version} writes for its parameters); its scores are not comparable "
-            "with the edition's reference results")
-
-
 def _verify_data(data_root: Path, items: list[Any]) -> int:
     """sha256 of every manifest file of the samples the items name (refuse on mismatch).
 
     Items name their samples by id (the item id or a string in ``meta``); a data root
     without a manifest (a task not scored on a dataset) has nothing to verify.
     """
+    # heavy: pyarrow (~0.3 s to import)
     import pyarrow.parquet as pq
 
     from dressmeup.data import layout

@@ -29,7 +29,11 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.bench.edition import Edition, load_edition
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_dir, atomic_path, atomic_write_text
+from dressmeup.io.hashing import sha256_file
+from dressmeup.io.jsonio import parse_json_file, schema_problems
 
 SUBMISSION_JSON = "submission.json"
 REQUIRED_FIELDS = ("task", "edition", "method", "authors", "url", "hardware",
@@ -98,7 +102,6 @@ def read_info(folder: str | os.PathLike) -> tuple[dict[str, Any] | None, list[st
     path = Path(folder) / SUBMISSION_JSON
     if not path.is_file():
         return None, [f"{SUBMISSION_JSON} is missing (fields: {', '.join(REQUIRED_FIELDS)})"]
-    from dressmeup.io.jsonio import parse_json_file, schema_problems
 
     try:
         data = parse_json_file(path)
@@ -118,7 +121,6 @@ def submission_files(folder: str | os.PathLike) -> list[Path]:
 def submission_hash(folder: str | os.PathLike) -> str:
     """sha256 over the sorted (name, sha256 of bytes) of every file, ``submission.json``
     included: any change to a prediction or to the metadata changes it."""
-    from dressmeup.bench.edition import file_sha256
 
     folder = Path(folder)
     h = hashlib.sha256()
@@ -127,7 +129,7 @@ def submission_hash(folder: str | os.PathLike) -> str:
         files = sorted([*files, folder / SUBMISSION_JSON])
     for p in files:
         if p.is_file():
-            h.update(p.name.encode("utf-8") + b"\0" + file_sha256(p).encode("ascii") + b"\n")
+            h.update(p.name.encode("utf-8") + b"\0" + sha256_file(p).encode("ascii") + b"\n")
     return h.hexdigest()
 
 
@@ -162,8 +164,6 @@ def write_submission(out: str | os.PathLike, predictions: Mapping[str, Any], *,
         Invalid item id, a prediction that is not an array/dict of arrays, or a non-empty
         folder without ``overwrite``.
     """
-    from dressmeup.bench.edition import Edition, load_edition
-    from dressmeup.io.atomic import atomic_dir, atomic_write_text
 
     if isinstance(edition, Edition):
         ed_name, ed_task = edition.name, edition.task
@@ -210,7 +210,6 @@ def check_submission_out(out: str | os.PathLike, overwrite: bool = False,
 
 def _write_predictions(out: Path, predictions: Mapping[str, Any]) -> None:
     """Write one ``<item_id>.npz`` per prediction into ``out``."""
-    from dressmeup.io.atomic import atomic_path
 
     for item_id, pred in predictions.items():
         if not isinstance(item_id, str) or not ITEM_ID_RE.match(item_id):

@@ -9,6 +9,9 @@ Threat model: accidents and casual tampering (a hand-edited ``summary.json`` or
 - ``edition.json`` must hash to the edition hash the summary records.
 - A result naming a shipped edition must carry that edition's hash; an edition given as a
   path (a custom edition) is allowed and reported as custom.
+- Comparability is recomputed from the data pin (:func:`comparability`): a result whose
+  dataset manifest is not the one the edition pins is not comparable, whatever its summary
+  says.
 """
 
 from __future__ import annotations
@@ -20,7 +23,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
+from dressmeup.bench.edition import edition_from_dict, list_editions, load_edition
 from dressmeup.bench.results import EDITION_JSON, PER_SAMPLE, SUMMARY, Result, stats
 from dressmeup.errors import InputError
 
@@ -82,7 +87,6 @@ def check_summary(result: Result) -> list[str]:
         path = result.path / PER_SAMPLE
         if not path.is_file():
             return [f"{where}: {PER_SAMPLE} is missing, so the summary cannot be checked"]
-        import pandas as pd
 
         try:
             table = pd.read_parquet(path)
@@ -127,7 +131,6 @@ def check_edition(result: Result) -> tuple[EditionCheck, list[str]]:
     -------
     (EditionCheck, problems)
     """
-    from dressmeup.bench.edition import edition_from_dict, list_editions, load_edition
 
     ed_info = result.summary.get("edition") or {}
     name, claimed = str(ed_info.get("name", "")), str(ed_info.get("hash", ""))
@@ -181,3 +184,22 @@ def verify_results(results: Sequence[Result]) -> EditionCheck:
         raise InputError("results that do not verify cannot join a leaderboard (re-score "
                          "them with 'dressmeup score'):\n  " + "\n  ".join(problems))
     return checks[0] if checks else EditionCheck(False, "")
+
+
+def comparability(result: Result, edition: Any) -> tuple[bool, str | None]:
+    """Whether ``result`` was scored on the data ``edition`` pins, and why not.
+
+    A summary marked not comparable stays so; one marked comparable is checked against the
+    edition's pinned manifest (``expected_manifest_sha256`` of a generated edition,
+    ``manifest_sha256`` of a real one).
+    """
+    if not result.comparable:
+        return False, str(result.summary.get("not_comparable_reason") or "scored on other data")
+    pin = edition.dataset
+    want = pin.expected_manifest_sha256 if pin.kind == "generated" else pin.manifest_sha256
+    got = result.manifest_hash
+    if want and got != want:
+        return False, (f"scored on data with manifest {str(got)[:12]}..., not the "
+                       f"{want[:12]}... edition {edition.name} pins (its summary claims "
+                       "otherwise)")
+    return True, None

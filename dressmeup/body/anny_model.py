@@ -32,13 +32,17 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import sys
+import tempfile
 import threading
 import time
+import warnings
 
 import numpy as np
 
 from dressmeup.body.base import LBSBodyModel
 from dressmeup.body.skeleton import PHENOTYPE_NAMES, SMPL22_JOINT_NAMES, SMPL22_PARENTS
+from dressmeup.cache import cache_dir
 from dressmeup.errors import DressmeupError
 
 logger = logging.getLogger(__name__)
@@ -128,6 +132,7 @@ def _anchor_bones(bone_labels) -> list[list[int]]:
 @contextlib.contextmanager
 def _no_download():
     """Make any attempt of anny to download its non-commercial data fail loudly."""
+    # heavy: anny (~5 s to import, with torch)
     import anny.paths
 
     original = anny.paths.download_noncommercial_data
@@ -146,6 +151,7 @@ def _no_download():
 def _quiet_warp() -> None:
     """Keep warp's initialisation banner (CUDA/devices/kernel cache) off stdout."""
     try:
+        # optional dependency (ImportError handled)
         import warp
     except ImportError:  # pragma: no cover - warp is a dependency of anny
         return
@@ -168,10 +174,9 @@ def init_warp_quietly() -> None:
     initialisation and everything else it wrote is passed on. Does nothing when warp is
     missing; ``warp.init()`` itself does nothing the second time.
     """
-    import sys
-    import tempfile
 
     try:
+        # optional dependency (ImportError handled)
         import warp
     except ImportError:  # pragma: no cover - warp is a dependency of anny
         return
@@ -193,11 +198,10 @@ def init_warp_quietly() -> None:
 
 
 def _configure_caches():
-    from dressmeup.cache import cache_dir
-
     _quiet_warp()
     if not os.environ.get("WARP_CACHE_PATH"):
         try:
+            # optional dependency (ImportError handled)
             import warp
 
             if getattr(warp.config, "kernel_cache_dir", None) is None:
@@ -205,6 +209,7 @@ def _configure_caches():
         except ImportError:  # pragma: no cover - warp is a dependency of anny
             pass
     init_warp_quietly()
+    # heavy: anny (~5 s to import, with torch)
     import anny.paths
 
     path = cache_dir("anny")
@@ -235,8 +240,8 @@ def build_anny(prune_cache: bool = True):
     with _BUILD_LOCK:
         path = _configure_caches()
         t0 = time.perf_counter()
-        import warnings
 
+        # heavy: anny (~5 s to import, with torch)
         import anny
 
         with _no_download(), warnings.catch_warnings():
@@ -264,6 +269,7 @@ class AnnyBody(LBSBodyModel):
     name = "anny"
 
     def __init__(self, prune_cache: bool = True) -> None:
+        # heavy: torch (~1.1 s to import)
         import torch
 
         model, seconds, path = build_anny(prune_cache=prune_cache)
@@ -301,6 +307,7 @@ class AnnyBody(LBSBodyModel):
     # ------------------------------------------------------------------ rest
     def _anny_rest(self, shape):
         """Anny rest vertices (b, N, 3) and bone heads (b, 104, 3) in anny's frame."""
+        # heavy: anny (~5 s to import, with torch)
         from anny.skinning import skinning
 
         m = self.anny
@@ -325,6 +332,7 @@ class AnnyBody(LBSBodyModel):
         The last result is cached for shapes that need no gradient, so repeated poses of one
         body cost only the skinning.
         """
+        # heavy: torch (~1.1 s to import)
         import torch
 
         key = None
@@ -359,6 +367,7 @@ class AnnyBody(LBSBodyModel):
         shape, pose_parameterization=parameterization)``; anny's posed skin then equals this
         model's vertices (rotated back into anny's frame).
         """
+        # heavy: torch (~1.1 s to import)
         import torch
 
         out = self.forward(torch.as_tensor(np.asarray(shape), dtype=torch.float64),

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from dressmeup.body.lbs import axis_angle_to_matrix, forward_kinematics, skin_points
 from dressmeup.body.params import BodyParams
 from dressmeup.errors import InputError
 
@@ -124,6 +125,7 @@ class LBSBodyModel:
         """
         cached = self.__dict__.get("_skin")
         if cached is None:
+            # heavy: scipy (~0.5 s to import)
             from dressmeup.geometry.topology import largest_component
 
             cached = self.__dict__["_skin"] = largest_component(self.faces, self.n_vertices,
@@ -141,6 +143,7 @@ class LBSBodyModel:
 
     def _buffer(self, name: str, dtype, device) -> torch.Tensor:
         """Return numpy attribute ``name`` as a tensor (cached per dtype/device)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         cache = self.__dict__.setdefault("_tensor_cache", {})
@@ -156,6 +159,7 @@ class LBSBodyModel:
                           pose=np.zeros((self.n_joints, 3)))
 
     def _prepare(self, shape, pose, transl, scale):
+        # heavy: torch (~1.1 s to import)
         import torch
 
         ref = next((x for x in (pose, shape, transl, scale) if isinstance(x, torch.Tensor)), None)
@@ -226,7 +230,6 @@ class LBSBodyModel:
         -------
         BodyOutput of torch tensors (dtype of the first tensor input, else float32).
         """
-        from dressmeup.body.lbs import axis_angle_to_matrix, forward_kinematics, skin_points
 
         shape_t, pose_t, transl_t, scale_t = self._prepare(shape, pose, transl, scale)
         rest_v, rest_j = self.rest(shape_t)
@@ -236,6 +239,7 @@ class LBSBodyModel:
         joints, A = forward_kinematics(R, rest_j, self.joint_parents)
         W = self._buffer("skinning_weights", pose_t.dtype, pose_t.device)
         if vertex_ids is not None:
+            # heavy: torch (~1.1 s to import)
             import torch
 
             ids = torch.as_tensor(vertex_ids, dtype=torch.long, device=pose_t.device)
@@ -257,6 +261,7 @@ class LBSBodyModel:
         ``joints (j, 3)``, ``transforms (j, 4, 4)``, ``rest_vertices (n, 3)``,
         ``rest_joints (j, 3)``.
         """
+        # heavy: torch (~1.1 s to import)
         import torch
 
         if not isinstance(params, BodyParams):

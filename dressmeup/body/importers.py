@@ -29,8 +29,12 @@ from pathlib import Path
 
 import numpy as np
 
+from dressmeup.body.models import get_body_model
 from dressmeup.body.params import BodyParams
+from dressmeup.body.safe_pickle import safe_load_pickle
 from dressmeup.errors import InputError
+from dressmeup.io.jsonio import parse_json_file
+from dressmeup.io.npz import load_npz
 
 _IMPORTERS: dict[str, Callable[..., BodyParams]] = {}
 
@@ -46,18 +50,12 @@ def available_importers() -> list[str]:
 
 
 def _read_mapping(path: Path) -> dict:
-    from dressmeup.body.safe_pickle import safe_load_pickle
-
     if not path.is_file():
         raise FileNotFoundError(f"body parameter file not found: {path}")
     suffix = path.suffix.lower()
     if suffix == ".json":
-        from dressmeup.io.jsonio import parse_json_file
-
         data = parse_json_file(path)  # not UTF-8 / not JSON: InputError naming the file
     elif suffix == ".npz":
-        from dressmeup.io.npz import load_npz
-
         data = load_npz(path, what="body parameter file", max_bytes=256 << 20)
     elif suffix in (".pkl", ".pickle"):
         data = safe_load_pickle(path)
@@ -84,7 +82,6 @@ def _field(data: dict, names, path, required=True):
 def _resolve_model(body_model, model_name: str, gender: str, **model_kw):
     if body_model is not None:
         return body_model
-    from dressmeup.body.models import get_body_model
 
     if model_name in ("smpl", "smplh", "smplx"):
         model_kw.setdefault("gender", gender)
@@ -115,6 +112,7 @@ def _shape_for(model, betas: np.ndarray, path, field: str) -> np.ndarray:
 
 
 def _rest_root(model, shape: np.ndarray) -> np.ndarray:
+    # heavy: torch (~1.1 s to import)
     import torch
 
     with torch.no_grad():
@@ -124,6 +122,7 @@ def _rest_root(model, shape: np.ndarray) -> np.ndarray:
 
 
 def _rotvec_compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial.transform import Rotation
 
     return (Rotation.from_rotvec(a) * Rotation.from_rotvec(b)).as_rotvec()
@@ -170,6 +169,7 @@ def import_easymocap(path: str | os.PathLike, body_model=None, model: str = "smp
     pose = _pose_for(bm, poses, path, "poses")
     shape = _shape_for(bm, shapes, path, "shapes")
     J0 = _rest_root(bm, shape)
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial.transform import Rotation
 
     pose[0] = _rotvec_compose(Rh, pose[0])

@@ -24,6 +24,7 @@ def axis_angle_to_matrix(axis_angle: torch.Tensor) -> torch.Tensor:
     -------
     (..., 3, 3) tensor of rotation matrices, differentiable (also at the zero rotation).
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     angle = torch.sqrt((axis_angle * axis_angle).sum(-1, keepdim=True) + 1e-16)
@@ -50,6 +51,7 @@ def matrix_to_axis_angle(R: torch.Tensor) -> torch.Tensor:
     -------
     (..., 3) axis-angle vectors with angle in [0, pi].
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     # Through the quaternion for numerical stability near 0 and pi.
@@ -85,6 +87,7 @@ def forward_kinematics(
     posed_joints : (b, j, 3) joint positions after posing.
     transforms : (b, j, 4, 4) LBS matrices mapping rest-pose points to posed points.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     b, j = rotations.shape[:2]
@@ -121,6 +124,7 @@ def skin_points(points: torch.Tensor, weights: torch.Tensor, transforms: torch.T
     -------
     (b, n, 3) posed points.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     flat = transforms[..., :3, :].reshape(transforms.shape[0], transforms.shape[1], 12)

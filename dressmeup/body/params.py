@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_path
+from dressmeup.io.npz import load_npz
 
 FIELDS = ("model", "gender", "shape", "pose", "transl", "scale")
 
@@ -78,7 +80,6 @@ class BodyParams:
     # ------------------------------------------------------------------ files
     def save(self, path: str | os.PathLike) -> Path:
         """Write the parameters to ``path`` (``.npz``, plain arrays, atomic); return the path."""
-        from dressmeup.io.atomic import atomic_path
 
         path = Path(path)
         if path.suffix != ".npz":
@@ -104,7 +105,6 @@ class BodyParams:
         FileNotFoundError : the file does not exist.
         InputError : a field is missing or has the wrong shape (the message names it).
         """
-        from dressmeup.io.npz import load_npz
 
         path = Path(path)
         if not path.is_file() and not path.exists():

@@ -154,6 +154,7 @@ def _skinning_weights(V: np.ndarray, sigma: float = 0.035) -> np.ndarray:
 
 @functools.lru_cache(maxsize=4)
 def _build(voxel: float) -> tuple[np.ndarray, ...]:
+    # heavy: scipy (~0.5 s to import), igl (~0.4 s to import)
     import igl
     import scipy.sparse as sp
 
@@ -216,6 +217,7 @@ class ProceduralBody(LBSBodyModel):
 
     def rest(self, shape):
         """Shaped rest vertices (b, n, 3) and joints (b, j, 3): template + (shape - 0.5) @ dirs."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         dt, dev = shape.dtype, shape.device

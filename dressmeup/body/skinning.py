@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dressmeup.geometry.mesh import vertex_normals
+
 
 def _check(arr, name: str, shape: tuple) -> np.ndarray:
     a = np.asarray(arr, dtype=np.float64)
@@ -32,6 +34,7 @@ def closest_surface_points(V: np.ndarray, F: np.ndarray, points: np.ndarray):
     face_ids : (p,) int64 face of each closest point; bary : (p, 3) float64 barycentric
     coordinates of the closest point in its face.
     """
+    # heavy: igl (~0.4 s to import)
     import igl
 
     V = np.ascontiguousarray(V, dtype=np.float64)
@@ -121,6 +124,7 @@ def transfer_weights(
     if smooth_iterations:
         if faces is None:
             raise ValueError("faces: needed to smooth the transferred weights")
+        # heavy: scipy (~0.5 s to import)
         import scipy.sparse as sp
 
         from dressmeup.geometry.laplacian import adjacency
@@ -151,9 +155,8 @@ def _reject_facing_away(body_V: np.ndarray, body_F: np.ndarray, body_W: np.ndarr
     the body vertices, and flipped the test for garment points near armpits and crotches
     between two builds of the same body).
     """
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial import cKDTree
-
-    from dressmeup.geometry.mesh import vertex_normals
 
     vert_n = vertex_normals(body_V, body_F)
     at = np.einsum("pk,pkc->pc", bary, vert_n[body_F[fid]])

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from dressmeup.body.base import LBSBodyModel
+from dressmeup.body.safe_pickle import safe_load_pickle
 from dressmeup.body.skeleton import SMPL22_JOINT_NAMES
 from dressmeup.errors import InputError, MissingModelError
 
@@ -116,7 +117,6 @@ def load_model_arrays(path: str | os.PathLike) -> dict[str, np.ndarray]:
     ------
     InputError : unsafe pickle, missing key or wrong shape (names the file and field).
     """
-    from dressmeup.body.safe_pickle import safe_load_pickle
 
     path = Path(path)
     keys = ("v_template", "f", "J_regressor", "weights", "kintree_table", "shapedirs", "posedirs")
@@ -211,6 +211,7 @@ class SMPLBody(LBSBodyModel):
 
     def rest(self, shape):
         """Shaped template (b, n, 3) and regressed joints (b, j, 3)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         dt, dev = shape.dtype, shape.device
@@ -221,6 +222,7 @@ class SMPLBody(LBSBodyModel):
 
     def pose_offsets(self, rotations):
         """Pose correctives ``posedirs @ (R[1:] - I)`` (b, n, 3)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         eye = torch.eye(3, dtype=rotations.dtype, device=rotations.device)

@@ -88,6 +88,7 @@ def synthetic_scan(model, params: BodyParams, n_points: int = 30000, noise: floa
     -------
     points : (p, 3) float64 scan points.
     """
+    # heavy: trimesh (~0.7 s to import)
     import trimesh
 
     rng = np.random.default_rng(seed)

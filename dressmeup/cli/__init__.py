@@ -13,13 +13,15 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import traceback
 from collections.abc import Sequence
 
 from dressmeup import __version__
 from dressmeup.errors import DressmeupError
 
 # One module per stage; each defines ``register(subparsers) -> None``.
-COMMAND_MODULES = ("metrics", "body", "data", "capture", "baseline", "bench", "report")
+COMMAND_MODULES = ("metrics", "body", "data", "capture", "baseline", "bench", "edition",
+                   "server", "report")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -61,8 +63,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write("interrupted\n")
         return 130
     except Exception:  # noqa: BLE001 - the boundary: anything else is a bug to report
-        import traceback
-
         traceback.print_exc()
         sys.stderr.write(
             f"dressmeup {args.command}: internal error (a bug in dressmeup "

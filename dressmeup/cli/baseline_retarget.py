@@ -7,6 +7,7 @@ import sys
 
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
+from dressmeup.hyperparameters import parse_params
 
 
 def register(tasks: argparse._SubParsersAction) -> None:
@@ -62,15 +63,14 @@ def register(tasks: argparse._SubParsersAction) -> None:
 
 
 def _params(items: list[str]) -> dict:
-    from dressmeup.hyperparameters import parse_params
-
     return parse_params(items)
 
 
 def _run(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench import load_edition
-    from dressmeup.bench.runs import run_retarget_baseline
     from dressmeup.bench.submission import check_submission_out
+    from dressmeup.runs import run_retarget_baseline
 
     check_submission_out(args.out, args.overwrite)  # before the work, naming --overwrite
     edition = load_edition(args.edition)
@@ -90,9 +90,11 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from dressmeup.methods.retarget.train import train_from_dataset
+    # start-up time: the stage loads when the command runs
+    from dressmeup.methods.retarget.train_dataset import train_from_dataset
 
     if args.threads:
+        # start-up time: the stage loads when the command runs
         import torch
 
         torch.set_num_threads(int(args.threads))

@@ -16,8 +16,9 @@ from pathlib import Path
 
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
+from dressmeup.hyperparameters import parse_params
 
-METHOD_NAMES = ("xatlas", "lscm", "harmonic", "slim", "neural")
+METHOD_NAMES = ("xatlas", "lscm", "harmonic", "slim", "neural", "lscm-on-charts")
 
 
 def register(tasks: argparse._SubParsersAction) -> None:
@@ -66,21 +67,21 @@ def register(tasks: argparse._SubParsersAction) -> None:
 
 
 def _parse_params(items: list[str]) -> dict:
-    from dressmeup.hyperparameters import parse_params
-
     return parse_params(items)
 
 
 def load_mesh_arg(spec: str):
     """A test-mesh id or a mesh file -> (mesh_id, V, F)."""
+    # start-up time: the stage loads when the command runs
     import numpy as np
 
-    from dressmeup.methods.uvparam.shapes import make_test_mesh
+    from dressmeup.data.shapes import make_test_mesh
 
     path = Path(spec)
     if path.suffix.lower() in (".obj", ".ply", ".off", ".stl", ".glb"):
         if not path.is_file():
             raise FileNotFoundError(f"mesh file {path} does not exist")
+        # start-up time: the stage loads when the command runs
         import trimesh
 
         mesh = trimesh.load(path, force="mesh", process=False)
@@ -91,6 +92,7 @@ def load_mesh_arg(spec: str):
 
 
 def _mesh_ids_from_edition(edition: str) -> list[str]:
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.edition import load_edition
 
     ed = load_edition(edition)
@@ -104,11 +106,12 @@ def _mesh_ids_from_edition(edition: str) -> list[str]:
 
 def _run_uvparam(args: argparse.Namespace) -> int:
 
+    # start-up time: the stage loads when the command runs
     import numpy as np
 
     from dressmeup.bench.submission import check_submission_out
+    from dressmeup.data.shapes import DEFAULT_MESH_IDS
     from dressmeup.methods.uvparam import get_method
-    from dressmeup.methods.uvparam.shapes import DEFAULT_MESH_IDS
     from dressmeup.progress import progress
 
     check_submission_out(args.out, args.overwrite)  # before the work, naming --overwrite
@@ -139,15 +142,17 @@ def _run_uvparam(args: argparse.Namespace) -> int:
         preds[mesh_id] = {"uv": res.uv, "uv_faces": res.uv_faces, "chart_ids": res.chart_ids,
                           "seconds": np.float64(res.seconds)}
         if args.images:
+            # start-up time: the stage loads when the command runs
             from dressmeup.viz.uv_checker import render_uv_checker
 
             render_uv_checker(V, F, res.uv, res.uv_faces, Path(args.images) / f"uv-{args.method}-{mesh_id}.png",
                               title=f"{args.method} on {mesh_id} ({res.n_charts} charts)",
                               chart_ids=res.chart_ids)
         sys.stdout.write(f"{mesh_id}: {len(V)} vertices, {res.n_charts} charts, {res.seconds:.2f} s\n")
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.provenance import hardware
-    from dressmeup.bench.runs import BASELINE_AUTHORS
     from dressmeup.bench.submission import write_submission
+    from dressmeup.runs import BASELINE_AUTHORS
 
     write_submission(out, preds, edition=edition, method=args.method,
                      authors=BASELINE_AUTHORS, url="", hardware=hardware(),
@@ -160,8 +165,9 @@ def _run_uvparam(args: argparse.Namespace) -> int:
 
 
 def _run_on_mesh_set(args: argparse.Namespace, params: dict) -> int:
-    """``--data``: every mesh of the edition's split, through :func:`bench.runs.run_uvparam_baseline`."""
-    from dressmeup.bench.runs import run_uvparam_baseline
+    """``--data``: every mesh of the edition's split, through :func:`dressmeup.runs.run_uvparam_baseline`."""
+    # start-up time: the stage loads when the command runs
+    from dressmeup.runs import run_uvparam_baseline
 
     if args.edition is None:
         raise InputError("--data needs --edition (the edition whose mesh set --data holds)")
@@ -176,12 +182,13 @@ def _run_on_mesh_set(args: argparse.Namespace, params: dict) -> int:
 
 
 def _run_train(args: argparse.Namespace) -> int:
-    from dressmeup.methods.uvparam.neural.method import decimate_for_training
+    # start-up time: the stage loads when the command runs
+    from dressmeup.geometry.simplify import decimate
     from dressmeup.methods.uvparam.neural.train import get_config, save_model, train
 
     cfg = get_config(args.config, **_parse_params(args.param))
     mesh_id, V, F = load_mesh_arg(args.mesh)
-    Vt, Ft = decimate_for_training(V, F, cfg.train_vertices)
+    Vt, Ft = decimate(V, F, cfg.train_vertices)
     model = train(Vt, Ft, cfg, progress=True)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     save_model(model, args.out)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
@@ -73,34 +74,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_editions)
 
     p = subparsers.add_parser(
-        "edition", help="make an edition for a dataset you built ('edition create')",
-        description="Editions for your own data. 'dressmeup edition create --data ROOT "
-                    "--task retarget --name N' writes N.json pinned by the sha256 of ROOT's "
-                    "manifest, so a lab can run the benchmark protocol on data that cannot "
-                    "be shipped (e.g. built with the CLOTH3D adapter from a licensed copy).")
-    esub = p.add_subparsers(dest="edition_command", metavar="ACTION", required=True)
-    c = esub.add_parser(
-        "create", help="write an edition pinned by the manifest sha256 of a dataset",
-        description="Write an edition JSON pinned by the sha256 of DATA/manifest.parquet "
-                    "(scoring refuses any other data), with the task's default options. "
-                    "Check it scores your data with 'dressmeup validate-submission'.")
-    c.add_argument("--data", "-d", required=True, help="dataset root (dataset.json + "
-                   "manifest.parquet)")
-    c.add_argument("--task", "-t", required=True,
-                   choices=("retarget", "uvparam", "fusion", "registration", "correspondence"))
-    c.add_argument("--name", "-n", required=True, help="edition name (letters, digits, . - _)")
-    c.add_argument("--split", default="test", help="manifest split scored (default test)")
-    c.add_argument("--metrics", default=None,
-                   help="comma-separated metrics in table order (default: all of the task)")
-    c.add_argument("--primary-metric", default=None,
-                   help="metric leaderboards sort by (default: the first)")
-    c.add_argument("--version", type=int, default=1, help="edition version (default 1)")
-    c.add_argument("--description", default=None, help="free text (default: generated)")
-    c.add_argument("--out", "-o", default=None, help="edition file (default: NAME.json)")
-    c.add_argument("--overwrite", action="store_true", help="replace an existing file")
-    c.set_defaults(func=_edition_create)
-
-    p = subparsers.add_parser(
         "demo", help="the whole journey on a small synthetic dataset (a few minutes)",
         description="Generate a small synthetic dataset, run every available retargeting "
                     "baseline (and UV baselines / one fused synthetic capture when those "
@@ -117,6 +90,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _validate(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.validate import validate_submission
 
     report = validate_submission(args.submission, args.edition, args.data)
@@ -127,6 +101,7 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _score(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.leaderboard import format_summary
     from dressmeup.bench.score import InvalidSubmissionError, score_submission
 
@@ -145,6 +120,7 @@ def _score(args: argparse.Namespace) -> int:
 
 
 def _leaderboard(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.leaderboard import write_leaderboard
 
     per_cat = None
@@ -161,8 +137,7 @@ def _leaderboard(args: argparse.Namespace) -> int:
 
 
 def _editions(args: argparse.Namespace) -> int:
-    import json
-
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.edition import list_editions, load_edition
 
     if args.name:
@@ -176,29 +151,9 @@ def _editions(args: argparse.Namespace) -> int:
     return 0
 
 
-def _edition_create(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from dressmeup.bench.edition import create_edition
-    from dressmeup.errors import InputError
-
-    out = Path(args.out or f"{args.name}.json")
-    if out.exists() and not args.overwrite:
-        raise InputError(f"{out} already exists: choose another --out or pass --overwrite")
-    metrics = [m.strip() for m in args.metrics.split(",") if m.strip()] if args.metrics \
-        else None
-    ed = create_edition(args.data, args.task, args.name, split=args.split, metrics=metrics,
-                        primary_metric=args.primary_metric, version=args.version,
-                        description=args.description)
-    ed.save(out)
-    sys.stdout.write(f"edition {ed.name} written to {out}\n  dataset manifest sha256 "
-                     f"{ed.dataset.manifest_sha256}\n  edition hash {ed.hash}\n"
-                     f"score with: dressmeup score SUBMISSION --edition {out} --data "
-                     f"{args.data} --out RESULTS\n")
-    return 0
-
 
 def _demo(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.demo import run_demo
 
     res = run_demo(out=args.out, workers=args.workers, quick=args.quick,

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_write_text
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -62,8 +64,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _load_scan(path: str):
-    from pathlib import Path
-
+    # start-up time: the stage loads when the command runs
     import numpy as np
 
     p = Path(path)
@@ -77,9 +78,11 @@ def _load_scan(path: str):
         except ValueError as exc:
             raise InputError(f"{p}: not a point list of x y z rows ({exc})") from exc
     if p.suffix.lower() == ".ply":  # a mesh or a point cloud: header checked before parsing
+        # start-up time: the stage loads when the command runs
         from dressmeup.io.mesh import check_ply_header
 
         check_ply_header(p)
+    # start-up time: the stage loads when the command runs
     import trimesh
 
     try:
@@ -92,23 +95,25 @@ def _load_scan(path: str):
 
 
 def _load_keypoints(path: str):
-    from pathlib import Path
-
+    # start-up time: the stage loads when the command runs
     import numpy as np
 
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"keypoints file not found: {p}")
     if p.suffix.lower() == ".json":
+        # start-up time: the stage loads when the command runs
         from dressmeup.io.jsonio import read_json
 
         return {k: np.asarray(v, dtype=float) for k, v in read_json(p, "keypoints").items()}
+    # start-up time: the stage loads when the command runs
     from dressmeup.io.npz import load_npz
 
     return load_npz(p, what="keypoints file")
 
 
 def _run_register(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.body import get_body_model
     from dressmeup.body.importers import import_body_params
     from dressmeup.body.registration import register as fit
@@ -166,6 +171,7 @@ def _run_register(args: argparse.Namespace) -> int:
                          f"scan points on {len(support['planes'])} flat support surfaces "
                          f"({kinds}; --keep-support keeps them)\n")
     if scan is not None:
+        # start-up time: the stage loads when the command runs
         from dressmeup.body.registration.scan import rotate_scan, up_rotation
         from dressmeup.body.rigid import rotate_params
 
@@ -193,14 +199,13 @@ def _report_fit(model, params, scan, out: Path, picture: bool, seed: int,
     """Print the fit's distances to the scan (mm), write them next to the result as
     ``<stem>.metrics.json`` and the picture as ``<stem>.fit.png``; the scan's points on
     ``supports`` (floor, seat: see ``registration.support``) are left out."""
-    import json
 
+    # start-up time: the stage loads when the command runs
     import numpy as np
 
     from dressmeup.body.registration.metrics import fit_metrics, format_metrics, vertex_parts
     from dressmeup.body.registration.scan import prepare_scan
     from dressmeup.body.registration.support import support_mask
-    from dressmeup.io.atomic import atomic_write_text
 
     posed = model.posed(params)
     pts = prepare_scan(scan, n_points=60000, seed=seed)
@@ -213,6 +218,7 @@ def _report_fit(model, params, scan, out: Path, picture: bool, seed: int,
     atomic_write_text(metrics_path, json.dumps(m, indent=1))
     written = [str(metrics_path)]
     if picture:
+        # start-up time: the stage loads when the command runs
         from scipy.spatial.transform import Rotation
 
         from dressmeup.body.registration.metrics import outside_distances_mm

@@ -14,6 +14,7 @@ from typing import Any
 
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_write_bytes
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -90,6 +91,7 @@ def _fusion_args(p: argparse.ArgumentParser) -> None:
 
 
 def _fusion_config(args: argparse.Namespace) -> Any:
+    # start-up time: the stage loads when the command runs
     from dressmeup.fusion.cleanup import CleanupConfig
     from dressmeup.fusion.icp import ICPConfig
     from dressmeup.fusion.pipeline import FusionConfig
@@ -100,6 +102,7 @@ def _fusion_config(args: argparse.Namespace) -> Any:
 
 
 def _load_rig(spec: str) -> Any:
+    # start-up time: the stage loads when the command runs
     from dressmeup.capture.rig import load_rig, ring_rig
 
     if spec == "default-7":
@@ -108,6 +111,7 @@ def _load_rig(spec: str) -> Any:
 
 
 def _synth_capture(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.capture.synthetic import (
         NoiseModel,
         make_mannequin,
@@ -129,8 +133,6 @@ def _synth_capture(args: argparse.Namespace) -> int:
                         perturb_deg=args.perturb_deg, perturb_m=args.perturb_cm / 100.0,
                         subject_up=args.subject_up)
     if body_src is not None and body_src.is_file():
-        from dressmeup.io.atomic import atomic_write_bytes
-
         atomic_write_bytes(out / "ground_truth" / "body.npz", body_src.read_bytes())
     sys.stdout.write(f"wrote {out} ({len(rig.cameras)} cameras x {args.frames} frame(s), "
                      f"{len(subject.garments)} garment(s): {', '.join(g.id for g in subject.garments)})\n")
@@ -138,6 +140,7 @@ def _synth_capture(args: argparse.Namespace) -> int:
 
 
 def _fuse(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.capture.session import open_session
     from dressmeup.fusion.pipeline import fuse_session, save_scan
 
@@ -152,6 +155,7 @@ def _fuse(args: argparse.Namespace) -> int:
     result = fuse_session(session, _fusion_config(args))
     extra: dict[str, Any] = {"session": str(Path(args.session).resolve())}
     if args.garments:
+        # start-up time: the stage loads when the command runs
         from dressmeup.extraction.pipeline import extract_garments, save_garment
 
         ex = extract_garments(result, session.info)
@@ -172,6 +176,7 @@ def _fuse(args: argparse.Namespace) -> int:
 
 
 def _build_dataset(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.data.from_captures import build_dataset_from_sessions
     from dressmeup.extraction.pipeline import ExtractionConfig
 

@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from dressmeup.cli.executor_args import add_executor_args, executor_from_args
+from dressmeup.errors import InputError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -83,25 +85,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _generator_1_is_serial(args: argparse.Namespace) -> None:
-    from dressmeup.errors import InputError
-
     if args.executor or args.scheduler or (args.workers or 1) > 1:
         raise InputError("--executor/--workers/--scheduler run generator 2.x (--edition "
                          "...-v3) in parallel; generator 1.1.0 runs in this process")
 
 
 def _synth_edition(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.bench.edition import load_edition
     from dressmeup.bench.tasks.common import manifest_sha256
     from dressmeup.data.synth import generate_dataset
-    from dressmeup.errors import InputError
 
     ed = load_edition(args.edition)
     pin = ed.dataset
     if pin.kind != "generated":
         raise InputError(f"--edition {ed.name} is scored on a real dataset; it cannot be generated")
     if ed.task == "uvparam":  # a mesh set, not a garment dataset
-        from dressmeup.bench.runs import build_data
+        # start-up time: the stage loads when the command runs
+        from dressmeup.runs import build_data
 
         root = build_data(ed, args.out)
     else:
@@ -127,6 +128,7 @@ def _synth_edition(args: argparse.Namespace) -> int:
 
 
 def _synth(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.data.synth import generate_dataset
 
     if args.edition:
@@ -139,6 +141,7 @@ def _synth(args: argparse.Namespace) -> int:
                             poses=args.poses, seed=args.seed, body_model=args.body_model,
                             registration_noise=args.registration_noise,
                             write_scan=not args.no_scan, **kw)
+    # start-up time: the stage loads when the command runs
     from dressmeup.data.dataset import Dataset
 
     ds = Dataset(root)
@@ -154,6 +157,7 @@ def _synth(args: argparse.Namespace) -> int:
 
 
 def _validate(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.data.validate import validate_dataset
 
     rep = validate_dataset(args.root, check_meshes=not args.no_meshes,
@@ -163,8 +167,7 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _import(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
+    # start-up time: the stage loads when the command runs
     from dressmeup.data.importing import import_dataset
 
     frames = None
@@ -174,8 +177,6 @@ def _import(args: argparse.Namespace) -> int:
             try:
                 frames = [int(f) for f in frames]
             except ValueError:
-                from dressmeup.errors import InputError
-
                 raise InputError(f"--frames: CLOTH3D frames are integers, got {args.frames!r}") from None
     kw = {"frames": frames, "stride": args.stride, "smplx": args.smplx, "gender": args.gender,
           "convention": args.convention, "smpl_model_path": args.smpl_model}
@@ -184,6 +185,7 @@ def _import(args: argparse.Namespace) -> int:
     sys.stdout.write(res.summary + "\n")
     sys.stdout.write(f"wrote {res.written} samples ({res.resumed} already there) to {res.root}\n")
     if args.pictures > 0:
+        # start-up time: the stage loads when the command runs
         from dressmeup.data.dataset import Dataset
         from dressmeup.viz.overlay import render_sample_overlay
 

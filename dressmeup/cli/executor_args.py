@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from dressmeup.executors import make_executor
+
 
 def add_executor_args(parser: argparse.ArgumentParser, default_workers: int | None = None,
                       what: str = "jobs") -> None:
@@ -37,7 +39,6 @@ def add_executor_args(parser: argparse.ArgumentParser, default_workers: int | No
 
 def executor_from_args(args: argparse.Namespace, default_workers: int | None = None) -> Any:
     """The :class:`dressmeup.executors.Executor` that ``args`` ask for."""
-    from dressmeup.executors import make_executor
 
     return make_executor(args.executor, args.workers, args.scheduler,
                          default_workers=default_workers)

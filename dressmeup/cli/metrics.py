@@ -55,6 +55,7 @@ def _display(m) -> tuple[str, str]:
 
 def run(args: argparse.Namespace) -> int:
     """Load the meshes, compute the report and print it."""
+    # start-up time: the stage loads when the command runs
     from dressmeup.io.mesh import load_mesh
     from dressmeup.metrics.report import compare_meshes
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from dressmeup.cli import build_parser
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_write_text
 
 HEADING = "## Commands\n"
 WIDTH = 100
@@ -61,7 +62,6 @@ def main(argv: list[str] | None = None) -> int:
     """Rewrite the page given as the only argument (default docs/cli.md)."""
     args = sys.argv[1:] if argv is None else argv
     path = Path(args[0] if args else "docs/cli.md")
-    from dressmeup.io.atomic import atomic_write_text
 
     atomic_write_text(path, render_page(path.read_text(encoding="utf-8")))
     return 0

@@ -37,6 +37,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _report(args: argparse.Namespace) -> int:
+    # start-up time: the stage loads when the command runs
     from dressmeup.viz.site import write_site
 
     rep = write_site(args.results, args.out, data_roots=args.data,

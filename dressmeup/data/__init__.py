@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dressmeup.data.dataset import Dataset, GarmentMesh, RetargetPair, Sample
 from dressmeup.data.splits import split_by_garment
+from dressmeup.data.synth import generate_dataset as _gen
 from dressmeup.data.validate import ValidationReport, validate_dataset
 from dressmeup.data.writer import DatasetWriter
 
@@ -18,6 +19,7 @@ __all__ = ["Dataset", "DatasetWriter", "GarmentMesh", "RetargetPair", "Sample", 
 
 def __getattr__(name: str):
     if name == "TorchDataset":  # imports torch: only on demand
+        # heavy: torch (~1.1 s to import)
         from dressmeup.data.torch_dataset import TorchDataset
 
         return TorchDataset
@@ -26,6 +28,5 @@ def __getattr__(name: str):
 
 def generate_dataset(*args, **kwargs):
     """Build the synthetic dataset (see :func:`dressmeup.data.synth.generate_dataset`)."""
-    from dressmeup.data.synth import generate_dataset as _gen
 
     return _gen(*args, **kwargs)

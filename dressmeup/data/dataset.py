@@ -20,9 +20,13 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.body.params import BodyParams
 from dressmeup.data import layout
 from dressmeup.data.manifest import read_manifest
+from dressmeup.data.parts import withheld_fields, withheld_message
 from dressmeup.errors import InputError
+from dressmeup.io.jsonio import read_json
+from dressmeup.io.mesh import load_mesh
 
 ID_FIELDS = ("sample_id", "subject_id", "garment_id", "pose_id", "category", "garment_type",
              "split")
@@ -180,17 +184,23 @@ class Sample:
             return Path(rel)
         return layout.resolve_inside(self.root, rel, f"{self.sample_id}.{field}_path")
 
+    def _check_withheld(self, field: str) -> None:
+        """Raise when this row of a public part withholds ``field``."""
+        if field in withheld_fields(self.row):
+            raise InputError(withheld_message(self.root, f"the {field} of sample "
+                                                         f"{self.sample_id}"))
+
     def garment(self) -> GarmentMesh:
         """Load the garment mesh (vertices in metres, UVs and texture when present)."""
         if "garment" in self._loaders:
             return self._loaders["garment"]()
         p = self.path("garment")
         if p is None:
+            self._check_withheld("garment")
             raise InputError(f"sample {self.sample_id}: no garment file")
         fast = read_dataset_ply(p)
         if fast is not None:
             return fast
-        from dressmeup.io.mesh import load_mesh
 
         m = load_mesh(p)
         return GarmentMesh(m.vertices, m.faces, m.uv, m.uv_faces, m.texture_path)
@@ -201,8 +211,8 @@ class Sample:
             return self._loaders["body"]()
         p = self.path("body")
         if p is None:
+            self._check_withheld("body")
             return None
-        from dressmeup.body.params import BodyParams
 
         return BodyParams.load(p)
 
@@ -212,8 +222,8 @@ class Sample:
             return self._loaders["scan"]()
         p = self.path("scan")
         if p is None:
+            self._check_withheld("scan")
             return None
-        from dressmeup.io.mesh import load_mesh
 
         m = load_mesh(p)
         return m.vertices, m.faces
@@ -319,7 +329,6 @@ class Dataset:
         InputError
             When ``dataset.json`` is not UTF-8 JSON fitting the dataset schema.
         """
-        from dressmeup.io.jsonio import read_json
 
         p = self.root / layout.DATASET_JSON
         return read_json(p, "dataset") if p.is_file() else {}
@@ -384,6 +393,7 @@ class Dataset:
     def torch(self, load_body: bool = True, load_scan: bool = False):
         """A ``torch.utils.data.Dataset`` over this view
         (see :class:`dressmeup.data.torch_dataset.TorchDataset`)."""
+        # heavy: torch (~1.1 s to import)
         from dressmeup.data.torch_dataset import TorchDataset
 
         return TorchDataset(self, load_body=load_body, load_scan=load_scan)

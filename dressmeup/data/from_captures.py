@@ -18,7 +18,17 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.body import BodyParams
+from dressmeup.body.registration import register as register_body
+from dressmeup.capture.session import open_session
+from dressmeup.capture.synthetic import load_ground_truth
+from dressmeup.data import layout
+from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import DressmeupError, InputError
+from dressmeup.executors import LocalExecutor, in_order, require_shared
+from dressmeup.fusion.pipeline import FusionConfig, fuse_session, reuse_scan
+from dressmeup.io.atomic import atomic_write_text
+from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
 
@@ -82,22 +92,15 @@ def body_for_session(session: Any, vertices: np.ndarray, faces: np.ndarray, sour
     errors = []
     for mode in modes:
         if mode == "register":
-            from dressmeup.body.registration import register as register_body
-
             return register_body((vertices, faces), body_model), None, "register"
         if mode == "session":
             p = session.root / "body.npz"
             if p.is_file():
-                from dressmeup.body import BodyParams
-
                 return BodyParams.load(p), None, "session"
             errors.append(f"{p} absent")
         if mode == "ground-truth":
             gt = session.root / "ground_truth"
             if (gt / "body.npz").is_file():
-                from dressmeup.body import BodyParams
-                from dressmeup.capture.synthetic import load_ground_truth
-
                 T = load_ground_truth(session.root).subject_to_world
                 return BodyParams.load(gt / "body.npz"), np.linalg.inv(T), "ground-truth"
             errors.append(f"{gt / 'body.npz'} absent")
@@ -121,9 +124,8 @@ def build_session(job: dict[str, Any]) -> dict[str, Any]:
     in the output frame, ``texture`` (h,w,3) uint8 or None), ``scan`` = ``(V, F)``, ``body``
     (BodyParams or None), ``labels_from`` and ``body_source``.
     """
-    from dressmeup.capture.session import open_session
+    # heavy: scipy (~0.5 s to import)
     from dressmeup.extraction.pipeline import extract_garments
-    from dressmeup.fusion.pipeline import fuse_session, reuse_scan
 
     session = open_session(job["session"])
     info = session.info
@@ -186,14 +188,8 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     -------
     BuildReport. Failed sessions are also listed in ``out/build-failures.json``.
     """
-    from dressmeup.capture.session import open_session
-    from dressmeup.data import layout
-    from dressmeup.data.writer import DatasetWriter
-    from dressmeup.executors import LocalExecutor, in_order, require_shared
+    # heavy: scipy (~0.5 s to import)
     from dressmeup.extraction.pipeline import ExtractionConfig
-    from dressmeup.fusion.pipeline import FusionConfig
-    from dressmeup.io.atomic import atomic_write_text
-    from dressmeup.progress import progress
 
     folders = find_sessions(sessions)
     if not folders:

@@ -14,7 +14,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from dressmeup.data import adapters
+from dressmeup.data.splits import split_by_garment
+from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import InputError
+from dressmeup.progress import progress
 
 KINDS = ("cloth3d", "4ddress", "thuman")
 BODY_FAMILY = {"cloth3d": "smpl", "4ddress": "smpl", "thuman": "smplx"}
@@ -46,7 +50,6 @@ def read_published(kind: str, root: str | os.PathLike, *, frames: list | None = 
                    smpl_model_path: str | os.PathLike | None = None):
     """Open a published dataset with its adapter (see :data:`KINDS`); returns the
     :class:`~dressmeup.data.adapters.SampleCollection`."""
-    from dressmeup.data import adapters
 
     root = Path(root)
     if not root.is_dir():
@@ -87,9 +90,6 @@ def import_dataset(kind: str, root: str | os.PathLike, out: str | os.PathLike, *
     MissingModelError : CLOTH3D bodies without the SMPL file (use ``with_body=False`` or give
         ``smpl_model_path``).
     """
-    from dressmeup.data.splits import split_by_garment
-    from dressmeup.data.writer import DatasetWriter
-    from dressmeup.progress import progress
 
     if split not in SPLITS:
         raise InputError(f"split: expected one of {SPLITS}, got {split!r}")

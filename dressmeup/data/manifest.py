@@ -17,6 +17,9 @@ from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path
 
 MANIFEST_VERSION = "1.0"
+#: the manifest of a public part (:mod:`dressmeup.data.parts`): version 1.0 plus the column
+#: ``withheld``; the garment's path and sha256 may then be null where it is withheld
+PUBLIC_MANIFEST_VERSION = "1.1"
 VERSION_KEY = b"dressmeup.manifest_version"
 
 #: The columns of manifest version 1.0, in order: (name, arrow type, nullable, description).
@@ -44,40 +47,63 @@ COLUMNS: list[tuple[str, pa.DataType, bool, str]] = [
      "true when all poses of this garment share vertex count and faces (ED is defined)"),
 ]
 
+#: the extra column of a public part's manifest (version 1.1)
+WITHHELD_COLUMN = ("withheld", pa.string(), True,
+                   "comma-separated file fields withheld from this public part (garment, "
+                   "texture, scan, body), or null")
 PATH_COLUMNS = ("garment_path", "texture_path", "scan_path", "body_path")
 HASH_OF = {"garment_path": "garment_sha256", "texture_path": "texture_sha256",
            "scan_path": "scan_sha256", "body_path": "body_sha256"}
 
 
-def schema() -> pa.Schema:
-    """The Arrow schema of the current manifest version (with the version in its metadata)."""
+def columns(public: bool = False) -> list[tuple[str, pa.DataType, bool, str]]:
+    """The columns of a manifest: :data:`COLUMNS`, or those of a public part (the garment's
+    path and sha256 nullable, plus :data:`WITHHELD_COLUMN`)."""
+    if not public:
+        return list(COLUMNS)
+    loose = {"garment_path", "garment_sha256"}
+    return [(n, t, nl or n in loose, d) for n, t, nl, d in COLUMNS] + [WITHHELD_COLUMN]
+
+
+def schema(public: bool = False) -> pa.Schema:
+    """The Arrow schema of the current manifest version (with the version in its metadata);
+    ``public``: the schema of a public part's manifest (version 1.1)."""
     fields = [pa.field(n, t, nullable=nl, metadata={b"description": d.encode()})
-              for n, t, nl, d in COLUMNS]
-    return pa.schema(fields, metadata={VERSION_KEY: MANIFEST_VERSION.encode()})
+              for n, t, nl, d in columns(public)]
+    version = PUBLIC_MANIFEST_VERSION if public else MANIFEST_VERSION
+    return pa.schema(fields, metadata={VERSION_KEY: version.encode()})
 
 
-def rows_to_table(rows: list[dict[str, Any]]) -> pa.Table:
+def rows_to_table(rows: list[dict[str, Any]], public: bool = False) -> pa.Table:
     """Build a manifest table from row dicts (missing nullable fields become null).
 
     Raises
     ------
     InputError
-        When a non-nullable field is missing from a row.
+        When a non-nullable field is missing from a row (in a public part: unless the row's
+        ``withheld`` names that file).
     """
-    sch = schema()
-    cols: dict[str, list] = {n: [] for n, *_ in COLUMNS}
+    sch = schema(public)
+    cols_ = columns(public)
+    cols: dict[str, list] = {n: [] for n, *_ in cols_}
     for i, row in enumerate(rows):
-        for n, _t, nullable, _d in COLUMNS:
+        for n, _t, nullable, _d in cols_:
             v = row.get(n)
             if v is None and not nullable:
                 raise InputError(f"manifest row {i} ({row.get('sample_id')!r}): field {n!r} is required")
             cols[n].append(v)
+        if public and row.get("garment_path") is None \
+                and "garment" not in str(row.get("withheld") or "").split(","):
+            raise InputError(f"manifest row {i} ({row.get('sample_id')!r}): garment_path is "
+                             "required unless the garment is withheld")
     return pa.table(cols, schema=sch)
 
 
-def write_manifest(path: str | os.PathLike, rows: list[dict[str, Any]]) -> None:
-    """Write the manifest rows to ``path`` atomically (temp file + rename)."""
-    table = rows_to_table(rows)
+def write_manifest(path: str | os.PathLike, rows: list[dict[str, Any]],
+                   public: bool = False) -> None:
+    """Write the manifest rows to ``path`` atomically (temp file + rename); ``public``: the
+    manifest of a public part (:func:`schema`)."""
+    table = rows_to_table(rows, public)
     with atomic_path(path) as tmp:
         pq.write_table(table, tmp)
 

@@ -7,7 +7,18 @@ import time
 from pathlib import Path
 from typing import Any
 
+from dressmeup.capture.rig import ring_rig
+from dressmeup.capture.synthetic import (
+    NoiseModel,
+    load_ground_truth,
+    subject_from_sample,
+    synth_capture,
+)
+from dressmeup.data.dataset import Dataset
 from dressmeup.errors import InputError
+from dressmeup.fusion.pipeline import fuse_session
+from dressmeup.io.mesh import write_ply
+from dressmeup.metrics import fusion_quality
 
 __all__ = ["fuse_synthetic_sample"]
 
@@ -35,17 +46,6 @@ def fuse_synthetic_sample(data_root: str | Path, out: str | Path, sample_id: str
     dict with ``sample_id``, ``accuracy``, ``completeness``, ``chamfer_l1`` (metres),
     ``fscore_5mm``, ``seconds`` and ``session`` / ``mesh`` paths.
     """
-    from dressmeup.capture.rig import ring_rig
-    from dressmeup.capture.synthetic import (
-        NoiseModel,
-        load_ground_truth,
-        subject_from_sample,
-        synth_capture,
-    )
-    from dressmeup.data.dataset import Dataset
-    from dressmeup.fusion.pipeline import fuse_session
-    from dressmeup.io.mesh import write_ply
-    from dressmeup.metrics import fusion_quality
 
     t0 = time.perf_counter()
     ds = Dataset(data_root)

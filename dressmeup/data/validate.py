@@ -14,8 +14,13 @@ from pathlib import Path
 import numpy as np
 
 from dressmeup.data import layout
-from dressmeup.data.manifest import COLUMNS, HASH_OF, PATH_COLUMNS, read_manifest
+from dressmeup.data.dataset import read_dataset_ply
+from dressmeup.data.manifest import HASH_OF, PATH_COLUMNS, columns, read_manifest
+from dressmeup.data.parts import part_record, withheld_fields
 from dressmeup.errors import InputError
+from dressmeup.io.hashing import sha256_file
+from dressmeup.io.jsonio import parse_json_file, schema_problems
+from dressmeup.io.mesh import load_mesh
 
 KNOWN_SPLITS = ("train", "val", "test")
 #: Largest plausible extent of a garment or scan in metres (a person is under 3 m; a
@@ -77,9 +82,6 @@ def _check_body(path: Path, where: str, problems: list[str]) -> None:
 
 
 def _check_mesh(path: Path, where: str, what: str, n_v, n_f, problems: list[str]):
-    from dressmeup.data.dataset import read_dataset_ply
-    from dressmeup.io.mesh import load_mesh
-
     try:
         m = read_dataset_ply(path) if path.suffix.lower() == ".ply" else None
         if m is None:  # other layouts, or a damaged file: the general reader names the fault
@@ -118,7 +120,6 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
     -------
     ValidationReport (``report.ok`` is False when any problem was found).
     """
-    from dressmeup.data.writer import sha256_file
 
     root = Path(root)
     rep = ValidationReport(root)
@@ -130,8 +131,6 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
     if not info_path.is_file():
         P.append(f"{layout.DATASET_JSON}: missing")
     else:
-        from dressmeup.io.jsonio import parse_json_file, schema_problems
-
         try:
             info = parse_json_file(info_path)
         except InputError as exc:
@@ -150,7 +149,8 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
     except InputError as exc:
         P.append(f"{layout.MANIFEST}: {exc}")
         return rep
-    for name, typ, nullable, _d in COLUMNS:
+    public = "withheld" in table.column_names
+    for name, typ, nullable, _d in columns(public):
         if name in table.column_names:
             got = table.schema.field(name).type
             if got != typ:
@@ -160,6 +160,13 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
                          "null value(s)")
     rows = table.to_pylist()
     rep.n_samples = len(rows)
+    part = part_record(root)
+    carried = set(part.get("splits") or ()) if part.get("part") == "private" else None
+    if carried is not None:
+        skipped = sum(1 for r in rows if r.get("split") not in carried)
+        if skipped:
+            rep.warnings.append(f"private part: the files of {skipped} sample(s) of splits "
+                                f"other than {sorted(carried)} are in the public part, not here")
     if not rows:
         P.append(f"{layout.MANIFEST}: no samples")
     seen: dict[str, int] = {}
@@ -196,8 +203,10 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
                          "another sample (a garment has one split/category/type)")
         for col in PATH_COLUMNS:
             rel = r.get(col)
+            if carried is not None and split not in carried:
+                continue
             if rel is None:
-                if col == "garment_path":
+                if col == "garment_path" and "garment" not in withheld_fields(r):
                     P.append(f"{where}: {col} is missing")
                 continue
             try:

@@ -9,7 +9,6 @@ a generator what to skip) and rewrites any stray files of the unfinished sample.
 
 from __future__ import annotations
 
-import hashlib
 import io
 import json
 import logging
@@ -19,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image
 
 from dressmeup import __version__
 from dressmeup.cache import hash_arrays
@@ -26,25 +26,15 @@ from dressmeup.data import layout
 from dressmeup.data.manifest import MANIFEST_VERSION, read_manifest, write_manifest
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_path, atomic_write_bytes, atomic_write_text
+from dressmeup.io.hashing import sha256_file
 from dressmeup.io.jsonable import json_default
+from dressmeup.io.mesh import save_mesh
 
 log = logging.getLogger(__name__)
 
 #: dataset.json keys that change while a build runs and are ignored when resuming.
 _VOLATILE = {"complete", "n_samples", "n_garments", "n_subjects", "toolkit_version",
              "manifest_version", "format", "units", "splits", "timings"}
-
-
-def sha256_file(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
-    """Hex sha256 of a file's bytes."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        while True:
-            b = fh.read(chunk)
-            if not b:
-                break
-            h.update(b)
-    return h.hexdigest()
 
 
 def _jsonable(obj: Any) -> Any:
@@ -221,7 +211,6 @@ class DatasetWriter:
             "pose_id": pose_id, "category": category, "garment_type": garment_type,
             "split": split, "topology_shared": False,
         }
-        from dressmeup.io.mesh import save_mesh
 
         tex_arr = None if texture is None else self._texture_array(texture)
         save_mesh(d / layout.GARMENT_FILE, V, F, uv=uv, uv_faces=uvf, texture=tex_arr)
@@ -251,7 +240,6 @@ class DatasetWriter:
     @staticmethod
     def _texture_array(texture: Any) -> np.ndarray:
         """An (h, w, 3|4) uint8 image from bytes, a PIL image, an array or a path."""
-        from PIL import Image
 
         if isinstance(texture, (bytes, bytearray)):
             with Image.open(io.BytesIO(bytes(texture))) as im:
@@ -271,6 +259,7 @@ class DatasetWriter:
         sid = row["sample_id"]
         if sid not in self._faces_key:
             try:
+                # optional dependency (ImportError handled)
                 from dressmeup.io.mesh import load_mesh
 
                 F = load_mesh(layout.resolve_inside(self.root, row["garment_path"])).faces

@@ -16,11 +16,12 @@ runs all take it.
 
 from __future__ import annotations
 
-import importlib.util
 import os
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any, Protocol, TypeVar
 
+from dressmeup.errors import InputError
+from dressmeup.executors.dask_executor import DaskExecutor, dashboard_available, dask_available
 from dressmeup.executors.local import LocalExecutor, die_with_parent
 
 EXECUTORS = ("local", "dask")
@@ -70,16 +71,6 @@ def in_order(results: Iterable[tuple[int, T]]) -> Iterator[tuple[int, T]]:
         yield i, held.pop(i)
 
 
-def dashboard_available() -> bool:
-    """True when Dask's dashboard can run (it needs bokeh)."""
-    return importlib.util.find_spec("bokeh") is not None
-
-
-def dask_available() -> bool:
-    """True when Dask distributed is installed."""
-    return importlib.util.find_spec("distributed") is not None
-
-
 def make_executor(executor: str | None = None, workers: int | None = None,
                   scheduler: str | None = None, default_workers: int | None = None,
                   **kw: Any) -> Executor:
@@ -98,8 +89,6 @@ def make_executor(executor: str | None = None, workers: int | None = None,
     InputError
         ``--scheduler`` with ``--executor local``, ``--workers`` below 1, or dask missing.
     """
-    from dressmeup.errors import InputError
-
     if executor not in (None, *EXECUTORS):
         raise InputError(f"--executor: expected one of {EXECUTORS}, got {executor!r}")
     if workers is not None and (not isinstance(workers, int) or workers < 1):
@@ -111,19 +100,9 @@ def make_executor(executor: str | None = None, workers: int | None = None,
         if not dask_available():
             raise InputError("--executor dask needs Dask distributed: pip install "
                              "'dressmeup[distributed]' (or: pip install distributed)")
-        from dressmeup.executors.dask_executor import DaskExecutor
-
         return DaskExecutor(workers if scheduler else (workers or default_workers),
                             scheduler=scheduler or None, **kw)
     return LocalExecutor(workers or default_workers)
-
-
-def __getattr__(name: str) -> Any:  # DaskExecutor without importing distributed up front
-    if name == "DaskExecutor":
-        from dressmeup.executors.dask_executor import DaskExecutor
-
-        return DaskExecutor
-    raise AttributeError(name)
 
 
 __all__ = ["EXECUTORS", "DaskExecutor", "Executor", "LocalExecutor", "dashboard_available",

@@ -17,6 +17,8 @@ worker otherwise).
 from __future__ import annotations
 
 import hashlib
+import importlib
+import importlib.util
 import logging
 import os
 import pickle
@@ -42,11 +44,22 @@ def _stderr(line: str) -> None:
 
 def _import_distributed() -> Any:
     try:
+        # optional dependency (ImportError handled)
         import distributed
     except ImportError as exc:  # pragma: no cover - depends on the install
         raise InputError("--executor dask needs Dask distributed: pip install "
                          "'dressmeup[distributed]' (or: pip install distributed)") from exc
     return distributed
+
+
+def dashboard_available() -> bool:
+    """True when Dask's dashboard can run (it needs bokeh)."""
+    return importlib.util.find_spec("bokeh") is not None
+
+
+def dask_available() -> bool:
+    """True when Dask distributed is installed."""
+    return importlib.util.find_spec("distributed") is not None
 
 
 # ----------------------------------------------------------------------------- worker side
@@ -111,9 +124,6 @@ MAIN_THREAD_IMPORTS = ("pymeshlab",)
 
 def _main_thread_imports(modules: Sequence[str] = MAIN_THREAD_IMPORTS) -> list[str]:
     """Import ``modules`` (those installed) in the calling thread; return the imported ones."""
-    import importlib
-    import importlib.util
-
     done = []
     for name in modules:
         if importlib.util.find_spec(name) is not None:
@@ -125,6 +135,7 @@ def _main_thread_imports(modules: Sequence[str] = MAIN_THREAD_IMPORTS) -> list[s
 def _worker_plugin() -> Any:
     """A WorkerPlugin whose ``setup`` (run in the worker's main thread, also for workers
     that join or restart later) performs :data:`MAIN_THREAD_IMPORTS`."""
+    # heavy: distributed (optional)
     from distributed import WorkerPlugin
 
     class MainThreadImports(WorkerPlugin):
@@ -225,6 +236,7 @@ class DaskExecutor:
             where = f"scheduler {self._client.scheduler.address}"
             self.workers = len(self._client.scheduler_info()["workers"])
         else:
+            # heavy: dask (optional)
             import dask
 
             # the scheduler's HTTP server (dashboard with bokeh, else health/metrics only)
@@ -250,8 +262,6 @@ class DaskExecutor:
         self._client.register_plugin(_worker_plugin())
         self.check_worker_env()
         self.startup_s = time.perf_counter() - t0
-        from dressmeup.executors import dashboard_available
-
         dash_link = self._client.dashboard_link if dashboard_available() else None
         self.log(f"dask: {where} ({self.startup_s:.1f} s to start)"
                  + (f"; dashboard {dash_link}" if dash_link else "; no dashboard "

@@ -47,6 +47,7 @@ def die_with_parent(parent_pid: int, poll_s: float = 0.5) -> str:
     how = "thread"
     if sys.platform.startswith("linux"):
         try:
+            # optional dependency (ImportError handled)
             import ctypes
 
             libc = ctypes.CDLL(None, use_errno=True)

@@ -73,6 +73,7 @@ def smooth_boundary(vertices: np.ndarray, faces: np.ndarray, iterations: int = 5
     -------
     (n, 3) float64 vertices with smoothed boundaries.
     """
+    # heavy: open3d (~0.8 s to import)
     import open3d as o3d
 
     V = np.asarray(vertices, dtype=np.float64).copy()

@@ -9,12 +9,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from dressmeup.capture.rig import Rig
 from dressmeup.capture.session import RGBDFrame, frame_camera
 from dressmeup.capture.visibility import raycasting_scene, visible_from
 from dressmeup.geometry.laplacian import adjacency
 from dressmeup.geometry.mesh import vertex_normals
+from dressmeup.geometry.topology import face_adjacency
 
 __all__ = ["LabelConfig", "visible_from", "vote_labels", "smooth_labels", "face_labels_from_vertices",
            "remove_label_islands", "label_mesh", "cluster_colors", "ColorFallbackWarning"]
@@ -70,6 +73,7 @@ def vote_labels(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFr
     -------
     (n, n_labels) float64 vote weights (column 0 stays 0).
     """
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     cfg = config or LabelConfig()
@@ -179,14 +183,11 @@ def remove_label_islands(faces: np.ndarray, face_labels: np.ndarray, min_faces: 
     -------
     (m,) int64 cleaned labels.
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
 
     F = np.asarray(faces, dtype=np.int64)
     lab = np.asarray(face_labels, dtype=np.int64).copy()
     if len(F) == 0 or min_faces <= 1:
         return lab
-    from dressmeup.geometry.topology import face_adjacency
 
     adj = face_adjacency(F, order="corner")  # votes break ties in pair order
     for _ in range(max_rounds):
@@ -269,6 +270,7 @@ def cluster_colors(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray, 
     -------
     (m,) int64 face labels.
     """
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     warnings.warn("no label masks: garments separated from skin by colour, which fails on "

@@ -14,7 +14,9 @@ from dressmeup.capture.session import LABEL_SKIN, GarmentInfo, SessionInfo
 from dressmeup.extraction.cutout import cut_garment
 from dressmeup.extraction.labels import LabelConfig, cluster_colors, label_mesh
 from dressmeup.extraction.texture import bake_texture, rasterize_uv, uv_atlas
+from dressmeup.fusion.cleanup import CleanupConfig, cleanup_mesh
 from dressmeup.fusion.pipeline import FusionResult
+from dressmeup.io.mesh import save_mesh
 
 __all__ = ["ExtractionConfig", "ExtractedGarment", "Extraction", "extract_garments", "save_garment"]
 
@@ -98,7 +100,6 @@ def extract_garments(fusion: FusionResult, info: SessionInfo, config: Extraction
     ValueError when the session has no label masks and ``color_fallback`` is off, or a
     garment was never seen.
     """
-    from dressmeup.fusion.cleanup import CleanupConfig, cleanup_mesh
 
     cfg = config or ExtractionConfig()
     n_labels = max([LABEL_SKIN, *[g.label for g in info.garments]]) + 1
@@ -151,7 +152,6 @@ def save_garment(garment: ExtractedGarment, folder: str | os.PathLike, transform
     -------
     Path of the OBJ file.
     """
-    from dressmeup.io.mesh import save_mesh
 
     V = garment.vertices
     if transform is not None:

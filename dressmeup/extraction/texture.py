@@ -9,6 +9,7 @@ import numpy as np
 
 from dressmeup.capture.rig import Rig
 from dressmeup.capture.session import RGBDFrame, frame_camera
+from dressmeup.capture.visibility import raycasting_scene, visible_from
 
 __all__ = ["uv_atlas", "rasterize_uv", "bake_texture", "fill_gutters"]
 
@@ -30,6 +31,7 @@ def uv_atlas(vertices: np.ndarray, faces: np.ndarray, resolution: int = 1024, pa
     uv : (k, 2) float64 in [0, 1] (v up, OBJ convention), uv_faces : (m, 3) int64 into ``uv``,
     same face order as ``faces``.
     """
+    # heavy: scipy (~0.5 s to import)
     from dressmeup.geometry.uv_atlas import xatlas_atlas
 
     # Raw xatlas UVs (square_texels=False): they fill the square texture even when xatlas
@@ -51,6 +53,7 @@ def rasterize_uv(uv: np.ndarray, uv_faces: np.ndarray, size: int) -> tuple[np.nd
     face_id : (size, size) int64, -1 where no face; bary : (size, size, 3) float64.
     Row 0 of the image is v = 1 (images are stored top-down).
     """
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     P = np.asarray(uv, dtype=np.float64)[np.asarray(uv_faces, dtype=np.int64)]  # (m, 3, 2)
@@ -88,6 +91,7 @@ def fill_gutters(image: np.ndarray, mask: np.ndarray, iterations: int = 8) -> np
     -------
     (h, w, 3) uint8
     """
+    # heavy: cv2 (~0.3 s to import)
     import cv2
 
     img = image.astype(np.float32)
@@ -142,7 +146,6 @@ def bake_texture(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, uv_fac
     -------
     texture : (size, size, 3) uint8 RGB, coverage : (size, size) bool (texels seen by a view).
     """
-    from dressmeup.capture.visibility import raycasting_scene, visible_from
 
     V = np.asarray(vertices, dtype=np.float64)
     F = np.asarray(faces, dtype=np.int64)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from dressmeup.geometry.mesh import as_arrays, edges
+from dressmeup.progress import progress
 
 __all__ = ["geodesic_distances", "edge_graph"]
 
@@ -21,6 +22,7 @@ def edge_graph(V: np.ndarray, F: np.ndarray):
     -------
     scipy.sparse.csr_matrix of shape (n, n)
     """
+    # heavy: scipy (~0.5 s to import)
     from scipy.sparse import coo_matrix
 
     E = edges(F)
@@ -70,15 +72,15 @@ def geodesic_distances(
         )
     src = src.astype(np.int64)
     if method == "dijkstra":
+        # heavy: scipy (~0.5 s to import)
         from scipy.sparse.csgraph import dijkstra
 
         return np.asarray(
             dijkstra(edge_graph(V, F), directed=False, indices=src), dtype=np.float64
         ).reshape(src.size, V.shape[0])
     if method == "heat":
+        # heavy: potpourri3d (~0.4 s to import)
         import potpourri3d as pp3d
-
-        from dressmeup.progress import progress
 
         solver = pp3d.MeshHeatMethodDistanceSolver(V, F)
         out = np.empty((src.size, V.shape[0]), dtype=np.float64)

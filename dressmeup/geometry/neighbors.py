@@ -32,6 +32,7 @@ def build_tree(points: np.ndarray):
     -------
     scipy.spatial.cKDTree
     """
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial import cKDTree
 
     return cKDTree(points, balanced_tree=False, compact_nodes=False)
@@ -113,6 +114,7 @@ def _pykdtree_class():
     old = os.environ.get("OMP_NUM_THREADS")
     os.environ["OMP_NUM_THREADS"] = "1"
     try:
+        # optional dependency (ImportError handled)
         from pykdtree.kdtree import KDTree
     except ImportError:
         return None
@@ -159,6 +161,7 @@ class NearestTree:
         if self.backend == "pykdtree":
             self._tree = _pykdtree_class()(pts)
         else:
+            # heavy: scipy (~0.5 s to import)
             from scipy.spatial import cKDTree
 
             self._tree = cKDTree(pts)

@@ -20,6 +20,7 @@ from typing import Literal
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 __all__ = [
     "component_labels",
@@ -72,7 +73,6 @@ def component_labels(F: np.ndarray, n_vertices: int) -> np.ndarray:
     (n,) int64 labels ``0..c-1``, numbered in order of each component's lowest vertex index;
     an isolated vertex is a component of its own.
     """
-    from scipy.sparse.csgraph import connected_components
 
     F = _faces(F)
     i = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])

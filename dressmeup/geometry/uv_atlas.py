@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 from dressmeup.geometry.mesh import as_arrays, face_areas
 from dressmeup.geometry.topology import face_adjacency  # re-exported (its home is topology)
@@ -102,7 +103,6 @@ def connected_charts(F: np.ndarray, chart_ids: np.ndarray, adjacency: np.ndarray
     -------
     (m,) int64 ndarray, relabelled so that every chart is edge-connected.
     """
-    from scipy.sparse.csgraph import connected_components
 
     m = len(F)
     adj = face_adjacency(F) if adjacency is None else adjacency
@@ -371,6 +371,7 @@ def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resoluti
     uv_faces : (m, 3) int64, the input's indexing (each chart moved by a global scale and
         its own translation)
     """
+    # heavy: xatlas (~0.2 s to import)
     import xatlas
 
     uv = np.asarray(uv, dtype=np.float64)
@@ -485,6 +486,7 @@ def xatlas_atlas(V: np.ndarray, F: np.ndarray, *, resolution: int | None = None,
     -------
     XatlasAtlas
     """
+    # heavy: xatlas (~0.2 s to import)
     import xatlas
 
     atlas = xatlas.Atlas()
@@ -562,7 +564,6 @@ def uv_components(uv_faces: np.ndarray, k: int) -> np.ndarray:
     -------
     (m,) int64 ndarray of ids ``0..c-1``.
     """
-    from scipy.sparse.csgraph import connected_components
 
     m = len(uv_faces)
     rows = np.repeat(np.arange(m), 3)

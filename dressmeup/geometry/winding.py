@@ -28,6 +28,7 @@ def winding_number(V: np.ndarray, F: np.ndarray, query: np.ndarray) -> np.ndarra
     -------
     (q,) float64 ndarray
     """
+    # heavy: igl (~0.4 s to import)
     import igl
 
     V, F = as_arrays(V, F, name="surface")

@@ -12,6 +12,8 @@ import dataclasses
 from pathlib import PurePath
 from typing import Any
 
+import numpy as np
+
 __all__ = ["json_default"]
 
 
@@ -22,7 +24,6 @@ def json_default(o: Any) -> Any:
     instances -> dicts. Anything else raises ``TypeError`` (as :func:`json.dumps` would)
     instead of being written as an opaque ``str(o)``.
     """
-    import numpy as np
 
     if isinstance(o, np.generic):
         return o.item()

@@ -16,6 +16,8 @@ import re
 from pathlib import Path
 from typing import Any
 
+import jsonschema
+
 from dressmeup.errors import InputError
 
 SCHEMA_DIR = Path(__file__).resolve().parent / "schemas"
@@ -39,7 +41,6 @@ def _field(path) -> str:
 
 def schema_problems(data: Any, schema: str, source: str = "JSON") -> list[str]:
     """One message per place where ``data`` does not fit schema ``schema`` (empty: fits)."""
-    import jsonschema
 
     validator = jsonschema.Draft202012Validator(load_schema(schema))
     errors = sorted(validator.iter_errors(data), key=lambda e: (list(map(str, e.path)),

@@ -23,12 +23,15 @@ from __future__ import annotations
 import io
 import logging
 import os
+from array import array
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from PIL import Image
 
 from dressmeup.errors import InputError
+from dressmeup.geometry.mesh import as_arrays, as_faces, as_points
 from dressmeup.io.atomic import atomic_write_bytes, atomic_write_text
 
 __all__ = ["MeshData", "load_mesh", "save_mesh", "write_ply"]
@@ -78,6 +81,7 @@ class MeshData:
 
     def to_trimesh(self):
         """The geometry as a ``trimesh.Trimesh`` (``process=False``; UVs not attached)."""
+        # heavy: trimesh (~0.7 s to import)
         import trimesh
 
         return trimesh.Trimesh(self.vertices, self.faces, process=False)
@@ -221,8 +225,6 @@ def _obj_index(tok: str, count: int) -> int:
 def _load_obj(path: Path) -> MeshData:
     # compact buffers (8 bytes per number) instead of lists of Python floats: a large OBJ
     # costs about its own size in memory, not several times it
-    from array import array
-
     verts, colors, uvs = array("d"), array("d"), array("d")
     faces, uv_faces = array("q"), array("q")
     n_v = n_c = n_t = 0
@@ -320,6 +322,7 @@ def _obj_texture(path: Path, mtllibs: list[str], material: str | None) -> Path |
 
 
 def _load_ply(path: Path) -> MeshData:
+    # heavy: trimesh (~0.7 s to import)
     from trimesh.exchange.ply import load_ply
 
     # the texture is resolved below from the header; trimesh would try too and log a
@@ -389,8 +392,6 @@ def _load_ply(path: Path) -> MeshData:
 
 # ----------------------------------------------------------------------------------- saving
 def _check_save_args(vertices, faces, uv, uv_faces, vertex_colors):
-    from dressmeup.geometry.mesh import as_arrays, as_faces, as_points
-
     V, F = as_arrays(vertices, faces, name="mesh")
     if uv is not None:
         uv = as_points(uv, name="uv", dim=2)
@@ -425,8 +426,6 @@ def _texture_bytes(texture) -> bytes:
             raise FileNotFoundError(f"texture file not found: {src}")
         if src.suffix.lower() == ".png":
             return src.read_bytes()
-        from PIL import Image
-
         with Image.open(src) as im:
             buf = io.BytesIO()
             im.convert("RGB").save(buf, format="PNG")
@@ -440,8 +439,6 @@ def _texture_bytes(texture) -> bytes:
         raise InputError(
             f"texture: expected an (H, W, 3) uint8 image or a file path, got {arr.dtype} {arr.shape}"
         )
-    from PIL import Image
-
     buf = io.BytesIO()
     Image.fromarray(arr).save(buf, format="PNG")
     return buf.getvalue()

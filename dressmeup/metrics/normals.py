@@ -10,7 +10,12 @@ import numpy as np
 from dressmeup.geometry.mesh import face_normals, vertex_normals
 from dressmeup.geometry.proximity import closest_points
 from dressmeup.geometry.sampling import sample_surface
-from dressmeup.metrics._common import DEFAULT_SAMPLES, check_samples, mesh_arrays
+from dressmeup.metrics._common import (
+    DEFAULT_SAMPLES,
+    TopologyMismatchError,
+    check_samples,
+    mesh_arrays,
+)
 
 __all__ = ["NormalConsistency", "normal_consistency", "normal_consistency_details"]
 
@@ -55,8 +60,6 @@ def normal_consistency_details(
         raise ValueError(f"mode: expected 'auto', 'vertex' or 'surface', got {mode!r}")
     same = _same_topology(Vp, Fp, Vg, Fg)
     if mode == "vertex" and not same:
-        from dressmeup.metrics._common import TopologyMismatchError
-
         raise TopologyMismatchError("normal_consistency(mode='vertex') needs identical topology")
     if mode == "vertex" or (mode == "auto" and same):
         npred = vertex_normals(Vp, Fp)

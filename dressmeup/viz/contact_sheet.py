@@ -11,6 +11,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from PIL import Image
+
+from dressmeup.body import get_body_model
+from dressmeup.errors import InputError
+from dressmeup.viz.figure import save_png
 
 
 @dataclass
@@ -37,6 +42,7 @@ def draw_cell(ax, layers: Sequence[MeshLayer], right: np.ndarray, up: np.ndarray
     title : cell caption.
     bounds : optional ``(xmin, xmax, ymin, ymax)`` in screen units.
     """
+    # heavy: matplotlib (~0.3 s to import)
     from matplotlib.collections import PolyCollection
 
     right = np.asarray(right, float)
@@ -92,12 +98,12 @@ def render_contact_sheet(cells: Sequence[Sequence[MeshLayer] | None], path: str 
         ``1.25 * cell_size``).
     dpi : pixels per inch; suptitle : optional title of the sheet.
     """
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib
 
     matplotlib.use("Agg", force=False)
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib.pyplot as plt
-
-    from dressmeup.viz.figure import save_png
 
     nrows = max(1, int(np.ceil(len(cells) / ncols)))
     height = cell_size * 1.25 if cell_height is None else cell_height
@@ -118,7 +124,6 @@ def _face_colors_from_texture(g) -> np.ndarray | None:
     """Per-face RGB in [0, 1] sampled from the texture at each face's UV centroid."""
     if g.uv is None or g.texture_path is None:
         return None
-    from PIL import Image
 
     with Image.open(g.texture_path) as im:
         tex = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
@@ -146,7 +151,7 @@ def render_dataset_contact_sheet(root: str | os.PathLike, path: str | os.PathLik
     view : ``front`` or ``side``.
     one_per_type : show garments of distinct types first.
     """
-    from dressmeup.body import get_body_model
+    # heavy: pyarrow (~0.3 s to import)
     from dressmeup.data.dataset import Dataset
 
     ds = Dataset(root)
@@ -170,6 +175,7 @@ def render_dataset_contact_sheet(root: str | os.PathLike, path: str | os.PathLik
                 out = model.posed(b)
                 layers.append(MeshLayer(out.vertices, model.faces, (0.75, 0.75, 0.75)))
                 if frame is None:
+                    # heavy: pyarrow (~0.3 s to import)
                     from dressmeup.data.synth.garments import BodyFrame
 
                     frame = BodyFrame.from_joints(out.rest_joints, tuple(model.joint_names))
@@ -202,15 +208,13 @@ def render_garment_on_bodies(root: str | os.PathLike, garment_id: str, path: str
     view : ``front`` or ``side``.
     max_poses : columns at most.
     """
-    from dressmeup.body import get_body_model
+    # heavy: pyarrow (~0.3 s to import)
     from dressmeup.data.dataset import Dataset
     from dressmeup.data.synth.garments import BodyFrame
 
     ds = Dataset(root)
     m = ds.manifest[ds.manifest["garment_id"] == garment_id]
     if m.empty:
-        from dressmeup.errors import InputError
-
         raise InputError(f"garment {garment_id!r} not found in {root}")
     pids = sorted(m["pose_id"].unique())[:max_poses]
     cells, titles, frame = [], [], None

@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from dressmeup.io.atomic import atomic_path
+
 
 def save_png(fig, path: str | os.PathLike, dpi: int = 110, tight: bool = False) -> Path:
     """Write ``fig`` to ``path`` as a PNG atomically (parent folders created), then close it.
@@ -16,9 +18,8 @@ def save_png(fig, path: str | os.PathLike, dpi: int = 110, tight: bool = False) 
     dpi : resolution.
     tight : crop to the drawn content (``bbox_inches="tight"``).
     """
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib.pyplot as plt
-
-    from dressmeup.io.atomic import atomic_path
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -4,11 +4,15 @@ an imported dataset's garments and bodies line up."""
 from __future__ import annotations
 
 import os
+import textwrap
 from pathlib import Path
 
 import numpy as np
 
+from dressmeup.body import get_body_model
+from dressmeup.errors import MissingModelError
 from dressmeup.viz.contact_sheet import MeshLayer, draw_cell
+from dressmeup.viz.figure import save_png
 
 GARMENT_RGB = (0.85, 0.35, 0.25)
 BODY_RGB = (0.72, 0.72, 0.72)
@@ -39,8 +43,6 @@ def render_sample_overlay(sample, path: str | os.PathLike,
     A one-line note: what was drawn, or why the body is missing (then the scan, if any, is
     drawn instead).
     """
-    from dressmeup.body import get_body_model
-    from dressmeup.errors import MissingModelError
 
     g = sample.garment()
     layers = [MeshLayer(g.vertices, g.faces, GARMENT_RGB)]
@@ -81,17 +83,16 @@ def render_sample_overlay(sample, path: str | os.PathLike,
 
 def _render_two_views(layers, path: Path, right_front, right_side, up, title: str) -> None:
     """Front and side views of the same layers side by side, to ``path`` (atomic PNG)."""
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib
 
     matplotlib.use("Agg", force=False)
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib.pyplot as plt
-
-    from dressmeup.viz.figure import save_png
 
     fig, axes = plt.subplots(1, 2, figsize=(4.8, 3.2))
     draw_cell(axes[0], layers, right_front, up, "front")
     draw_cell(axes[1], layers, right_side, up, "side")
-    import textwrap
 
     fig.suptitle("\n".join(textwrap.wrap(title, 60)), fontsize=7)
     fig.tight_layout()

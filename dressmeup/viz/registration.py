@@ -9,11 +9,13 @@ its arms down in a T-pose scan is plain to see.
 from __future__ import annotations
 
 import os
+import textwrap
 from pathlib import Path
 
 import numpy as np
 
 from dressmeup.viz.contact_sheet import MeshLayer, draw_cell
+from dressmeup.viz.figure import save_png
 
 BODY_RGB = (0.72, 0.72, 0.72)
 OUTSIDE_RGB = (0.9, 0.15, 0.1)
@@ -41,14 +43,13 @@ def render_registration(body_vertices: np.ndarray, body_faces: np.ndarray,
     -------
     The written path.
     """
-    import textwrap
 
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib
 
     matplotlib.use("Agg", force=False)
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib.pyplot as plt
-
-    from dressmeup.viz.figure import save_png
 
     P = np.asarray(scan_points, dtype=np.float64)
     if len(P) > max_points:

@@ -15,7 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
+from dressmeup.geometry.proximity import closest_points
+from dressmeup.geometry.winding import winding_number
 from dressmeup.viz.contact_sheet import MeshLayer, draw_cell
+from dressmeup.viz.figure import save_png
+from dressmeup.viz.overlay import up_axis
 
 #: Colour of penetrating faces (inside the target body).
 PENETRATION_RGB = (0.86, 0.08, 0.08)
@@ -39,7 +43,6 @@ def face_distances_mm(V: np.ndarray, F: np.ndarray, ref_V: np.ndarray,
     (m,) float64: mean over the face's three corners of the point-to-surface distance (the
     per-vertex form of P2S), mm.
     """
-    from dressmeup.geometry.proximity import closest_points
 
     dist, _, _ = closest_points(np.asarray(ref_V, np.float64), np.asarray(ref_F, np.int64),
                                 np.asarray(V, np.float64))
@@ -49,7 +52,6 @@ def face_distances_mm(V: np.ndarray, F: np.ndarray, ref_V: np.ndarray,
 def penetrating_faces(V: np.ndarray, F: np.ndarray, body_V: np.ndarray,
                       body_F: np.ndarray) -> np.ndarray:
     """(m,) bool: faces whose centroid lies inside the body (winding number > 0.5)."""
-    from dressmeup.geometry.winding import winding_number
 
     cent = np.asarray(V, np.float64)[np.asarray(F, np.int64)].mean(axis=1)
     return np.asarray(winding_number(np.asarray(body_V, np.float64),
@@ -59,7 +61,6 @@ def penetrating_faces(V: np.ndarray, F: np.ndarray, body_V: np.ndarray,
 def _screen_axes(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(right, up) for a front view: up along the largest extent, right along the wider
     horizontal axis (the camera looks along the thinnest one)."""
-    from dressmeup.viz.overlay import up_axis
 
     up = up_axis(points)
     ext = np.ptp(np.asarray(points, float), axis=0)
@@ -96,13 +97,13 @@ def render_error_pair(pred_V: np.ndarray, pred_F: np.ndarray, gt_V: np.ndarray,
     -------
     Path of the PNG.
     """
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib
 
     matplotlib.use("Agg", force=False)
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib.pyplot as plt
     from matplotlib import cm, colors
-
-    from dressmeup.viz.figure import save_png
 
     pred_V = np.asarray(pred_V, np.float64)
     gt_V = np.asarray(gt_V, np.float64)
@@ -156,12 +157,12 @@ def render_category_bars(categories: Sequence[str], means: Sequence[float],
     path : output PNG (atomic).
     ylabel : axis label with its unit, e.g. ``P2S [mm]``.
     """
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib
 
     matplotlib.use("Agg", force=False)
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib.pyplot as plt
-
-    from dressmeup.viz.figure import save_png
 
     m = np.asarray(means, np.float64)
     lo = np.array([m[i] - iv[0] if iv else 0.0 for i, iv in enumerate(intervals)])
@@ -195,12 +196,12 @@ def render_grouped_bars(groups: Sequence[str], series: dict[str, Sequence[float]
     path : output PNG (atomic).
     ylabel : axis label with its unit.
     """
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib
 
     matplotlib.use("Agg", force=False)
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib.pyplot as plt
-
-    from dressmeup.viz.figure import save_png
 
     names = list(series)
     k, n = len(groups), max(len(names), 1)

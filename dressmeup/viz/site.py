@@ -27,6 +27,7 @@ pictures. Finding them: :mod:`dressmeup.viz.site_inputs`; drawing items:
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import html
 import math
@@ -40,6 +41,9 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_write_text
+from dressmeup.viz.result_images import render_category_bars, render_grouped_bars
 from dressmeup.viz.site_inputs import find_data_root, find_submission
 from dressmeup.viz.site_items import draw_items
 
@@ -100,7 +104,8 @@ def _slug(text: str, taken: set[str]) -> str:
 
 def _page(title: str, body: str, nav: str = "") -> str:
     """A complete HTML page with the leaderboard stylesheet and the sorting script."""
-    from dressmeup.bench.leaderboard import HTML_CSS, SORT_JS
+    # heavy: pandas (~0.4 s to import)
+    from dressmeup.bench.board_html import HTML_CSS, SORT_JS
 
     generated = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return f"""<!DOCTYPE html>
@@ -136,7 +141,6 @@ def _fmt(spec: Any, value: Any) -> str:
 def _extra_specs(specs: list, extra: Sequence[str]) -> list:
     """Specs for task extra columns named ``<metric>_<what>`` (``ir_gt`` -> ``IR (gt)``,
     the same unit as IR); other extras are left out."""
-    import dataclasses
 
     out = []
     for col in extra:
@@ -175,48 +179,51 @@ def _item_table(table: Any, specs: list, unit: str | None, extra: Sequence[str] 
             "<tbody>\n" + "\n".join(body) + "\n</tbody></table></div>")
 
 
-def _overall_table(summary: dict, specs: list) -> str:
+def _overall_table(row: Any, board: Any) -> str:
+    """The method's overall figures: mean, median, the recomputed interval, item count and
+    the levels of each factor the interval rests on (every value escaped)."""
     e = html.escape
     rows = []
-    for s in specs:
-        st = summary.get("metrics", {}).get(s.name, {})
-        ci = st.get("ci95")
-        ci_txt = (f"[{_fmt(s, min(ci))}, {_fmt(s, max(ci))}]" if ci and None not in ci
-                  and not st.get("degenerate") else "–")
-        rows.append(f"<tr><td class=\"method\">{e(s.header())}</td>"
-                    f"<td>{_fmt(s, st.get('mean'))}</td><td>{e(ci_txt)}</td>"
-                    f"<td>{st.get('n', 0)}</td><td>{st.get('n_units', '–')}</td></tr>")
-    return ('<div class="wrap"><table><thead><tr><th class="method">metric</th><th>mean</th>'
-            "<th>95 % interval</th><th>items</th><th>units</th></tr></thead><tbody>"
-            + "".join(rows) + "</tbody></table></div>")
-
-
-def _category_chart(summary: dict, spec: Any, path: Path, group: str) -> Path | None:
-    from dressmeup.viz.result_images import render_category_bars
-
-    groups = summary.get(group, {})
-    if not groups:
-        return None
-    names, means, ivs = [], [], []
-    for name, g in groups.items():
-        st = g.get("metrics", {}).get(spec.name, {})
-        if st.get("mean") is None:
+    for c in board.columns:
+        if c.group is not None:
             continue
-        names.append(name)
-        means.append(spec.display(st["mean"]))
-        ci = st.get("ci95")
-        ivs.append(tuple(sorted(spec.display(x) for x in ci))
-                   if ci and None not in ci and not st.get("degenerate") else None)
+        s_ = c.spec
+        mean, _std, n = row.values.get(c.key, (None, None, 0))
+        ci = row.ci.get(c.key)
+        ci_txt = f"[{_fmt(s_, min(ci))}, {_fmt(s_, max(ci))}]" if ci else "–"
+        levels = row.levels.get(c.key) or {}
+        lv = " x ".join(f"{int(k)} {name}" for name, k in levels.items()) or "–"
+        rows.append(f"<tr><td class=\"method\">{e(s_.header())}</td>"
+                    f"<td>{e(_fmt(s_, mean))}</td><td>{e(_fmt(s_, row.medians.get(c.key)))}</td>"
+                    f"<td>{e(ci_txt)}</td><td>{int(n or 0)}</td><td>{e(lv)}</td></tr>")
+    return ('<div class="wrap"><table><thead><tr><th class="method">metric</th><th>mean</th>'
+            "<th>median</th><th>95 % interval</th><th>items</th><th>levels</th></tr></thead>"
+            "<tbody>" + "".join(rows) + "</tbody></table></div>")
+
+
+def _category_chart(row: Any, board: Any, spec: Any, path: Path, kind: str) -> Path | None:
+    """Bars of the primary metric per category (``kind="category"``) or per track, with
+    the row's recomputed intervals."""
+    cols = [c for c in board.columns if c.spec.name == spec.name
+            and (c.category if kind == "category" else c.track) is not None]
+    names, means, ivs = [], [], []
+    for c in cols:
+        mean = row.mean(c.key)
+        if mean is None:
+            continue
+        names.append(c.category if kind == "category" else c.track)
+        means.append(spec.display(mean))
+        ci = row.ci.get(c.key)
+        ivs.append(tuple(sorted(spec.display(x) for x in ci)) if ci else None)
     if not names:
         return None
-    what = "category" if group == "per_category" else "track"
     return render_category_bars(names, means, ivs, path,
                                 ylabel=f"{spec.label} [{spec.unit}]" if spec.unit
                                 else spec.label,
-                                title=f"{spec.label} per {what}")
+                                title=f"{spec.label} per {kind}")
 
 
-def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, slug: str,
+def _method_page(result: Any, row: Any, board: Any, task: Any, ed_dir: Path, slug: str,
                  data_roots: Sequence, submissions: Sequence, budget: list[int],
                  per_side: int, report: SiteReport) -> Path:
     e = html.escape
@@ -225,7 +232,7 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
     primary_name = board.primary.split("#")[0]
     pspec = next(x for x in specs if x.name == primary_name)
     img_dir = ed_dir / "img"
-    parts = [f"<h1>{e(row['method'])}</h1>"]
+    parts = [f"<h1>{e(row.method)}</h1>"]
     meta = s.get("method", {})
     bits = [f"edition <b>{e(board.edition.name)}</b> v{board.edition.version}",
             f"{s.get('counts', {}).get('ok', 0)}/{s.get('counts', {}).get('items', 0)} items "
@@ -241,30 +248,28 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
         bits.append('<span class="nc">not comparable</span> '
                     + e(str(s.get("not_comparable_reason") or "")))
     parts.append(f'<div class="meta">{" · ".join(bits)}</div>')
-    parts.append("<h2>Numbers</h2>" + _overall_table(s, specs))
-    boot = s.get("bootstrap")
-    if boot:
-        from dressmeup.bench.intervals import describe_resolution
-
-        parts.append(f'<p class="meta">Intervals: cluster bootstrap over {e(str(boot["unit"]))}'
-                     f" ({boot.get('resamples')} seeded resamples); "
-                     f"{e(describe_resolution(int(boot.get('n_units') or 0)))}.</p>")
+    parts.append("<h2>Numbers</h2>" + _overall_table(row, board))
+    if board.factors:
+        parts.append('<p class="meta">Intervals: recomputed from the per-item results, '
+                     f"resampling together {e(', '.join(board.factors))} (docs/benchmark.md, "
+                     '"Confidence intervals"); "levels": how many of each the items '
+                     "span.</p>")
     if result.schema_version < 2:
         parts.append('<p class="why">This result was scored by an older toolkit (schema 1): '
-                     "it has no intervals and no tracks.</p>")
+                     "it has no tracks.</p>")
     charts = []
-    for group in ("per_category", "per_track"):
-        png = _category_chart(s, pspec, img_dir / f"{slug}-{group}.png", group)
+    for kind in ("category", "track"):
+        png = _category_chart(row, board, pspec, img_dir / f"{slug}-per_{kind}.png", kind)
         if png is not None:
             report.images += 1
             charts.append(f'<img class="chart" src="img/{e(png.name)}" alt="{e(pspec.label)} '
-                          f'{group.replace("per_", "per ")}">')
+                          f'per {kind}">')
     if charts:
         parts.append("<h2>Per category" + (" and track" if len(charts) > 1 else "")
                      + "</h2>" + "".join(charts)
-                     + '<p class="meta">Error bars: 95 % bootstrap interval over '
-                     f"{e(str(getattr(task, 'unit_column', None) or 'units'))} (none when "
-                     "a group has a single unit or the result predates intervals).</p>")
+                     + '<p class="meta">Error bars: 95 % interval of the mean over the '
+                     "factors the items share (none when a group has one level of every "
+                     "factor).</p>")
     # ---- pictures
     parts.append("<h2>Best and worst items</h2>")
     table = result.table
@@ -315,7 +320,7 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
                          f'<div class="gallery">{figs}</div>')
     if why:
         parts.append(f'<p class="why">{e(why)}</p>')
-        report.notes.append(f"{board.edition.name} / {row['method']}: {why}")
+        report.notes.append(f"{board.edition.name} / {row.method}: {why}")
     if table is not None:
         parts.append(f"<h2>Every item ({len(table)})</h2>"
                      '<p class="meta">Click a column header to sort.</p>'
@@ -324,7 +329,7 @@ def _method_page(result: Any, row: dict, board: Any, task: Any, ed_dir: Path, sl
     nav = '<nav><a href="index.html">&larr; leaderboard</a> · <a href="../index.html">all ' \
           "editions</a></nav>"
     path = ed_dir / f"{slug}.html"
-    _write(path, _page(f"{row['method']} on {board.edition.name}", "\n".join(parts), nav))
+    _write(path, _page(f"{row.method} on {board.edition.name}", "\n".join(parts), nav))
     return path
 
 
@@ -332,7 +337,6 @@ def _edition_charts(board: Any, ed_dir: Path, report: SiteReport, max_methods: i
                     ) -> str:
     """HTML of the edition's grouped bar charts: the primary metric per category and per
     track, one bar per ranked method (the first ``max_methods``) with its interval."""
-    from dressmeup.viz.result_images import render_grouped_bars
 
     e = html.escape
     metric = board.primary.split("#")[0]
@@ -341,13 +345,12 @@ def _edition_charts(board: Any, ed_dir: Path, report: SiteReport, max_methods: i
         cols = [c for c in board.columns if c.spec.name == metric and getattr(c, attr)]
         if len(cols) < 2:
             continue
-        rows = [r for r in board.rows if r.get("comparable", True)][:max_methods]
+        rows = [r for r in board.rows if r.comparable][:max_methods]
         spec = cols[0].spec
-        series = {r["method"]: [spec.display(r["values"][c.key][0])
-                                if r["values"][c.key][0] is not None else float("nan")
-                                for c in cols] for r in rows}
-        ivs = {r["method"]: [tuple(sorted(spec.display(x) for x in r["ci"][c.key]))
-                             if c.key in r.get("ci", {}) else None for c in cols]
+        series = {r.method: [spec.display(r.mean(c.key)) if r.mean(c.key) is not None
+                             else float("nan") for c in cols] for r in rows}
+        ivs = {r.method: [tuple(sorted(spec.display(x) for x in r.ci[c.key]))
+                          if c.key in r.ci else None for c in cols]
                for r in rows}
         png = ed_dir / "img" / f"_edition-per-{kind}.png"
         render_grouped_bars([getattr(c, attr) for c in cols], series, ivs, png,
@@ -360,8 +363,6 @@ def _edition_charts(board: Any, ed_dir: Path, report: SiteReport, max_methods: i
 
 
 def _write(path: Path, text: str) -> None:
-    from dressmeup.io.atomic import atomic_write_text
-
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, text)
 
@@ -392,10 +393,11 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
     InputError
         No results, unreadable results, or results of one edition on different datasets.
     """
+    # heavy: pandas (~0.4 s to import)
+    from dressmeup.bench.board_html import html_meta, html_notes, html_table
     from dressmeup.bench.leaderboard import build_leaderboard
     from dressmeup.bench.results import load_result
     from dressmeup.bench.tasks import get_task
-    from dressmeup.errors import InputError
 
     t0 = time.perf_counter()
     log = log or (lambda line: None)
@@ -420,18 +422,18 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
         taken: set[str] = {"index"}
         links: dict[str, str] = {}
         for row in board.rows:
-            slug = _slug(row["method"], taken)
-            log(f"report: {board.edition.name} / {row['method']}")
-            page = _method_page(by_path[row["result"]], row, board, task, ed_dir, slug,
+            slug = _slug(row.method, taken)
+            log(f"report: {board.edition.name} / {row.method}")
+            page = _method_page(by_path[row.result], row, board, task, ed_dir, slug,
                                 data_roots, submissions, budget, images_per_side, report)
             budget[1] -= 1
             report.method_pages.append(page)
-            links[row["method"]] = f"{slug}.html"
+            links[row.method] = f"{slug}.html"
         e = html.escape
         head = (f"<h1>{e(board.edition.name)} <small>v{board.edition.version}</small></h1>\n"
-                f"{board.html_meta()}")
+                f"{html_meta(board)}")
         charts = _edition_charts(board, ed_dir, report)
-        page_body = (f"{head}\n{board.html_table(links)}\n{board.html_notes()}\n"
+        page_body = (f"{head}\n{html_table(board, links)}\n{html_notes(board)}\n"
                      + charts)
         ed_index = ed_dir / "index.html"
         _write(ed_index, _page(f"{board.edition.name} leaderboard", page_body,
@@ -439,8 +441,8 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
         report.edition_pages.append(ed_index)
         root_links = {m: f"{ed_slug}/{u}" for m, u in links.items()}
         sections.append(f'<h2><a href="{e(ed_slug)}/index.html">{e(board.edition.name)}</a> '
-                        f"<small>v{board.edition.version}</small></h2>\n{board.html_meta()}\n"
-                        f"{board.html_table(root_links)}\n{board.html_notes()}\n"
+                        f"<small>v{board.edition.version}</small></h2>\n{html_meta(board)}\n"
+                        f"{html_table(board, root_links)}\n{html_notes(board)}\n"
                         + charts.replace('src="img/', f'src="{e(ed_slug)}/img/'))
     body = ("<h1>Benchmark results</h1>\n<p class=\"meta\">One leaderboard per edition; "
             "click a method for its per-item numbers and pictures, a column header to "

@@ -9,6 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from dressmeup.io.mesh import load_mesh
+from dressmeup.viz.result_images import face_distances_mm, penetrating_faces, render_error_pair
+from dressmeup.viz.uv_checker import render_uv_checker
+
 
 def file_slug(text: str) -> str:
     """A file-name-safe slug of ``text`` (letters, digits, ``-``, ``_``, ``.``)."""
@@ -23,9 +27,9 @@ def _submission_file(sub: Path, item_id: str) -> Path | None:
 
 
 def _retarget_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
+    # heavy: pandas (~0.4 s to import)
     from dressmeup.bench.tasks.retarget.data import open_dataset, read_prediction
     from dressmeup.bench.tasks.retarget.evaluate import posed_body_file
-    from dressmeup.viz.result_images import face_distances_mm, penetrating_faces
 
     ds = open_dataset(str(root.resolve()))
     f = _submission_file(sub, row["sample_id"])
@@ -45,9 +49,9 @@ def _retarget_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
 
 
 def _fusion_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
+    # heavy: pandas (~0.4 s to import), pyarrow (~0.3 s to import)
     from dressmeup.bench.tasks.fusion.data import read_mesh
     from dressmeup.bench.tasks.retarget.data import open_dataset
-    from dressmeup.viz.result_images import face_distances_mm
 
     f = _submission_file(sub, row["sample_id"])
     if f is None:
@@ -77,13 +81,11 @@ def draw_items(task: str, rows: list[dict], sub: Path, root: Path, img_dir: Path
     -------
     list of (png path, caption), one per drawn item (items without a file are skipped).
     """
-    from dressmeup.viz.result_images import render_error_pair
 
     out: list[tuple[Path, str]] = []
     if task == "uvparam":
+        # heavy: pandas (~0.4 s to import), pyarrow (~0.3 s to import)
         from dressmeup.bench.tasks.uvparam.data import meshes, read_prediction
-        from dressmeup.io.mesh import load_mesh
-        from dressmeup.viz.uv_checker import render_uv_checker
 
         paths = {m.mesh_id: m.path for m in meshes(root)}
         for row in rows:

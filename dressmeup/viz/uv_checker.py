@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from dressmeup.viz.figure import save_png
+
 __all__ = ["checker_colors", "render_uv_checker"]
 
 
@@ -76,14 +78,14 @@ def render_uv_checker(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np
     -------
     Path of the written file.
     """
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib
 
     matplotlib.use("Agg")
+    # heavy: matplotlib (~0.3 s to import), mpl_toolkits
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-    from dressmeup.viz.figure import save_png
 
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)

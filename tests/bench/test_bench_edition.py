@@ -16,7 +16,7 @@ def test_shipped_editions_load():
     for name in names:
         ed = load_edition(name)
         assert ed.name == name and len(ed.hash) == 64
-        assert ed.primary_metric in ed.metrics
+        assert ed.primary.metric in ed.metrics
 
 
 def test_synth_retarget_defaults():

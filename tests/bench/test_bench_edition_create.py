@@ -11,9 +11,10 @@ import pandas as pd
 import pytest
 
 from dressmeup.bench import load_edition, validate_submission
-from dressmeup.bench.edition import create_edition, file_sha256
+from dressmeup.bench.edition import create_edition
 from dressmeup.cli import main
 from dressmeup.errors import InputError
+from dressmeup.io.hashing import sha256_file
 
 from .conftest import gt_predictions, make_submission
 
@@ -25,9 +26,9 @@ def test_cli_creates_a_pinned_edition_that_validates(bench_data, tmp_path, capsy
     assert rc == 0 and "lab-retarget-v1" in capsys.readouterr().out
     raw = json.loads(out.read_text())
     assert raw["dataset"] == {"kind": "real", "name": "bench-fixture",
-                              "manifest_sha256": file_sha256(bench_data / "manifest.parquet")}
+                              "manifest_sha256": sha256_file(bench_data / "manifest.parquet")}
     ed = load_edition(out)
-    assert ed.task == "retarget" and ed.primary_metric == "p2s" and "ir" in ed.metrics
+    assert ed.task == "retarget" and ed.primary.metric == "p2s" and "ir" in ed.metrics
     assert "18 items" in ed.description
     preds = gt_predictions(bench_data, ed)
     sub = make_submission(tmp_path / "sub", preds, ed, "GT")
@@ -57,4 +58,4 @@ def test_create_refuses_empty_split_and_missing_data(bench_data, tmp_path):
         (tmp_path / "empty").mkdir()
         create_edition(tmp_path / "empty", "retarget", "x-v1")
     ed = create_edition(bench_data, "retarget", "x-v1", metrics=["ed", "p2s"])
-    assert ed.primary_metric == "ed" and ed.per_category == ("ed",)
+    assert ed.primary.metric == "ed" and ed.per_category == ("ed",)

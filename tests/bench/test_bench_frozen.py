@@ -103,7 +103,7 @@ def test_frozen_fusion(bench_data, tmp_path):
 
 
 def test_frozen_uvparam(tmp_path):
-    from dressmeup.bench import runs
+    from dressmeup import runs
     from dressmeup.bench.tasks.uvparam.data import meshes
     from dressmeup.io.mesh import load_mesh
 

@@ -20,7 +20,7 @@ def _paths(scored):
 
 def test_rows_sorted_by_primary_metric_and_best_marked(scored):
     board = build_leaderboard(_paths(scored))
-    assert [r["method"] for r in board.rows] == ["GT", "NOISY"]
+    assert [r.method for r in board.rows] == ["GT", "NOISY"]
     for key in ("p2s", "p2s_bi", "chamfer", "ed", "nc", "p2s@dress"):
         assert board.best[key] == {0}, key
     md = board.render("md")

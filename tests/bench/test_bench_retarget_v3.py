@@ -21,7 +21,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dressmeup.bench import load_edition, runs
+from dressmeup import runs
+from dressmeup.bench import load_edition
 from dressmeup.bench.score import score_submission
 from dressmeup.bench.submission import write_submission
 

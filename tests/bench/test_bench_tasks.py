@@ -94,7 +94,7 @@ def test_fusion_scan_as_reconstruction_is_perfect(bench_data, tmp_path):
 
 
 def test_uvparam_mesh_set_validation_and_scores(tmp_path):
-    from dressmeup.bench import runs
+    from dressmeup import runs
 
     ed_path = tmp_path / "uv.json"
     ed_path.write_text(json.dumps({

@@ -209,7 +209,7 @@ def test_validator_mesh_sanity(tmp_path):
     header = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n" \
              b"property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
     p.write_bytes(header + b"0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n")
-    from dressmeup.data.writer import sha256_file
+    from dressmeup.io.hashing import sha256_file
     rows = read_manifest(root / "manifest.parquet").to_pylist()
     for r in rows:
         if r["sample_id"] == "S01-G02-P1":

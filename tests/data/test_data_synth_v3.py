@@ -13,7 +13,8 @@ import textwrap
 import numpy as np
 import pytest
 
-from dressmeup.bench import load_edition, runs
+from dressmeup import runs
+from dressmeup.bench import load_edition
 from dressmeup.bench.tasks.common import manifest_sha256
 from dressmeup.data import Dataset
 from dressmeup.data.synth.wardrobe import SUBJECTS, plan_v3
@@ -81,7 +82,7 @@ def test_tiny_manifest_is_the_pinned_one(tiny, other_data):
 
 def _regenerate(edition: str, out, env: dict) -> str:
     code = textwrap.dedent(f"""
-        from dressmeup.bench.runs import build_data
+        from dressmeup.runs import build_data
         build_data({edition!r}, {str(out)!r})
     """)
     subprocess.run([sys.executable, "-c", code], check=True, env={**os.environ, **env},

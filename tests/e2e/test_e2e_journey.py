@@ -17,7 +17,8 @@ EDITION = "synth-retarget-tiny-v3"
 
 
 def test_synth_to_leaderboard(tmp_path, capsys, other_data):
-    from dressmeup.bench import load_edition, runs
+    from dressmeup import runs
+    from dressmeup.bench import load_edition
     from dressmeup.cache import cache_dir
 
     ed = load_edition(EDITION)

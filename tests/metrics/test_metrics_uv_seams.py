@@ -157,7 +157,7 @@ def test_sphere_cut_at_the_equator():
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_matches_slow_reference_on_random_cuts(seed):
     # a real mesh, per-chart LSCM-like per-corner UVs from a random face labelling
-    from dressmeup.methods.uvparam.shapes import make_test_mesh
+    from dressmeup.data.shapes import make_test_mesh
 
     V, F = make_test_mesh("torus-300" if seed == 0 else "skirt-300")
     rng = np.random.default_rng(seed)

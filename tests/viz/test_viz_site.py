@@ -117,7 +117,7 @@ def test_fusion_results_get_error_maps(site_inputs, tmp_path):
     sub = write_submission(tmp_path / "sub", preds, edition=ed_path, method="SHIFTED")
     res = score_submission(sub, ed_path, site_inputs["data"], tmp_path / "res", workers=1,
                            show_progress=False)
-    assert res.summary["bootstrap"]["unit"] == "session_id"
+    assert res.summary["bootstrap"]["factors"] == ["subject_id", "garment_id", "pose_id"]
     site = write_site([res.path], tmp_path / "site", images_per_side=1)
     page = site.method_pages[0].read_text()
     pics = sorted((tmp_path / "site").glob("*/img/shifted-*.png"))

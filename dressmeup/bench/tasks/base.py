@@ -97,8 +97,10 @@ class Task:
     metrics : the task's metrics, in table order.
     default_options : edition options and their defaults.
     extra_columns : extra per-item result columns kept in the table (``ir_gt``, ...).
-    unit_column : result column naming the independent unit of bootstrap intervals
-        (retarget: the source garment id; uvparam: the mesh id; ...).
+    unit_columns : result columns naming the factors the items share, which bootstrap
+        intervals resample together (retarget: garment, target subject, target pose;
+        registration: subject, pose; uvparam: the mesh; see
+        :mod:`dressmeup.bench.intervals`).
     file_suffixes : accepted submission file suffixes.
     dataset_problems : ``(edition, data_root) -> (dataset info, problems)``; checks the pin.
     items : ``(edition, data_root) -> list[Item]``, in a stable order.
@@ -107,13 +109,17 @@ class Task:
         picklable scoring job per item (the main process prepares shared caches).
     score_job : ``job -> dict`` one result row (runs in a worker).
     metric_specs : ``(edition) -> list[MetricSpec]``, how the edition's metrics are shown.
+    track_level : ``"item"`` (items carry a track: retargeting's re-pose/re-shape/cross,
+        shown as columns) or ``"submission"`` (a whole submission declares its track:
+        uvparam's per-mesh/pretrained; leaderboards rank within each track).
+    show_median : leaderboards print ``mean / median`` (skewed metrics such as QCE).
     """
 
     name: str
     metrics: Sequence[MetricSpec]
     default_options: Mapping[str, Any]
     extra_columns: Sequence[str]
-    unit_column: str | None
+    unit_columns: tuple[str, ...]
     file_suffixes: Sequence[str]
     dataset_problems: Callable[..., tuple[dict[str, Any], list[str]]]
     items: Callable[..., list[Item]]
@@ -121,6 +127,13 @@ class Task:
     jobs: Callable[..., list[dict[str, Any]]]
     score_job: Callable[[dict[str, Any]], dict[str, Any]]
     metric_specs: Callable[..., Any]
+    track_level: str = "item"
+    show_median: bool = False
+
+    @property
+    def unit_column(self) -> str | None:
+        """The first factor (the cluster of one-factor tasks), or None."""
+        return self.unit_columns[0] if self.unit_columns else None
 
     def __post_init__(self) -> None:
         problems = []
@@ -128,8 +141,13 @@ class Task:
             problems.append("name is empty")
         if not all(isinstance(m, MetricSpec) for m in self.metrics):
             problems.append("metrics must be MetricSpec objects")
-        if self.unit_column is not None and not isinstance(self.unit_column, str):
-            problems.append(f"unit_column must be a column name or None, got {self.unit_column!r}")
+        if not isinstance(self.unit_columns, tuple) or \
+                not all(isinstance(c, str) and c for c in self.unit_columns):
+            problems.append(f"unit_columns must be a tuple of column names, got "
+                            f"{self.unit_columns!r}")
+        if self.track_level not in ("item", "submission"):
+            problems.append(f"track_level must be 'item' or 'submission', got "
+                            f"{self.track_level!r}")
         for fn in ("dataset_problems", "items", "check_file", "jobs", "score_job", "metric_specs"):
             if not callable(getattr(self, fn)):
                 problems.append(f"{fn} is not callable")
@@ -143,8 +161,8 @@ def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any)
     Parameters
     ----------
     name : task name; config, data, evaluate, render : the task package's modules, providing
-        ``METRICS``/``DEFAULT_OPTIONS``/``EXTRA_COLUMNS``/``UNIT_COLUMN`` (the result
-        column naming the independent unit of bootstrap intervals), ``FILE_SUFFIXES``/
+        ``METRICS``/``DEFAULT_OPTIONS``/``EXTRA_COLUMNS``/``UNIT_COLUMNS`` (the result
+        columns naming the factors bootstrap intervals resample), ``FILE_SUFFIXES``/
         ``dataset_problems``/``items``/``check_file``, ``jobs``/``score_job`` and
         ``metric_specs``.
 
@@ -157,7 +175,7 @@ def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any)
         metrics=tuple(config.METRICS),
         default_options=config.DEFAULT_OPTIONS,
         extra_columns=tuple(config.EXTRA_COLUMNS),
-        unit_column=config.UNIT_COLUMN,
+        unit_columns=tuple(config.UNIT_COLUMNS),
         file_suffixes=tuple(data.FILE_SUFFIXES),
         dataset_problems=data.dataset_problems,
         items=data.items,
@@ -165,4 +183,6 @@ def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any)
         jobs=evaluate.jobs,
         score_job=evaluate.score_job,
         metric_specs=render.metric_specs,
+        track_level=getattr(config, "TRACK_LEVEL", "item"),
+        show_median=bool(getattr(config, "SHOW_MEDIAN", False)),
     )

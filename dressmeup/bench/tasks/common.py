@@ -11,6 +11,9 @@ from typing import Any
 import numpy as np
 
 from dressmeup.errors import InputError
+from dressmeup.io.hashing import sha256_file
+from dressmeup.io.jsonio import parse_json_file, schema_problems
+from dressmeup.io.npz import load_npz
 
 
 @functools.lru_cache(maxsize=4)
@@ -22,6 +25,7 @@ def open_dataset(root: str):
     ----------
     root : dataset root as a resolved path string (the cache key).
     """
+    # heavy: pyarrow (~0.3 s to import)
     from dressmeup.data import Dataset
 
     return Dataset(root)
@@ -35,13 +39,12 @@ def manifest_sha256(root: str | os.PathLike) -> str:
     InputError
         When the manifest is missing.
     """
-    from dressmeup.bench.edition import file_sha256
 
     path = Path(root) / "manifest.parquet"
     if not path.is_file():
         raise InputError(f"{path} not found: --data must be a dataset root (dataset.json + "
                          "manifest.parquet); build one with 'dressmeup synth OUT ...'")
-    return file_sha256(path)
+    return sha256_file(path)
 
 
 def generator_record(info: dict[str, Any]) -> dict[str, Any] | None:
@@ -80,8 +83,6 @@ def check_pin(edition: Any, root: str | os.PathLike) -> tuple[dict[str, Any], li
     if not ds_json.is_file():
         problems.append(f"{ds_json} not found (not a dataset root)")
     else:
-        from dressmeup.io.jsonio import parse_json_file, schema_problems
-
         try:
             meta = parse_json_file(ds_json)
         except (OSError, InputError) as exc:
@@ -128,7 +129,7 @@ def check_pin(edition: Any, root: str | os.PathLike) -> tuple[dict[str, Any], li
         problems.append(f"this is not the data of edition {edition.name}: generate it with "
                         f"generator {pin.generator} {pin.generator_version}, parameters "
                         f"{json.dumps(pin.params, sort_keys=True)} and seed {pin.seed} "
-                        "(dressmeup.bench.runs.build_data(edition, root) does exactly that)")
+                        "(dressmeup.runs.build_data(edition, root) does exactly that)")
     return info, problems
 
 
@@ -160,7 +161,6 @@ def load_npz_arrays(path: Path, keys: tuple[str, ...],
         Unreadable or damaged file, an object array (pickles are refused), or arrays that
         declare more than ``max_bytes`` uncompressed.
     """
-    from dressmeup.io.npz import load_npz
 
     arrays = load_npz(path, what="prediction", max_bytes=max_bytes)
     return {k: np.asarray(arrays[k]) for k in keys if k in arrays}
@@ -198,3 +198,21 @@ def faces_problems(name: str, f: np.ndarray, n_vertices: int) -> list[str]:
         return [f"'{name}': {bad} faces index outside [0, {n_vertices}) "
                 f"(range found [{int(f.min())}, {int(f.max())}])"]
     return []
+
+
+def other_data_reason(ed: Any, dataset: dict[str, Any],
+                      data_root: str | os.PathLike) -> str | None:
+    """Why the data at ``data_root`` is not the edition's pinned data, or None when it is.
+
+    Only generated editions that record ``dataset.expected_manifest_sha256`` (v3) are checked
+    here (a real dataset's pin is checked by validation and cannot be overridden).
+    """
+    pin = ed.dataset
+    expected = pin.expected_manifest_sha256 if pin.kind == "generated" else None
+    got = dataset.get("manifest_sha256")
+    if not expected or got == expected:
+        return None
+    return (f"the data at {data_root} has manifest sha256 {str(got)[:12]}..., but edition "
+            f"{ed.name} expects {expected[:12]}... (what generator {pin.generator} "
+            f"{pin.generator_version} writes for its parameters); its scores are not comparable "
+            "with the edition's reference results")

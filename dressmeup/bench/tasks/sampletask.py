@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from dressmeup.bench.tasks.base import Item
+from dressmeup.bench.tasks.common import open_dataset
 from dressmeup.errors import InputError
 
 
@@ -15,7 +16,6 @@ def sample_items(edition: Any, data_root: Path, need: str | None = None,
                  expect: Callable[[Any], dict] | None = None) -> list[Item]:
     """Items for the samples of ``edition.split`` (only those with a ``need`` file, e.g.
     ``"scan_path"``), sorted by sample id."""
-    from dressmeup.bench.tasks.common import open_dataset
 
     root = str(Path(data_root).resolve())
     ds = open_dataset(root)
@@ -33,6 +33,7 @@ def sample_items(edition: Any, data_root: Path, need: str | None = None,
                           meta={"data_root": root, "sample_id": row.sample_id,
                                 "subject_id": str(row.subject_id),
                                 "garment_id": str(row.garment_id),
+                                "pose_id": str(row.pose_id),
                                 "session_id": f"{row.subject_id}-{row.pose_id}"}))
     return items
 

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.body.safe_pickle import safe_load_pickle
 from dressmeup.data.dataset import ID_FIELDS, RetargetPair, Sample, make_pairs
 from dressmeup.errors import InputError
 
@@ -24,7 +25,6 @@ def clean_id(text: str) -> str:
 def load_pickle(path) -> Any:
     """Load a pickle of plain numpy data without running code (reuses the body stage's
     restricted unpickler)."""
-    from dressmeup.body.safe_pickle import safe_load_pickle
 
     return safe_load_pickle(path)
 
@@ -109,6 +109,7 @@ class SampleCollection:
     @property
     def manifest(self):
         """The samples' rows (ids, category fields and whatever the adapter adds) as pandas."""
+        # heavy: pandas (~0.4 s to import)
         import pandas as pd
 
         return pd.DataFrame([s.row for s in self._samples])
@@ -147,7 +148,6 @@ def make_row(**fields: Any) -> dict[str, Any]:
 
 def as_array(value: Any, name: str, source: str) -> np.ndarray:
     """A float64 array from pickled data (numpy, lists, or torch tensors saved as arrays)."""
-    from dressmeup.errors import InputError
 
     try:
         return np.asarray(value, dtype=np.float64)

@@ -36,9 +36,13 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.body import get_body_model
+from dressmeup.body.params import BodyParams
 from dressmeup.data.adapters.base import ReadReport, SampleCollection, clean_id, make_row
 from dressmeup.data.dataset import GarmentMesh, Sample
 from dressmeup.errors import InputError
+from dressmeup.io.atomic import atomic_write_bytes
+from dressmeup.io.mesh import load_mesh
 
 CATEGORY = {"top": "topwear", "tshirt": "topwear", "t-shirt": "topwear", "shirt": "topwear",
             "trousers": "bottomwear", "skirt": "bottomwear", "shorts": "bottomwear",
@@ -76,7 +80,6 @@ def read_pc2(path: str | os.PathLike, float16: bool | None = None) -> np.ndarray
 
 def write_pc2(path: str | os.PathLike, frames: np.ndarray, float16: bool = False) -> None:
     """Write ``frames (samples, points, 3)`` as a point cache (for tests and conversions)."""
-    from dressmeup.io.atomic import atomic_write_bytes
 
     frames = np.asarray(frames)
     head = PC2_MAGIC + struct.pack("<iiffi", 1, frames.shape[1], 0.0, 1.0, frames.shape[0])
@@ -84,6 +87,7 @@ def write_pc2(path: str | os.PathLike, frames: np.ndarray, float16: bool = False
 
 
 def _mat_to_dict(obj: Any) -> Any:
+    # heavy: scipy (~0.5 s to import)
     from scipy.io.matlab import mat_struct
 
     if isinstance(obj, mat_struct):
@@ -97,6 +101,7 @@ def _mat_to_dict(obj: Any) -> Any:
 
 def load_info(path: str | os.PathLike) -> dict[str, Any]:
     """Read a CLOTH3D ``info.mat`` into plain Python (dicts, arrays, strings)."""
+    # heavy: scipy (~0.5 s to import)
     import scipy.io
 
     try:
@@ -161,9 +166,8 @@ def cloth3d_body(info: dict, t: int, body_model=None, source: str = "info.mat",
     ------
     MissingModelError : no SMPL model file (the message says where to put it).
     """
+    # heavy: scipy (~0.5 s to import)
     from scipy.spatial.transform import Rotation
-
-    from dressmeup.body.params import BodyParams
 
     poses = _frame_columns(info, "poses", 72, source)
     trans = _frame_columns(info, "trans", 3, source)
@@ -173,11 +177,10 @@ def cloth3d_body(info: dict, t: int, body_model=None, source: str = "info.mat",
     gender = cloth3d_gender(info)
     shape = np.asarray(info["shape"], np.float64).ravel()
     if body_model is None:
-        from dressmeup.body import get_body_model
-
         kw = {"gender": gender} if model_path is None else {"gender": gender,
                                                              "model_path": str(model_path)}
         body_model = get_body_model("smpl", **kw)
+    # heavy: torch (~1.1 s to import)
     import torch
 
     with torch.no_grad():
@@ -266,8 +269,6 @@ def read_cloth3d(root: str | os.PathLike, frames: list[int] | None = None, strid
                                texture_color=tex.get("color"))
 
                 def g_loader(obj=obj, pc=pc, t=t, info=info, tex=tex):
-                    from dressmeup.io.mesh import load_mesh
-
                     m = load_mesh(obj)
                     cache = read_pc2(pc)
                     if cache.shape[1] != len(m.vertices):

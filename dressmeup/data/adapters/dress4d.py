@@ -49,6 +49,7 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.body.params import BodyParams
 from dressmeup.data.adapters.base import (
     ReadReport,
     SampleCollection,
@@ -74,7 +75,6 @@ def dress4d_meta() -> dict[str, Any]:
 def dress4d_body(param: dict, gender: str = "neutral", source: str = "smpl.pkl"):
     """Convert a 4D-DRESS SMPL parameter dict into :class:`~dressmeup.body.BodyParams`
     (``pose = [global_orient, body_pose]`` as 24 x 3 axis-angles, ``transl``, ``scale = 1``)."""
-    from dressmeup.body.params import BodyParams
 
     for k in ("global_orient", "body_pose", "betas"):
         if k not in param:

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dressmeup.body.params import BodyParams
 from dressmeup.data.adapters.base import (
     ReadReport,
     SampleCollection,
@@ -44,6 +45,7 @@ from dressmeup.data.adapters.base import (
 )
 from dressmeup.data.dataset import GarmentMesh, Sample
 from dressmeup.errors import InputError
+from dressmeup.io.mesh import load_mesh
 
 CONVENTIONS = ("auto", "icon", "transl")
 
@@ -70,7 +72,6 @@ def thuman_body(param: dict, source: str = "smplx_param.pkl", gender: str = "mal
     gender : SMPL-X gender the fit was made with (ICON's THuman2.0 fits: ``male``).
     convention : ``auto``, ``icon`` or ``transl`` (see the module docstring).
     """
-    from dressmeup.body.params import BodyParams
 
     if convention not in CONVENTIONS:
         raise InputError(f"convention: expected one of {CONVENTIONS}, got {convention!r}")
@@ -132,14 +133,10 @@ def read_thuman(scans: str | os.PathLike, smplx: str | os.PathLike | None = None
                        topology_shared=False)
 
         def g_loader(obj=obj):
-            from dressmeup.io.mesh import load_mesh
-
             m = load_mesh(obj)
             return GarmentMesh(m.vertices, m.faces, m.uv, m.uv_faces, m.texture_path)
 
         def s_loader(obj=obj):
-            from dressmeup.io.mesh import load_mesh
-
             m = load_mesh(obj)
             return m.vertices, m.faces
 

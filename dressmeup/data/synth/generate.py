@@ -28,6 +28,7 @@ import numpy as np
 
 from dressmeup.data.splits import split_by_garment
 from dressmeup.data.synth.drape import DrapeSettings, drape
+from dressmeup.data.synth.dressing import garment_weights
 from dressmeup.data.synth.garments import (
     BodyFrame,
     build_garment,
@@ -35,6 +36,7 @@ from dressmeup.data.synth.garments import (
     sample_params,
 )
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
+from dressmeup.data.synth.stats import summarize_stats
 from dressmeup.data.synth.texture import procedural_texture
 from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import InputError
@@ -47,42 +49,10 @@ GENERATOR_VERSION = "1.1.0"
 # 1.1.0: splits stratified by garment category (1.0.0: plain seeded shuffle); garments and
 # drapes are unchanged
 DEFAULT_EDGE_LENGTH = {"anny": 0.02, "procedural": 0.025}
-SKIRT_LIKE = ("skirt", "dress")
-LEG_TO_HIP = {"left_knee": "left_hip", "left_ankle": "left_hip", "left_foot": "left_hip",
-              "right_knee": "right_hip", "right_ankle": "right_hip", "right_foot": "right_hip"}
-
 
 def _skin(model) -> tuple[np.ndarray, np.ndarray]:
     """Vertex indices and faces (re-indexed) of the body model's skin."""
     return model.skin()
-
-
-def garment_weights(garment, body_V, body_F, body_W, joint_names, frame):
-    """Skinning weights ``(n, j)`` of a garment (``.vertices``, ``.faces``, ``.garment_type``)
-    transferred from a rest body (skirts and dresses: leg bones folded into the hips and
-    blended towards the pelvis below them)."""
-    from dressmeup.body.skinning import transfer_weights
-
-    W = transfer_weights(body_V, body_F, body_W, garment.vertices, faces=garment.faces,
-                         smooth_iterations=10)
-    if garment.garment_type in SKIRT_LIKE:
-        # a skirt is not a pair of trouser legs: leg bones move it through the hips only,
-        # and less so the further below the hips (the rest comes from the relaxation)
-        idx = {n: k for k, n in enumerate(joint_names)}
-        for leg, hip in LEG_TO_HIP.items():
-            W[:, idx[hip]] += W[:, idx[leg]]
-            W[:, idx[leg]] = 0.0
-        J = frame.joints
-        hip_h = 0.5 * (frame.h(J["left_hip"]) + frame.h(J["right_hip"]))
-        beta = np.clip((hip_h - frame.h(garment.vertices)) / 0.3, 0.0, 0.6)[:, None]
-        pel = np.zeros(W.shape[1])
-        pel[idx["pelvis"]] = 1.0
-        W = (1 - beta) * W + beta * pel
-        W /= W.sum(1, keepdims=True)
-    return W
-
-
-_garment_weights = garment_weights  # old private name
 
 
 def plan_dataset(subjects: int, garments: int, poses: int, seed: int, types: Sequence[str],
@@ -317,42 +287,3 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
     report = summarize_stats(out, sample_ids=[r["sample_id"] for r in writer.rows])
     return writer.finalize(report=report,
                            timings={"last_run_s": round(time.perf_counter() - t_start, 2)})
-
-
-def summarize_stats(root: str | os.PathLike,
-                    sample_ids: list[str] | None = None) -> dict[str, Any]:
-    """Aggregate the generator's per-sample statistics (``generator/stats/*.json``).
-
-    Hidden files (temporary files of an interrupted atomic write) are ignored; with
-    ``sample_ids`` only those samples' statistics count.
-
-    Returns
-    -------
-    dict with millimetre figures: ``skinning_mean_mm`` (mean over samples of the mean
-    distance between the skinned and the draped garment), ``skinning_max_mm``,
-    ``min_signed_distance_mm`` (deepest vertex; negative is inside the body),
-    ``stretch_mean`` (mean |l/L - 1| of edges after draping), ``skinned_stretch_mean`` and
-    per garment type means of the skinning distance.
-    """
-    files = sorted((Path(root) / "generator" / "stats").glob("[!.]*.json"))
-    if sample_ids is not None:
-        wanted = set(sample_ids)
-        files = [f for f in files if f.stem in wanted]
-    rows = [json.loads(f.read_text()) for f in files]
-    if not rows:
-        return {}
-    by_type: dict[str, list[float]] = {}
-    for r in rows:
-        by_type.setdefault(r["garment_type"], []).append(r["skinning_mean_m"] * 1000)
-    return {
-        "n": len(rows),
-        "skinning_mean_mm": round(float(np.mean([r["skinning_mean_m"] for r in rows])) * 1000, 3),
-        "skinning_max_mm": round(float(np.max([r["skinning_max_m"] for r in rows])) * 1000, 3),
-        "min_signed_distance_mm": round(float(np.min([r["min_signed_distance_m"]
-                                                       for r in rows])) * 1000, 3),
-        "stretch_mean": round(float(np.mean([r["stretch_mean"] for r in rows])), 5),
-        "skinned_stretch_mean": round(float(np.mean([r["skinned_stretch_mean"]
-                                                      for r in rows])), 5),
-        "skinning_mean_mm_by_type": {k: round(float(np.mean(v)), 3)
-                                     for k, v in sorted(by_type.items())},
-    }

@@ -54,9 +54,11 @@ from typing import Any
 import numpy as np
 
 from dressmeup.data.synth.drape import DrapeSettings, drape
+from dressmeup.data.synth.dressing import garment_weights
 from dressmeup.data.synth.garments import BodyFrame, build_garment, sample_params
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
 from dressmeup.data.synth.scans import SCAN_BODY, clothed_scan
+from dressmeup.data.synth.stats import summarize_stats
 
 log = logging.getLogger(__name__)
 
@@ -419,7 +421,6 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     -------
     Path of the dataset root.
     """
-    from dressmeup.data.synth.generate import summarize_stats
     from dressmeup.data.writer import DatasetWriter
     from dressmeup.executors import LocalExecutor
     from dressmeup.progress import progress
@@ -585,7 +586,6 @@ def _init_worker(parent_pid: int, *setup) -> None:
 def _garment_job(job) -> dict[str, Any]:
     """Build one garment on its design body, fit it to the subjects, drape the missing
     samples; returns every array to write (computed in a worker or in the main process)."""
-    from dressmeup.data.synth.generate import garment_weights
     from dressmeup.data.synth.texture import procedural_texture
 
     gid, g, missing = job

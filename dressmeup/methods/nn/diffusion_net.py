@@ -37,9 +37,13 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.linalg import eigh
+from scipy.sparse.csgraph import dijkstra
+from scipy.sparse.linalg import eigsh
 
 from dressmeup.cache import cache_dir, hash_arrays
-from dressmeup.geometry.mesh import as_arrays
+from dressmeup.geometry.mesh import as_arrays, vertex_normals
+from dressmeup.io.atomic import atomic_path
 
 __all__ = [
     "Operators",
@@ -86,6 +90,7 @@ class Operators:
 
     def to_torch(self, dtype: Any = None) -> dict:
         """Return the operators as torch tensors (dense mass/evals/evecs, sparse gradients)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         dtype = dtype or torch.float32
@@ -107,12 +112,14 @@ class Operators:
 
 def _laplacian_and_mass(V: np.ndarray, F: np.ndarray, laplacian: str) -> tuple[sp.csr_matrix, np.ndarray]:
     if laplacian == "robust":
+        # heavy: robust_laplacian (~0.3 s to import)
         import robust_laplacian
 
         L, M = robust_laplacian.mesh_laplacian(np.asarray(V, dtype=np.float64), np.asarray(F))
         mass = np.asarray(M.diagonal(), dtype=np.float64)
         L = sp.csr_matrix(L)
     elif laplacian == "cotan":
+        # heavy: igl (~0.4 s to import)
         import igl
 
         L = -sp.csr_matrix(igl.cotmatrix(V, F.astype(np.int64)))
@@ -127,8 +134,6 @@ def _laplacian_and_mass(V: np.ndarray, F: np.ndarray, laplacian: str) -> tuple[s
 
 
 def _eigs_exact(L: sp.csr_matrix, mass: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    from scipy.sparse.linalg import eigsh
-
     n = L.shape[0]
     M = sp.diags(mass)
     k = min(k, n - 2)
@@ -150,8 +155,6 @@ def _eigs_galerkin(L: sp.csr_matrix, mass: np.ndarray, E: np.ndarray, k: int,
                    n_coarse: int, seed: int, smooth_rounds: int = 2,
                    smooth_steps: int = 10) -> tuple[np.ndarray, np.ndarray]:
     """Two-level (smoothed aggregation + Rayleigh-Ritz) approximation of the low eigenpairs."""
-    from scipy.linalg import eigh
-    from scipy.sparse.csgraph import dijkstra
     n = L.shape[0]
     rng = np.random.default_rng(seed)
     n_coarse = min(n_coarse, n)
@@ -224,7 +227,6 @@ def tangent_gradient_operators(V: np.ndarray, F: np.ndarray, normals: np.ndarray
     grad_x, grad_y : (n, n) scipy.sparse.csr_matrix
         ``grad_x @ f`` and ``grad_y @ f`` are the two tangent components of ``grad f``.
     """
-    from dressmeup.geometry.mesh import vertex_normals
 
     V = np.asarray(V, dtype=np.float64)
     n = V.shape[0]
@@ -315,8 +317,6 @@ def compute_operators(V: Any, F: Any, k_eig: int = 64, laplacian: str = "cotan",
     gx, gy = tangent_gradient_operators(V, F, edge_list=E)
     ops = Operators(mass, evals, evecs, gx, gy, time.perf_counter() - t0)
     if path is not None:
-        from dressmeup.io.atomic import atomic_path
-
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:
                 np.savez(fh, mass=mass, evals=evals, evecs=evecs,
@@ -326,6 +326,7 @@ def compute_operators(V: Any, F: Any, k_eig: int = 64, laplacian: str = "cotan",
 
 
 def _torch_modules():
+    # heavy: torch (~1.1 s to import)
     import torch
     from torch import nn
 
@@ -431,6 +432,7 @@ def DiffusionNet(c_in: int, c_out: int, width: int = 128, n_blocks: int = 4,
         ``module(x (n, c_in) tensor, ops: dict from Operators.to_torch()) -> (n, c_out)``;
         ``module.features(x, ops) -> (n, width)`` gives the last hidden features.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     if last_activation not in (None, "softmax", "log_softmax"):

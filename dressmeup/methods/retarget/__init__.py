@@ -18,6 +18,7 @@ one also has ``.fit(triplets, body_model)``, ``.save(path)`` and ``.load(path)``
 from __future__ import annotations
 
 import importlib
+import inspect
 from typing import Any
 
 from dressmeup.errors import InputError
@@ -103,16 +104,17 @@ def get_method(name: str, **hyperparameters: Any):
         if p not in POSTPROCESSES:
             raise InputError(f"unknown post-process {p!r} in {name!r}; known: {sorted(POSTPROCESSES)}")
         chain.append(_make(POSTPROCESSES, p, post_kw[p]))
+    # heavy: scipy (~0.5 s to import)
     from dressmeup.methods.retarget.postprocess import Pipeline
 
     return Pipeline(method, chain)
 
 
 def _make(table: dict, name: str, kw: dict[str, Any]):
-    import inspect
-
     cls = _cls(table, name)
-    known = [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
+    names = getattr(cls, "hyperparameter_names", None)
+    known = list(names()) if names else [p for p in inspect.signature(cls.__init__).parameters
+                                         if p != "self"]
     bad = sorted(set(kw) - set(known))
     if bad:
         raise InputError(f"{name}: unknown hyperparameter(s) {bad}; known: {known}")

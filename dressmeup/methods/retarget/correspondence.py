@@ -96,6 +96,7 @@ def knn_embedding(query_embedding: np.ndarray, reference_embedding: np.ndarray, 
         return dist.astype(np.float64), idx.astype(np.int64)
     if method != "brute":
         raise ValueError(f"method: expected 'kdtree' or 'brute', got {method!r}")
+    # heavy: torch (~1.1 s to import)
     import torch
 
     Qt, Rt = torch.as_tensor(Q), torch.as_tensor(R)

@@ -12,6 +12,7 @@ Everything is in metres; embeddings are float32.
 
 from __future__ import annotations
 
+import io
 import logging
 import time
 from dataclasses import dataclass
@@ -20,7 +21,9 @@ import numpy as np
 
 from dressmeup.cache import cache_dir, hash_arrays
 from dressmeup.geometry.mesh import as_arrays
+from dressmeup.io.atomic import atomic_write_bytes
 from dressmeup.methods.retarget.mds import classical_mds, landmark_mds
+from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +48,7 @@ def skin_component(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray
     faces : (f, 3) int64
         The component's faces re-indexed into ``vertex_ids``.
     """
+    # heavy: scipy (~0.5 s to import)
     from dressmeup.geometry.topology import largest_component
 
     V, F = as_arrays(V, F, name="template")
@@ -53,6 +57,7 @@ def skin_component(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 def heat_solver(V: np.ndarray, F: np.ndarray):
     """A potpourri3d heat-method geodesic solver on one connected surface ``(V (n, 3), F (m, 3))``."""
+    # heavy: potpourri3d (~0.4 s to import)
     import potpourri3d as pp3d
 
     return pp3d.MeshHeatMethodDistanceSolver(np.ascontiguousarray(V), np.ascontiguousarray(F))
@@ -72,7 +77,6 @@ def geodesic_matrix(V: np.ndarray, F: np.ndarray, dtype: type = np.float32) -> n
     -------
     (n, n) array of ``dtype``, zero diagonal, ``D == D.T``.
     """
-    from dressmeup.progress import progress
 
     V, F = as_arrays(V, F, name="template")
     solver = heat_solver(V, F)
@@ -104,7 +108,6 @@ def landmark_geodesics(V: np.ndarray, F: np.ndarray, n_landmarks: int,
     landmarks : (L,) int64 vertex indices.
     distances : (L, n) float64 geodesic distances from each landmark.
     """
-    from dressmeup.progress import progress
 
     V, F = as_arrays(V, F, name="template")
     n = V.shape[0]
@@ -193,10 +196,6 @@ def template_embedding(template_V: np.ndarray, template_F: np.ndarray, dim: int 
     seconds = time.perf_counter() - t0
     log.info("isomap embedding (%s, %d vertices, d=%d) in %.1f s", method, len(ids), dim, seconds)
     if use_cache:
-        import io
-
-        from dressmeup.io.atomic import atomic_write_bytes
-
         buf = io.BytesIO()
         np.savez(buf, vertex_ids=ids, embedding=emb)
         atomic_write_bytes(path, buf.getvalue())

@@ -14,7 +14,8 @@ import time
 
 import numpy as np
 
-from dressmeup.methods.retarget.base import RetargetMethod
+from dressmeup.geometry.laplacian import uniform_laplacian
+from dressmeup.methods.retarget.base import RetargetMethod, body_context, check_garment
 from dressmeup.methods.retarget.correspondence import (  # noqa: F401  (re-exported)
     CoarseResult,
     coarse_retarget,
@@ -33,6 +34,7 @@ from dressmeup.methods.retarget.embedding import (  # noqa: F401  (re-exported)
     template_embedding,
 )
 from dressmeup.methods.retarget.mds import classical_mds, landmark_mds, laplacian_eigenmaps  # noqa: F401
+from dressmeup.methods.retarget.prepared import prepare_garment
 
 __all__ = [
     "skin_component", "geodesic_matrix", "landmark_geodesics", "classical_mds", "landmark_mds",
@@ -113,7 +115,6 @@ class IsomapRetarget(RetargetMethod):
         -------
         PreparedGarment
         """
-        from dressmeup.methods.retarget.prepared import prepare_garment
 
         return prepare_garment(garment_V, garment_F, source_context.skin_vertices, source_context.skin_normals,
                                embedding.embedding, self.k_extrapolate, self.k_place)
@@ -125,7 +126,6 @@ class IsomapRetarget(RetargetMethod):
         -------
         (CoarseResult, source BodyContext, target BodyContext, TemplateEmbedding)
         """
-        from dressmeup.methods.retarget.base import body_context, check_garment
 
         V, F = check_garment(garment_V, garment_F)
         emb = self.embedding(body_model)
@@ -157,8 +157,6 @@ class IsomapRetarget(RetargetMethod):
             if self.carry_offset:
                 x = x + prep.source_offset[:, None] * n
         if self.smooth_iterations:
-            from dressmeup.geometry.laplacian import uniform_laplacian
-
             L = uniform_laplacian(F, V.shape[0])
             for _ in range(int(self.smooth_iterations)):
                 x = x - L @ x

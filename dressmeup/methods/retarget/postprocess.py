@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from dressmeup.cache import hash_arrays
 from dressmeup.methods.retarget.base import RetargetMethod, body_context, check_garment
+from dressmeup.methods.retarget.detail import DetailTransfer
+from dressmeup.methods.retarget.penetration import resolve_penetration
 from dressmeup.methods.retarget.refine import WEIGHTS_DIR  # noqa: F401  (shipped weights of chains)
 
 __all__ = ["DetailPost", "PenetrationPost", "Pipeline"]
@@ -37,8 +40,6 @@ class DetailPost(RetargetMethod):
     def transfer(self, garment_V, garment_F):
         """The factorised :class:`~dressmeup.methods.retarget.detail.DetailTransfer` of a garment
         (memoised per garment content and settings: a new target costs a back-substitution)."""
-        from dressmeup.cache import hash_arrays
-        from dressmeup.methods.retarget.detail import DetailTransfer
 
         key = hash_arrays(np.asarray(garment_V, dtype=np.float64), np.asarray(garment_F, dtype=np.int64),
                           extra=f"{self.laplacian}|{self.anchor_fraction}|{self.anchor_weight}|{self.seed}")
@@ -85,7 +86,6 @@ class PenetrationPost(RetargetMethod):
 
     def apply(self, garment_V, garment_F, retargeted_V, source, target, body_model) -> np.ndarray:
         """Return the (n, 3) float64 garment with penetrations resolved."""
-        from dressmeup.methods.retarget.penetration import resolve_penetration
 
         t = body_context(body_model, target)
         return resolve_penetration(retargeted_V, garment_F, t.skin_vertices, t.skin_faces, margin=self.margin,

@@ -29,8 +29,11 @@ truth), on CPU; inference is one forward pass.
 
 from __future__ import annotations
 
+import io
 import logging
 import time
+from dataclasses import asdict, fields
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +42,10 @@ from scipy.spatial import cKDTree
 
 from dressmeup.errors import MissingModelError
 from dressmeup.geometry.mesh import edges as mesh_edges
+from dressmeup.io.atomic import atomic_write_bytes
+from dressmeup.methods.retarget.base import body_context, check_garment
 from dressmeup.methods.retarget.isomap import IsomapRetarget
+from dressmeup.methods.retarget.refine_config import PRESETS, RefineConfig, get_config
 from dressmeup.methods.retarget.refine_losses import (  # noqa: F401  (re-exported)
     MASK_JOINTS,
     RefineSample,
@@ -49,6 +55,8 @@ from dressmeup.methods.retarget.refine_losses import (  # noqa: F401  (re-export
     refine_losses,
     subsample,
 )
+from dressmeup.methods.retarget.train import train_network
+from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
 
@@ -59,56 +67,13 @@ WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
 _FORMAT = "dressmeup-isomap-refine-v1"
 
 
-# --------------------------------------------------------------------------------------------
-# the network
-# --------------------------------------------------------------------------------------------
-def _build_network(in_dim: int, code_dim: int, width: int, depth: int, pointnet_hidden: int, out_scale: float):
-    import torch
-    from torch import nn
-
-    from dressmeup.methods.nn.mlp import ConditionedMLP
-    from dressmeup.methods.nn.pointnet import ResnetPointNet
-
-    class RefineNet(nn.Module):
-        def __init__(self) -> None:
-            super().__init__()
-            self.encoder_garment = ResnetPointNet(c_dim=code_dim, hidden=pointnet_hidden)
-            self.encoder_body = ResnetPointNet(c_dim=code_dim, hidden=pointnet_hidden)
-            self.decoder = ConditionedMLP(in_dim, 3, code_dim=2 * code_dim, width=width, depth=depth,
-                                          out_scale=out_scale)
-
-        def forward(self, features: torch.Tensor, garment_points: torch.Tensor,
-                    body_points: torch.Tensor) -> torch.Tensor:
-            code = torch.cat([self.encoder_garment(garment_points), self.encoder_body(body_points)])
-            return self.decoder(features, code)
-
-    return RefineNet()
+@lru_cache(maxsize=8)
+def _config_fields(kind: type) -> frozenset[str]:
+    return frozenset(f.name for f in fields(kind))
 
 
-def _decode_with_partial(decoder, x, neighbors, phi_term, code):
-    """:class:`~dressmeup.methods.nn.mlp.ConditionedMLP` forward with the first layer split by input.
-
-    The first layer's input is ``[x (3), phi (d), neighbours (3k), code]``; ``phi_term`` is
-    ``phi @ W_phi^T`` (per garment, precomputed) and the code's share is one vector per target,
-    so only ``x`` and the neighbours are multiplied per vertex. Same result as
-    ``decoder(cat([x, phi, neighbours]), code)`` up to float round-off (tested).
-    """
-    import torch
-    from torch import nn
-
-    first = decoder.layers[0]
-    W, b = first.weight, first.bias
-    nk = neighbors.shape[1]
-    d = W.shape[1] - 3 - nk - decoder.code_dim
-    h = x @ W[:, :3].T + neighbors @ W[:, 3 + d:3 + d + nk].T + phi_term + (W[:, 3 + d + nk:] @ code + b)
-    mod = decoder.film(code).view(len(decoder.layers), 2, decoder.width)
-    for i in range(len(decoder.layers)):
-        if i > 0:
-            h = decoder.layers[i](h)
-        h = nn.functional.layer_norm(h, (decoder.width,))
-        h = (1.0 + mod[i, 0]) * h + mod[i, 1]
-        h = decoder.act(h)
-    return decoder.out_scale * torch.tanh(decoder.out(h))
+def _field_names(config: Any) -> frozenset[str]:
+    return _config_fields(type(config))
 
 
 class IsomapRefine(IsomapRetarget):
@@ -116,85 +81,63 @@ class IsomapRefine(IsomapRetarget):
 
     Parameters
     ----------
-    dim, k_extrapolate, k_place, embedding_method, n_landmarks, correspondence_noise :
-        the coarse stage (see :class:`~dressmeup.methods.retarget.isomap.IsomapRetarget`).
-    k_neighbors : int
-        Target vertices fed per garment vertex (thesis: 32).
-    width, depth : int
-        Decoder MLP (thesis: 512, 6).
-    code_dim : int
-        Size of each PointNet code (thesis: 128).
-    pointnet_hidden : int
-        PointNet hidden width (demo: 128).
-    n_points : int
-        Points fed to each PointNet (a fixed-seed subsample).
-    out_scale : float
-        Largest offset per coordinate, metres (tanh output scale).
-    steps : int
-        Training steps (one triplet per step) of :meth:`fit`.
-    lr : float
-        Adam learning rate.
-    w_length, w_corres, w_bend, w_penetration : float
-        Loss weights (0 disables a term: the loss ablation).
-    use_joint_mask : bool
-        Joint masks in the edge-length loss.
-    margin : float
-        Penetration margin, metres.
-    joint_mask_radius : float
-        Radius of the joint masks, metres.
+    config : str or RefineConfig
+        A preset of :data:`~dressmeup.methods.retarget.refine_config.PRESETS` (default: the
+        class's ``default_preset``, the thesis' network) or a configuration.
     weights : str or None
         Checkpoint to load when not fitted; ``None`` looks for the shipped
-        ``weights/isomap_refine_<body model>.pt``.
+        ``weights/<weights_stem>_<body model>.pt``.
     device : str
         Torch device ("cpu"; CUDA when asked and available).
-    carry_offset : bool
-        Feed the network the ``isomap-offset`` coarse placement (the loose-garment variant)
-        instead of the thesis' eq. 4.4 one.
-    precompute : bool
-        Per-garment preparation of the coarse stage (see ``isomap``); ``False``: general path.
-    seed : int
-        Network initialisation, sample order and point subsampling.
+    **overrides
+        Settings of :class:`~dressmeup.methods.retarget.refine_config.RefineConfig`
+        (validated: an unknown name or a wrong type raises ``InputError``). Every setting
+        reads as an attribute (``method.width``); assigning one replaces the configuration.
     """
 
     name = "isomap-refine"
     _format = _FORMAT
     weights_stem = "isomap_refine"
+    default_preset = "thesis"
+    presets: dict[str, RefineConfig] = PRESETS
 
-    def __init__(self, dim: int = 128, k_extrapolate: int = 32, k_place: int = 32,
-                 embedding_method: str = "auto", n_landmarks: int = 2000, correspondence_noise: float = 0.0,
-                 k_neighbors: int = 32, width: int = 512, depth: int = 6, code_dim: int = 128,
-                 pointnet_hidden: int = 128, n_points: int = 2048, out_scale: float = 0.15,
-                 steps: int = 300, lr: float = 3e-4, w_length: float = 1.0, w_corres: float = 1.0,
-                 w_bend: float = 0.01, w_penetration: float = 1.0, use_joint_mask: bool = True,
-                 margin: float = 0.003, joint_mask_radius: float = 0.08, weights: str | None = None,
-                 device: str = "cpu", carry_offset: bool = False, precompute: bool = True, seed: int = 0) -> None:
-        self.carry_offset = carry_offset
-        self.precompute = precompute
-        self.dim = dim
-        self.k_extrapolate = k_extrapolate
-        self.k_place = k_place
-        self.embedding_method = embedding_method
-        self.n_landmarks = n_landmarks
-        self.correspondence_noise = correspondence_noise
-        self.k_neighbors = k_neighbors
-        self.width = width
-        self.depth = depth
-        self.code_dim = code_dim
-        self.pointnet_hidden = pointnet_hidden
-        self.n_points = n_points
-        self.out_scale = out_scale
-        self.steps = steps
-        self.lr = lr
-        self.w_length = w_length
-        self.w_corres = w_corres
-        self.w_bend = w_bend
-        self.w_penetration = w_penetration
-        self.use_joint_mask = use_joint_mask
-        self.margin = margin
-        self.joint_mask_radius = joint_mask_radius
+    def __init__(self, config: str | RefineConfig | None = None, *, weights: str | None = None,
+                 device: str = "cpu", **overrides: Any) -> None:
+        object.__setattr__(self, "config", get_config(config or self.default_preset,
+                                                      presets=self.presets, **overrides))
         self.weights = weights
         self.device = device
-        self.seed = seed
+
+    @classmethod
+    def hyperparameter_names(cls) -> list[str]:
+        """Every keyword :func:`~dressmeup.methods.retarget.get_method` accepts for this method."""
+        kind = type(next(iter(cls.presets.values())))
+        return ["config", "weights", "device", *(f.name for f in fields(kind))]
+
+    def get_params(self) -> dict[str, Any]:
+        """The settings of the configuration, ``weights`` and ``device``, as a dict."""
+        return {**asdict(self.config), "weights": self.weights, "device": self.device}
+
+    def set_params(self, **params: Any) -> IsomapRefine:
+        """Change settings by name (validated like the constructor's overrides)."""
+        runtime = {k: params.pop(k) for k in ("weights", "device") if k in params}
+        object.__setattr__(self, "config", get_config(self.config, presets=self.presets, **params))
+        for k, v in runtime.items():
+            object.__setattr__(self, k, v)
+        return self
+
+    def __getattr__(self, name: str) -> Any:
+        config = self.__dict__.get("config")
+        if config is not None and name in _field_names(config):
+            return getattr(config, name)
+        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        config = self.__dict__.get("config")
+        if config is not None and name in _field_names(config):
+            self.set_params(**{name: value})
+        else:
+            object.__setattr__(self, name, value)
 
     # the coarse stage of the thesis has no push-out and no smoothing
     offset = 0.0
@@ -235,6 +178,7 @@ class IsomapRefine(IsomapRetarget):
 
     def features(self, sample: RefineSample):
         """Network inputs of a sample: per-vertex features (n, 3 + d + 3k), garment points, body points."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         feats = np.concatenate([sample.x, sample.phi, sample.neighbors], axis=1)
@@ -244,16 +188,20 @@ class IsomapRefine(IsomapRetarget):
 
     def new_network(self):
         """A freshly initialised network (seeded) for these hyperparameters."""
+        # heavy: torch (~1.1 s to import)
         import torch
+
+        from dressmeup.methods.retarget.refine_net import build_network
 
         torch.manual_seed(int(self.seed))
         in_dim = 3 + int(self.dim) + 3 * int(self.k_neighbors)
-        net = _build_network(in_dim, int(self.code_dim), int(self.width), int(self.depth),
-                             int(self.pointnet_hidden), float(self.out_scale))
+        net = build_network(in_dim, int(self.code_dim), int(self.width), int(self.depth),
+                            int(self.pointnet_hidden), float(self.out_scale))
         return net.to(torch.device(self.device))
 
     def loss(self, net, sample: RefineSample) -> tuple[Any, dict[str, float]]:
         """Weighted total loss of ``net`` on one sample, and its terms as floats."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         feats, gp, bp = self.features(sample)
@@ -294,7 +242,6 @@ class IsomapRefine(IsomapRetarget):
 
     def prepare_many(self, triplets, body_model, desc: str = "preparing") -> list[RefineSample]:
         """:meth:`prepare` of every (garment_V, garment_F, source, target[, truth]) tuple."""
-        from dressmeup.progress import progress
 
         triplets = list(triplets)
         return [self.prepare(t[0], t[1], t[2], t[3], body_model, truth=t[4] if len(t) > 4 else None)
@@ -309,7 +256,6 @@ class IsomapRefine(IsomapRetarget):
         ``k_neighbors``, ``n_points``, ...) as this object's; the loss settings may differ,
         which is how the loss ablation reuses one preparation for every variant.
         """
-        from dressmeup.methods.retarget.train import train_network
 
         if not samples:
             raise ValueError("samples: expected at least one prepared sample")
@@ -330,15 +276,13 @@ class IsomapRefine(IsomapRetarget):
         back as float32: the shipped files use it). ``info`` (JSON-like) is stored as the
         checkpoint's ``"training"`` record (data, steps, times).
         """
-        import io
 
+        # heavy: torch (~1.1 s to import)
         import torch
-
-        from dressmeup.io.atomic import atomic_write_bytes
 
         if not hasattr(self, "network_"):
             raise ValueError(f"{self.name}: nothing to save, call fit() or load() first")
-        params = {k: v for k, v in self.get_params().items() if k not in ("weights", "device")}
+        params = asdict(self.config)
         state = {k: v.detach().cpu() for k, v in self.network_.state_dict().items()}
         if half:
             state = {k: v.half() if v.is_floating_point() else v for k, v in state.items()}
@@ -353,6 +297,7 @@ class IsomapRefine(IsomapRetarget):
     @classmethod
     def load(cls, path, device: str = "cpu") -> IsomapRefine:
         """Read a checkpoint written by :meth:`save` (hyperparameters included)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         path = Path(path)
@@ -362,7 +307,7 @@ class IsomapRefine(IsomapRetarget):
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
         if not isinstance(ckpt, dict) or ckpt.get("format") != cls._format:
             raise MissingModelError(f"{path}: not an {cls.name} checkpoint (format {cls._format} expected)")
-        obj = cls(**ckpt["hyperparameters"], device=device, weights=str(path))
+        obj = cls(device=device, weights=str(path), **ckpt["hyperparameters"])
         obj._load_state(ckpt)
         return obj
 
@@ -377,6 +322,7 @@ class IsomapRefine(IsomapRetarget):
         """Load the weights (``weights`` or the shipped file of ``body_model``) unless fitted or loaded."""
         if hasattr(self, "network_"):
             return
+        # heavy: torch (~1.1 s to import)
         import torch
 
         path = Path(self.weights) if self.weights else WEIGHTS_DIR / f"{self.weights_stem}_{body_model.name}.pt"
@@ -388,10 +334,8 @@ class IsomapRefine(IsomapRetarget):
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
         if ckpt.get("format") != self._format:
             raise MissingModelError(f"{path}: not an {self.name} checkpoint (format {self._format} expected)")
-        keep = ("weights", "device", "correspondence_noise", "steps", "lr", "carry_offset", "precompute")
-        for k, v in ckpt["hyperparameters"].items():
-            if k not in keep:
-                setattr(self, k, v)
+        keep = ("correspondence_noise", "steps", "lr", "carry_offset", "precompute")
+        self.set_params(**{k: v for k, v in ckpt["hyperparameters"].items() if k not in keep})
         self._load_state(ckpt)
 
     def retarget(self, garment_V, garment_F, source, target, body_model) -> np.ndarray:
@@ -416,9 +360,10 @@ class IsomapRefine(IsomapRetarget):
         return self._retarget_prepared(garment_V, garment_F, source, target, body_model)
 
     def _retarget_prepared(self, garment_V, garment_F, source, target, body_model) -> np.ndarray:
+        # heavy: torch (~1.1 s to import)
         import torch
 
-        from dressmeup.methods.retarget.base import body_context, check_garment
+        from dressmeup.methods.retarget.refine_net import decode_with_partial
 
         V, F = check_garment(garment_V, garment_F)
         t0 = time.perf_counter()
@@ -447,7 +392,7 @@ class IsomapRefine(IsomapRetarget):
         with torch.no_grad():
             body_pts = torch.as_tensor(subsample(TV, self.n_points, self.seed + 1).astype(np.float32), device=dev)
             code = torch.cat([part["garment_code"], net.encoder_body(body_pts)])
-            dx = _decode_with_partial(net.decoder, torch.as_tensor(x, device=dev),
+            dx = decode_with_partial(net.decoder, torch.as_tensor(x, device=dev),
                                       torch.as_tensor(neighbors, device=dev), part["phi_term"], code)
         t5 = time.perf_counter()
         self.last_timing_ = {"source_posing": t1 - t0, "preparation": t2 - t1, "target_posing": t3 - t2,
@@ -456,6 +401,7 @@ class IsomapRefine(IsomapRetarget):
 
     def _garment_partial(self, prep, V: np.ndarray, s) -> dict:
         """Per-garment network inputs: the garment's PointNet code and ``phi W_phi^T`` (memoised)."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         key = (prep.key, id(self.network_), int(self.n_points), int(self.seed))
@@ -476,6 +422,7 @@ class IsomapRefine(IsomapRetarget):
 
     def predict_sample(self, sample: RefineSample) -> np.ndarray:
         """One forward pass on a prepared sample: (n, 3) float64 world positions."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         if not hasattr(self, "network_"):
@@ -487,30 +434,11 @@ class IsomapRefine(IsomapRetarget):
 
 
 class IsomapRefineFast(IsomapRefine):
-    """``isomap-refine-fast``: ``isomap-refine`` with a narrower network (the ``fast`` preset).
-
-    Decoder 6 x 256 with 64-d PointNet codes and PointNet hidden width 64 (about 4x fewer
-    operations per vertex than the thesis' 6 x 512 / 128); shipped weights
-    ``weights/isomap_refine_fast_<body model>.pt``. Same hyperparameters as
-    :class:`IsomapRefine`, with these defaults.
+    """``isomap-refine-fast``: ``isomap-refine`` with the ``fast`` preset (decoder 6 x 256,
+    64-d PointNet codes, PointNet hidden width 64: about 4x fewer operations per vertex than
+    the thesis' 6 x 512 / 128); shipped weights ``weights/isomap_refine_fast_<body model>.pt``.
     """
 
     name = "isomap-refine-fast"
     weights_stem = "isomap_refine_fast"
-
-    def __init__(self, dim: int = 128, k_extrapolate: int = 32, k_place: int = 32,
-                 embedding_method: str = "auto", n_landmarks: int = 2000, correspondence_noise: float = 0.0,
-                 k_neighbors: int = 32, width: int = 256, depth: int = 6, code_dim: int = 64,
-                 pointnet_hidden: int = 64, n_points: int = 2048, out_scale: float = 0.15,
-                 steps: int = 300, lr: float = 3e-4, w_length: float = 1.0, w_corres: float = 1.0,
-                 w_bend: float = 0.01, w_penetration: float = 1.0, use_joint_mask: bool = True,
-                 margin: float = 0.003, joint_mask_radius: float = 0.08, weights: str | None = None,
-                 device: str = "cpu", carry_offset: bool = False, precompute: bool = True, seed: int = 0) -> None:
-        super().__init__(dim=dim, k_extrapolate=k_extrapolate, k_place=k_place, embedding_method=embedding_method,
-                         n_landmarks=n_landmarks, correspondence_noise=correspondence_noise,
-                         k_neighbors=k_neighbors, width=width, depth=depth, code_dim=code_dim,
-                         pointnet_hidden=pointnet_hidden, n_points=n_points, out_scale=out_scale, steps=steps,
-                         lr=lr, w_length=w_length, w_corres=w_corres, w_bend=w_bend, w_penetration=w_penetration,
-                         use_joint_mask=use_joint_mask, margin=margin, joint_mask_radius=joint_mask_radius,
-                         weights=weights, device=device, carry_offset=carry_offset, precompute=precompute,
-                         seed=seed)
+    default_preset = "fast"

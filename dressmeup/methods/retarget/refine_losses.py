@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from dressmeup.geometry.topology import face_adjacency
+
 __all__ = ["RefineSample", "joint_mask", "face_pairs", "subsample", "correspondence_points", "refine_losses",
            "MASK_JOINTS"]
 
@@ -100,7 +102,6 @@ def face_pairs(F: np.ndarray) -> np.ndarray:
     """Pairs of faces sharing an edge that exactly two faces hold: (b, 2) int64 (the pair order
     the shipped weights were trained with: :func:`dressmeup.geometry.topology.face_adjacency`
     with ``order="corner"``)."""
-    from dressmeup.geometry.topology import face_adjacency
 
     return face_adjacency(F, manifold_only=True, order="corner")
 
@@ -136,6 +137,7 @@ def correspondence_points(v, sample: RefineSample, k_extrapolate: int = 32, k_pl
     x : (n, 3) torch tensor, the re-placed points.
     nearest : (n,) int64 numpy, the nearest target vertex of each ``v_i``.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     c = int(min(candidates, len(sample.target_V)))
@@ -176,6 +178,7 @@ def refine_losses(v, sample: RefineSample, margin: float = 0.003, use_joint_mask
     -------
     dict of scalar tensors: ``length``, ``corres``, ``bend``, ``penetration``.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     dtype = v.dtype

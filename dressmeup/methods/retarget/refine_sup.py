@@ -20,12 +20,14 @@ from typing import Any
 import numpy as np
 
 from dressmeup.methods.retarget.refine import WEIGHTS_DIR, IsomapRefine  # noqa: F401  (shipped weights)
+from dressmeup.methods.retarget.refine_config import SUP_PRESETS
 from dressmeup.methods.retarget.refine_losses import RefineSample
 
 __all__ = ["IsomapRefineSup", "supervised_losses"]
 
 
 def _vertex_normals_torch(v, faces):
+    # heavy: torch (~1.1 s to import)
     import torch
 
     F = torch.as_tensor(faces)
@@ -39,6 +41,7 @@ def _vertex_normals_torch(v, faces):
 
 def _laplace_magnitude(v, edges: np.ndarray):
     """Eq. 4.9-4.10: ``|v_i - mean_{j in N(i)} v_j|`` per vertex, (n,) tensor."""
+    # heavy: torch (~1.1 s to import)
     import torch
 
     E = torch.as_tensor(edges)
@@ -80,6 +83,7 @@ def supervised_losses(v, sample: RefineSample, flat_threshold: float = 0.01) -> 
     -------
     dict of scalar tensors ``l1``, ``normal``, ``laplace``.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     if sample.truth is None:
@@ -99,47 +103,21 @@ def supervised_losses(v, sample: RefineSample, flat_threshold: float = 0.01) -> 
 class IsomapRefineSup(IsomapRefine):
     """``isomap-refine-sup``: ``isomap-refine``'s network trained with the supervised losses.
 
-    Parameters
-    ----------
-    w_l1, w_normal, w_laplace : float
-        Weights of the L1, normal and Laplacian losses (thesis: unstated; ours 1 / 0.01 / 1,
-        chosen once for comparable magnitudes).
-    flat_threshold : float
-        ``1 - cos`` of neighbouring ground-truth normals under which the normal loss is masked.
-    Every other hyperparameter: see :class:`~dressmeup.methods.retarget.refine.IsomapRefine`
-    (the self-supervised loss weights are unused).
+    Configuration: :class:`~dressmeup.methods.retarget.refine_config.SupConfig` (preset
+    ``thesis``): the settings of ``isomap-refine`` and the supervised loss weights ``w_l1``,
+    ``w_normal``, ``w_laplace`` and ``flat_threshold`` (the self-supervised weights are
+    unused). Constructor: see :class:`~dressmeup.methods.retarget.refine.IsomapRefine`.
     """
 
     name = "isomap-refine-sup"
-    supervised = True  # training reads the target garments (bench.runs passes them)
+    supervised = True  # training reads the target garments (dressmeup.runs passes them)
     _format = "dressmeup-isomap-refine-sup-v1"
     weights_stem = "isomap_refine_sup"
-
-    def __init__(self, dim: int = 128, k_extrapolate: int = 32, k_place: int = 32,
-                 embedding_method: str = "auto", n_landmarks: int = 2000, correspondence_noise: float = 0.0,
-                 k_neighbors: int = 32, width: int = 512, depth: int = 6, code_dim: int = 128,
-                 pointnet_hidden: int = 128, n_points: int = 2048, out_scale: float = 0.15,
-                 steps: int = 300, lr: float = 3e-4, w_length: float = 1.0, w_corres: float = 1.0,
-                 w_bend: float = 0.01, w_penetration: float = 1.0, use_joint_mask: bool = True,
-                 margin: float = 0.003, joint_mask_radius: float = 0.08, weights: str | None = None,
-                 device: str = "cpu", carry_offset: bool = False, precompute: bool = True,
-                 w_l1: float = 1.0, w_normal: float = 0.01, w_laplace: float = 1.0, flat_threshold: float = 0.01,
-                 seed: int = 0) -> None:
-        super().__init__(dim=dim, k_extrapolate=k_extrapolate, k_place=k_place, embedding_method=embedding_method,
-                         n_landmarks=n_landmarks, correspondence_noise=correspondence_noise,
-                         k_neighbors=k_neighbors, width=width, depth=depth, code_dim=code_dim,
-                         pointnet_hidden=pointnet_hidden, n_points=n_points, out_scale=out_scale, steps=steps,
-                         lr=lr, w_length=w_length, w_corres=w_corres, w_bend=w_bend, w_penetration=w_penetration,
-                         use_joint_mask=use_joint_mask, margin=margin, joint_mask_radius=joint_mask_radius,
-                         weights=weights, device=device, carry_offset=carry_offset, precompute=precompute,
-                         seed=seed)
-        self.w_l1 = w_l1
-        self.w_normal = w_normal
-        self.w_laplace = w_laplace
-        self.flat_threshold = flat_threshold
+    presets = SUP_PRESETS
 
     def loss(self, net, sample: RefineSample) -> tuple[Any, dict[str, float]]:
         """Weighted supervised loss of ``net`` on one sample (needs ``sample.truth``), and its terms."""
+        # heavy: torch (~1.1 s to import)
         import torch
 
         feats, gp, bp = self.features(sample)

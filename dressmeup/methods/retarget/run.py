@@ -13,7 +13,13 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.body import get_body_model
+from dressmeup.cache import hash_arrays
+from dressmeup.errors import InputError
+from dressmeup.executors import LocalExecutor, in_order
+from dressmeup.geometry.mesh import edges as mesh_edges
 from dressmeup.hyperparameters import parse_value  # noqa: F401 - re-exported (its home)
+from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
 
@@ -23,7 +29,6 @@ __all__ = ["body_model_for", "predict_pairs", "RetargetPairJob", "training_tripl
 
 def body_model_for(params, cache: dict | None = None):
     """The body model named by ``params.model`` (one instance per name in ``cache``)."""
-    from dressmeup.body import get_body_model
 
     cache = {} if cache is None else cache
     if params.model not in cache:
@@ -48,8 +53,6 @@ class RetargetPairJob:
         self.method = method
 
     def __call__(self, pair: Any) -> tuple[np.ndarray, float]:
-        from dressmeup.errors import InputError
-
         garment = pair.source.garment()
         src, tgt = pair.source.body(), pair.target.body()
         if src is None or tgt is None:
@@ -84,8 +87,6 @@ def predict_pairs(method, pairs: Sequence[Any], limit: int | None = None,
     Exception
         The first pair's error (in pair order), after every pair has run.
     """
-    from dressmeup.executors import LocalExecutor, in_order
-    from dressmeup.progress import progress
 
     pairs = list(pairs)[: limit if limit else None]
     executor = executor or LocalExecutor(1)
@@ -120,7 +121,6 @@ def training_triplets(dataset, split: str = "train", max_triplets: int | None = 
         [, target garment vertices (n, 3)])
     body_model : the body model of the first sample.
     """
-    from dressmeup.errors import InputError
 
     pairs = [p for p in dataset.retarget_pairs(split) if p.source.garment_id not in set(exclude_garments)]
     if not pairs:
@@ -156,8 +156,6 @@ def garment_fingerprints(dataset, split: str) -> dict[str, dict[str, Any]]:
     faces), "topology": hash of the faces, "lengths": (e,) float64 edge lengths of its first
     sample (metres), "split": split}.
     """
-    from dressmeup.cache import hash_arrays
-    from dressmeup.geometry.mesh import edges as mesh_edges
 
     out: dict[str, dict[str, Any]] = {}
     for s in dataset.filter(split=split).samples():
@@ -191,7 +189,6 @@ def check_split_leakage(dataset, train_split: str = "train", other_splits: Seque
     InputError
         Naming the leaking garment ids.
     """
-    from dressmeup.errors import InputError
 
     train = garment_fingerprints(dataset, train_split)
     others: dict[str, dict[str, Any]] = {}

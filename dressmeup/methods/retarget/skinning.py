@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dressmeup.body.skinning import closest_surface_points, lbs, transfer_weights, unpose
+from dressmeup.geometry.mesh import vertex_normals
 from dressmeup.methods.retarget.base import RetargetMethod, body_context, check_garment
 
 __all__ = ["SkinningRetarget"]
@@ -37,8 +39,6 @@ class SkinningRetarget(RetargetMethod):
 
     def retarget(self, garment_V, garment_F, source, target, body_model) -> np.ndarray:
         """See :mod:`dressmeup.methods.retarget.base`; returns (n, 3) float64."""
-        from dressmeup.body.skinning import closest_surface_points, lbs, transfer_weights, unpose
-        from dressmeup.geometry.mesh import vertex_normals
 
         V, F = check_garment(garment_V, garment_F)
         s, t = body_context(body_model, source), body_context(body_model, target)

@@ -27,6 +27,7 @@ METHODS = {
     "harmonic": ("dressmeup.methods.uvparam.harmonic", "HarmonicMethod"),
     "slim": ("dressmeup.methods.uvparam.slim", "SLIMMethod"),
     "neural": ("dressmeup.methods.uvparam.neural.method", "NeuralMethod"),
+    "lscm-on-charts": ("dressmeup.methods.uvparam.lscm_charts", "LSCMOnChartsMethod"),
 }
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from dressmeup.methods.uvparam.base import UVResult
+from dressmeup.metrics import ase_details, qce_details, uv_validity
+from dressmeup.metrics.uv import uv_seams
 
 __all__ = ["score_uv", "markdown_table"]
 
@@ -25,8 +27,6 @@ def score_uv(V: np.ndarray, F: np.ndarray, result: UVResult, overlap_resolution:
     ``n_charts`` (the method's), ``seam_length``, ``charts`` (measured on the mesh's edges),
     ``packing``, ``seconds``).
     """
-    from dressmeup.metrics import ase_details, qce_details, uv_validity
-    from dressmeup.metrics.uv import uv_seams
 
     q = qce_details(V, F, result.uv, result.uv_faces)
     a = ase_details(V, F, result.uv, result.uv_faces)

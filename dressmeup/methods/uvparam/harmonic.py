@@ -36,6 +36,7 @@ def harmonic_flatten(Vc: np.ndarray, Fc: np.ndarray) -> np.ndarray:
     -------
     (v, 2) float64
     """
+    # heavy: igl (~0.4 s to import)
     import igl
 
     if len(Fc) == 1:

@@ -16,6 +16,7 @@ __all__ = ["LSCMMethod", "lscm_flatten", "boundary_vertices"]
 
 def boundary_vertices(Fc: np.ndarray) -> np.ndarray:
     """Ordered longest boundary loop of a chart (libigl), or ``[]`` for a closed chart."""
+    # heavy: igl (~0.4 s to import)
     import igl
 
     return np.asarray(igl.boundary_loop(np.ascontiguousarray(Fc, dtype=np.int64)), dtype=np.int64)
@@ -33,6 +34,7 @@ def lscm_flatten(Vc: np.ndarray, Fc: np.ndarray) -> np.ndarray:
     -------
     (v, 2) float64
     """
+    # heavy: igl (~0.4 s to import)
     import igl
 
     if len(Fc) == 1:

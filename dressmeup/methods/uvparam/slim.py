@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.linalg import spsolve
 
 from dressmeup.methods.uvparam.harmonic import circle_boundary
 from dressmeup.methods.uvparam.lscm import LSCMMethod, _single_triangle, boundary_vertices
@@ -23,7 +24,6 @@ def tutte_flatten(Vc: np.ndarray, Fc: np.ndarray) -> np.ndarray:
     -------
     (v, 2) float64
     """
-    from scipy.sparse.linalg import spsolve
 
     n = len(Vc)
     bnd = boundary_vertices(Fc)
@@ -49,6 +49,7 @@ def slim_flatten(Vc: np.ndarray, Fc: np.ndarray, iterations: int = 20) -> np.nda
     -------
     (v, 2) float64
     """
+    # heavy: igl (~0.4 s to import)
     import igl
 
     if len(Fc) == 1:

@@ -195,11 +195,11 @@ def test_fast_variant_is_narrower_and_looks_for_its_own_weights(tiny, body_model
 
 @pytest.mark.slow
 def test_supervised_baseline_trains_through_the_one_run_path(tmp_path):
-    # bench.runs trains trainable baselines without shipped weights; the supervised one needs
+    # dressmeup.runs trains trainable baselines without shipped weights; the supervised one needs
     # the target garments (it raised "no ground truth" before runs passed them)
     import torch
 
-    from dressmeup.bench.runs import build_data, run_retarget_baseline
+    from dressmeup.runs import build_data, run_retarget_baseline
 
     torch.set_num_threads(1)
     data = build_data("synth-retarget-tiny-v2", tmp_path / "data")  # has a train split

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from dressmeup.data.shapes import make_test_mesh, parse_mesh_id
 from dressmeup.geometry.uv_atlas import (
     chart_is_disk,
     make_disk_charts,
@@ -17,7 +18,6 @@ from dressmeup.geometry.uv_atlas import (
 from dressmeup.methods.uvparam import get_method
 from dressmeup.methods.uvparam.lscm import lscm_flatten
 from dressmeup.methods.uvparam.segmentation import normal_cone_segmentation
-from dressmeup.methods.uvparam.shapes import make_test_mesh, parse_mesh_id
 from dressmeup.metrics import qce, uv_validity
 
 MESHES = {"closed": "sphere-400", "closed-genus1": "torus-600", "open-disk": "sheet-400",
@@ -69,7 +69,7 @@ def test_lscm_on_a_plane_is_isometric_up_to_scale():
     X, Y = np.meshgrid(s, s, indexing="ij")
     P = np.stack([X, Y], -1).reshape(-1, 2) + rng.uniform(-0.02, 0.02, (k * k, 2))
     V = np.c_[P, np.zeros(len(P))] @ np.linalg.qr(rng.normal(size=(3, 3)))[0]
-    from dressmeup.methods.uvparam.shapes import _grid_faces
+    from dressmeup.data.shapes import _grid_faces
 
     F = _grid_faces(k, k, False, False)
     uv = lscm_flatten(V, F)

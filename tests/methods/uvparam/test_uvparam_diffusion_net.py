@@ -7,13 +7,13 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
+from dressmeup.data.shapes import make_test_mesh  # noqa: E402
 from dressmeup.methods.nn.diffusion_net import (  # noqa: E402
     DiffusionNet,
     compute_operators,
     tangent_gradient_operators,
 )
 from dressmeup.methods.uvparam.neural.patchnet import normalize_vertices, patchnet_inputs  # noqa: E402
-from dressmeup.methods.uvparam.shapes import make_test_mesh  # noqa: E402
 
 
 def run(net, V, F):
@@ -73,7 +73,7 @@ def test_gradient_of_a_linear_function_on_a_plane_is_exact():
     s = np.linspace(0, 1, k)
     X, Y = np.meshgrid(s, s, indexing="ij")
     V = np.stack([X.ravel(), Y.ravel(), np.zeros(k * k)], 1)
-    from dressmeup.methods.uvparam.shapes import _grid_faces
+    from dressmeup.data.shapes import _grid_faces
 
     F = _grid_faces(k, k, False, False)
     gx, gy = tangent_gradient_operators(V, F, reg=0.0)

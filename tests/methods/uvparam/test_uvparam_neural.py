@@ -10,8 +10,8 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
+from dressmeup.data.shapes import make_test_mesh  # noqa: E402
 from dressmeup.methods.uvparam.neural import losses as L  # noqa: E402
-from dressmeup.methods.uvparam.shapes import make_test_mesh  # noqa: E402
 
 TINY = dict(n_patches=4, patch_width=16, patch_blocks=2, k_eig=16, patch_iters=40,
             mlp_width=32, mlp_depth=4, uv_iters=120, geo_landmarks=300, pairs_per_iter=5000,
@@ -169,10 +169,10 @@ def test_decimation_for_training_keeps_a_valid_mesh():
     # regression: libigl 2.6's decimate returns (U, G, J, I), not (success, U, G, J, I); the
     # faces were read as vertices and the joint indices as faces
     from dressmeup.geometry.mesh import face_areas
-    from dressmeup.methods.uvparam.neural.method import decimate_for_training
+    from dressmeup.geometry.simplify import decimate
 
     V, F = make_test_mesh("blob-6k")
-    V2, F2 = decimate_for_training(V, F, 1000)
+    V2, F2 = decimate(V, F, 1000)
     assert V2.shape[1] == 3 and F2.shape[1] == 3 and 700 < len(V2) < 1300
     assert F2.min() >= 0 and F2.max() == len(V2) - 1
     assert abs(face_areas(V2, F2).sum() / face_areas(V, F).sum() - 1) < 0.05

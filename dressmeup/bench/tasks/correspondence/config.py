@@ -16,6 +16,6 @@ DEFAULT_OPTIONS: dict = {
 }
 EXTRA_COLUMNS: tuple[str, ...] = ()
 
-#: Result column of the independent unit that bootstrap intervals resample:
-#: the garment.
-UNIT_COLUMN = "garment_id"
+#: Result columns of the factors the items share, resampled together by the bootstrap:
+#: the garment and the subject wearing it.
+UNIT_COLUMNS = ("garment_id", "subject_id")

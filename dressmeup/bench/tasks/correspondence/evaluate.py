@@ -10,7 +10,10 @@ from typing import Any
 import numpy as np
 
 from dressmeup.bench.tasks.base import STATUS_OK
+from dressmeup.bench.tasks.common import load_npz_arrays, open_dataset
 from dressmeup.bench.tasks.sampletask import simple_jobs as jobs  # noqa: F401 - task API
+from dressmeup.geometry.geodesic import geodesic_distances
+from dressmeup.metrics import richness
 
 
 def richness_on_subset(V: np.ndarray, F: np.ndarray, E: np.ndarray, k: int, max_vertices: int,
@@ -21,8 +24,6 @@ def richness_on_subset(V: np.ndarray, F: np.ndarray, E: np.ndarray, k: int, max_
     symmetrised; the embedding rows of the subset. With ``n <= max_vertices`` every vertex
     is used.
     """
-    from dressmeup.geometry.geodesic import geodesic_distances
-    from dressmeup.metrics import richness
 
     n = V.shape[0]
     idx = np.arange(n) if n <= max_vertices else np.sort(
@@ -34,7 +35,6 @@ def richness_on_subset(V: np.ndarray, F: np.ndarray, E: np.ndarray, k: int, max_
 
 def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
     """Score one embedding."""
-    from dressmeup.bench.tasks.common import load_npz_arrays, open_dataset
 
     t0 = time.perf_counter()
     g = open_dataset(job["meta"]["data_root"])[job["item_id"]].garment()

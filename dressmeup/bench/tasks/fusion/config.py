@@ -21,6 +21,6 @@ EXTRA_COLUMNS: tuple[str, ...] = ()
 THRESHOLDS = {"fscore_1mm": 0.001, "fscore_2mm": 0.002, "fscore_5mm": 0.005,
               "fscore_10mm": 0.01}
 
-#: Result column of the independent unit that bootstrap intervals resample:
-#: the capture session (subject and pose).
-UNIT_COLUMN = "session_id"
+#: Result columns of the factors the items share, resampled together by the bootstrap:
+#: the subject, the garment and the pose of each captured sample.
+UNIT_COLUMNS = ("subject_id", "garment_id", "pose_id")

@@ -13,6 +13,7 @@ from dressmeup.bench.tasks.base import Item
 from dressmeup.bench.tasks.common import array_problems, check_pin, faces_problems, load_npz_arrays
 from dressmeup.bench.tasks.sampletask import sample_items
 from dressmeup.errors import InputError
+from dressmeup.io.mesh import load_mesh
 
 FILE_SUFFIXES = (".ply", ".obj", ".npz")
 
@@ -34,7 +35,6 @@ def read_mesh(path: Path) -> tuple[np.ndarray, np.ndarray]:
         if "vertices" not in a or "faces" not in a:
             raise InputError(f"{path.name}: needs 'vertices' and 'faces' arrays")
         return a["vertices"], a["faces"]
-    from dressmeup.io.mesh import load_mesh
 
     m = load_mesh(path)
     return m.vertices, m.faces

@@ -15,6 +15,6 @@ METRICS: tuple[MetricSpec, ...] = (
 DEFAULT_OPTIONS: dict = {"n_samples": 100_000, "seed": 0, "size_limit_mb": 256}
 EXTRA_COLUMNS: tuple[str, ...] = ()
 
-#: Result column of the independent unit that bootstrap intervals resample:
-#: the subject: fits of one body share its shape.
-UNIT_COLUMN = "subject_id"
+#: Result columns of the factors the scans share, resampled together by the bootstrap:
+#: the subject (fits of one body share its shape) and the pose.
+UNIT_COLUMNS = ("subject_id", "pose_id")

@@ -9,6 +9,7 @@ from typing import Any
 from dressmeup.bench.tasks.base import Item
 from dressmeup.bench.tasks.common import check_pin
 from dressmeup.bench.tasks.sampletask import sample_items
+from dressmeup.body import BodyParams, available_body_models
 
 FILE_SUFFIXES = (".npz",)
 
@@ -25,7 +26,6 @@ def items(edition: Any, data_root: Path) -> list[Item]:
 
 def check_file(path: Path, item: Item, edition: Any) -> list[str]:
     """Problems of one body-parameter file (readable, finite, a known body model)."""
-    from dressmeup.body import BodyParams, available_body_models
 
     try:
         params = BodyParams.load(path)

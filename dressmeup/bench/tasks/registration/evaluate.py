@@ -12,22 +12,20 @@ from typing import Any
 import numpy as np
 
 from dressmeup.bench.tasks.base import STATUS_OK
+from dressmeup.bench.tasks.common import open_dataset
 from dressmeup.bench.tasks.sampletask import simple_jobs as jobs  # noqa: F401 - task API
+from dressmeup.body import BodyParams, get_body_model
+from dressmeup.geometry.sampling import sample_surface
+from dressmeup.metrics import p2s
 
 
 @functools.lru_cache(maxsize=4)
 def _model(name: str):
-    from dressmeup.body import get_body_model
-
     return get_body_model(name)
 
 
 def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
     """Score one fitted body."""
-    from dressmeup.bench.tasks.common import open_dataset
-    from dressmeup.body import BodyParams
-    from dressmeup.geometry.sampling import sample_surface
-    from dressmeup.metrics import p2s
 
     t0 = time.perf_counter()
     sample = open_dataset(job["meta"]["data_root"])[job["item_id"]]

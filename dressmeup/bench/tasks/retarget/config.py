@@ -19,6 +19,10 @@ METRICS: tuple[MetricSpec, ...] = (
                "normal consistency: mean signed cosine between matching normals"),
     MetricSpec("ir", "IR", "%", 100.0, "lower", 2,
                "share of garment surface area inside the target body (winding number)"),
+    MetricSpec("p2s_body", "P2S-body", "mm", 1000.0, "lower", 2,
+               "the thesis' P2S (section 4.4.5): mean distance from each garment vertex to the "
+               "target body surface, not to the ground truth (a garment sunk into the body "
+               "scores low: read it with IR and with the ground truth's own value, p2s_body_gt)"),
 )
 
 #: Defaults every retarget edition starts from (an edition may override each).
@@ -30,8 +34,8 @@ DEFAULT_OPTIONS: dict = {
 }
 
 #: Extra per-pair columns written beside the metrics (not ranked).
-EXTRA_COLUMNS = ("ir_gt",)
+EXTRA_COLUMNS = ("ir_gt", "p2s_body_gt")
 
-#: Result column of the independent unit that bootstrap intervals resample:
-#: the source garment: pairs of one garment are correlated.
-UNIT_COLUMN = "garment_id"
+#: Result columns of the factors the pairs share, resampled together by the bootstrap: the
+#: garment (its pairs are correlated), and the bodies and poses every garment is worn in.
+UNIT_COLUMNS = ("garment_id", "target_subject", "target_pose")

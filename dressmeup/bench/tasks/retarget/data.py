@@ -12,6 +12,7 @@ float (or a ``.ply`` / ``.obj`` with the source's faces).
 from __future__ import annotations
 
 import functools
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,7 @@ from dressmeup.bench.tasks.common import (
     open_dataset,
 )
 from dressmeup.errors import InputError
+from dressmeup.io.mesh import load_mesh
 
 FILE_SUFFIXES = (".npz", ".ply", ".obj")
 
@@ -41,7 +43,8 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     For every source garment and every track of ``pairs_spec["per_track"]`` (track -> n),
     ``n`` pairs are drawn without replacement (all when fewer) by a generator seeded with
     ``(seed, crc32(garment id), track index)``, so the choice for one garment does not
-    depend on the others; tracks not named are dropped.
+    depend on the others; tracks not named are dropped, and with ``"categories"`` so are
+    garments of other categories (the thesis protocol: topwear and bottomwear).
 
     Parameters
     ----------
@@ -53,12 +56,14 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     -------
     list of pairs sorted by pair id.
     """
-    import zlib
 
     if not pairs_spec:
         return sorted(pairs, key=lambda p: p.pair_id)
     seed = int(pairs_spec.get("seed", 0))
     per = dict(pairs_spec["per_track"])
+    cats = pairs_spec.get("categories")
+    if cats:
+        pairs = [p for p in pairs if p.source.category in cats]
     order = sorted(per)
     groups: dict[tuple[str, str], list] = {}
     for p in pairs:
@@ -98,7 +103,8 @@ def items(edition: Any, data_root: Path) -> list[Item]:
         src, tgt = pair.source.sample_id, pair.target.sample_id
         row = manifest.loc[src]
         track = {"track": pair.track, "source_subject": pair.source.subject_id,
-                 "target_subject": pair.target.subject_id} if with_tracks else {}
+                 "target_subject": pair.target.subject_id,
+                 "target_pose": pair.target.pose_id} if with_tracks else {}
         out.append(Item(
             item_id=pair.pair_id,
             category=str(row["category"]),
@@ -139,7 +145,6 @@ def read_prediction(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
             raise InputError(f"{path.name}: no 'vertices' array (found keys: "
                              f"{', '.join(_npz_keys(path)) or 'none'})")
         return arrays["vertices"], arrays.get("faces")
-    from dressmeup.io.mesh import load_mesh
 
     mesh = load_mesh(path)
     return mesh.vertices, mesh.faces

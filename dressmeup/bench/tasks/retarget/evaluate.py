@@ -27,12 +27,21 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup import metrics as M
 from dressmeup.bench.tasks.base import STATUS_OK, Item
+from dressmeup.bench.tasks.retarget.data import _sample, open_dataset, read_prediction
+from dressmeup.body import get_body_model
+from dressmeup.cache import cache_dir, hash_arrays
+from dressmeup.geometry.sampling import sample_surface
+from dressmeup.io.atomic import atomic_path
+from dressmeup.metrics import interpenetration_ratio
+from dressmeup.progress import progress
 
 
 # ------------------------------------------------------------------------ main process side
 def largest_component(F: np.ndarray, n_vertices: int) -> np.ndarray:
     """Faces ``(k, 3)`` of the largest connected component (by face count) of a mesh."""
+    # heavy: scipy (~0.5 s to import)
     from dressmeup.geometry.topology import largest_component_faces
 
     F = np.asarray(F, dtype=np.int64)
@@ -52,8 +61,6 @@ def posed_body_file(params: Any, models: dict[str, Any]) -> Path:
     params : BodyParams of the target sample.
     models : cache of body models by name, filled on first use.
     """
-    from dressmeup.cache import cache_dir, hash_arrays
-    from dressmeup.io.atomic import atomic_path
 
     key = hash_arrays(np.asarray(params.shape, np.float64), np.asarray(params.pose, np.float64),
                       np.asarray(params.transl, np.float64),
@@ -63,8 +70,6 @@ def posed_body_file(params: Any, models: dict[str, Any]) -> Path:
     if path.is_file():
         return path
     if params.model not in models:
-        from dressmeup.body import get_body_model
-
         models[params.model] = get_body_model(params.model)
     model = models[params.model]
     out = model.posed(params)
@@ -78,12 +83,10 @@ def posed_body_file(params: Any, models: dict[str, Any]) -> Path:
 def jobs(edition: Any, data_root: Path, files: Mapping[str, Path],
          items: Sequence[Item], show_progress: bool | None = None) -> list[dict[str, Any]]:
     """Build one picklable job per pair; poses each distinct target body once (cached)."""
-    from dressmeup.bench.tasks.retarget.data import open_dataset
-    from dressmeup.progress import progress
 
     ds = open_dataset(str(Path(data_root).resolve()))
     by_id = {s.sample_id: s for s in ds}
-    need_body = "ir" in edition.metrics
+    need_body = "ir" in edition.metrics or "p2s_body" in edition.metrics
     bodies: dict[str, str] = {}
     models: dict[str, Any] = {}
     if need_body:
@@ -107,8 +110,6 @@ def jobs(edition: Any, data_root: Path, files: Mapping[str, Path],
 # ---------------------------------------------------------------------------- worker side
 @functools.lru_cache(maxsize=8)
 def _garment(root: str, sample_id: str) -> tuple[np.ndarray, np.ndarray]:
-    from dressmeup.bench.tasks.retarget.data import _sample, open_dataset
-
     g = _sample(open_dataset(root), sample_id).garment()
     return np.asarray(g.vertices, np.float64), np.asarray(g.faces, np.int64)
 
@@ -121,18 +122,20 @@ def _body(path: str) -> tuple[np.ndarray, np.ndarray]:
 
 @functools.lru_cache(maxsize=8)
 def _gt_samples(root: str, sample_id: str, n: int, seed: int) -> np.ndarray:
-    from dressmeup.geometry.sampling import sample_surface
-
     V, F = _garment(root, sample_id)
     return sample_surface(V, F, n, seed=seed)[0]
 
 
 @functools.lru_cache(maxsize=8)
 def _gt_ir(root: str, sample_id: str, body_path: str) -> float:
-    from dressmeup.metrics import interpenetration_ratio
-
     V, F = _garment(root, sample_id)
     return float(interpenetration_ratio((V, F), _body(body_path)))
+
+
+@functools.lru_cache(maxsize=8)
+def _gt_p2s_body(root: str, sample_id: str, body_path: str) -> float:
+    V, _ = _garment(root, sample_id)
+    return float(M.p2s(V, _body(body_path)))
 
 
 def evaluate_pair(pred_V: np.ndarray, src_F: np.ndarray, gt_V: np.ndarray, gt_F: np.ndarray,
@@ -147,7 +150,7 @@ def evaluate_pair(pred_V: np.ndarray, src_F: np.ndarray, gt_V: np.ndarray, gt_F:
     src_F : (m, 3) int64 source garment faces.
     gt_V, gt_F : (n', 3) float64 / (m', 3) int64 ground-truth garment.
     body : (vertices (b, 3), faces (k, 3)) of the posed target body, or None (no IR).
-    metrics : names among ``p2s, p2s_bi, chamfer, ed, nc, ir``.
+    metrics : names among ``p2s, p2s_bi, chamfer, ed, nc, ir, p2s_body``.
     options : ``n_samples``, ``seed``, ``chamfer_squared``.
     gt_points : (n_samples, 3) precomputed samples of the ground truth (same seed), optional.
 
@@ -156,8 +159,6 @@ def evaluate_pair(pred_V: np.ndarray, src_F: np.ndarray, gt_V: np.ndarray, gt_F:
     values : metric name -> float (metres, ratios); ``ed`` NaN when topologies differ.
     notes : human-readable notes (why a value is NaN).
     """
-    from dressmeup import metrics as M
-    from dressmeup.geometry.sampling import sample_surface
 
     n, seed = int(options["n_samples"]), int(options["seed"])
     pred, gt = (pred_V, src_F), (gt_V, gt_F)
@@ -192,12 +193,17 @@ def evaluate_pair(pred_V: np.ndarray, src_F: np.ndarray, gt_V: np.ndarray, gt_F:
             notes.append("ir: no target body")
         else:
             values["ir"] = float(M.interpenetration_ratio(pred, body))
+    if "p2s_body" in metrics:
+        if body is None:
+            values["p2s_body"] = math.nan
+            notes.append("p2s_body: no target body")
+        else:
+            values["p2s_body"] = float(M.p2s(pred_V, body))
     return {k: values[k] for k in metrics if k in values}, notes
 
 
 def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
     """Score one pair job (see :func:`jobs`); errors propagate to the scorer, which records them."""
-    from dressmeup.bench.tasks.retarget.data import read_prediction
 
     t0 = time.perf_counter()
     meta = job["meta"]
@@ -214,10 +220,12 @@ def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
     row: dict[str, Any] = {"sample_id": job["item_id"], "category": job["category"],
                            "source_id": meta["source_id"], "target_id": meta["target_id"],
                            "garment_id": meta["garment_id"],
-                           **{k: meta[k] for k in ("track", "source_subject", "target_subject")
-                              if k in meta}, **values}
+                           **{k: meta[k] for k in ("track", "source_subject", "target_subject",
+                                                   "target_pose") if k in meta}, **values}
     if "ir" in job["metrics"] and body is not None:
         row["ir_gt"] = _gt_ir(root, meta["target_id"], job["body_path"])
+    if "p2s_body" in job["metrics"] and body is not None:
+        row["p2s_body_gt"] = _gt_p2s_body(root, meta["target_id"], job["body_path"])
     row["status"] = STATUS_OK
     row["error"] = ""
     row["note"] = "; ".join(notes)

@@ -43,6 +43,11 @@ DEFAULT_OPTIONS: dict = {
 
 EXTRA_COLUMNS = ("n_charts",)
 
-#: Result column of the independent unit that bootstrap intervals resample:
-#: the mesh (one item per mesh).
-UNIT_COLUMN = "sample_id"
+#: Result column of the factor bootstrap intervals resample: the mesh (one item per mesh).
+UNIT_COLUMNS = ("sample_id",)
+
+#: A submission declares its track (``per-mesh`` or ``pretrained``): leaderboards rank
+#: within each track, never a track's only entry above another track's methods.
+TRACK_LEVEL = "submission"
+#: QCE and ASE are skewed by a few hard meshes: tables print mean / median.
+SHOW_MEDIAN = True

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -11,6 +12,10 @@ from typing import Any
 import numpy as np
 
 from dressmeup.bench.tasks.base import STATUS_OK, Item
+from dressmeup.bench.tasks.uvparam.data import read_prediction
+from dressmeup.errors import InputError
+from dressmeup.io.mesh import load_mesh
+from dressmeup.metrics.uv import ase_details, qce_details, uv_seams, uv_validity
 
 
 def jobs(edition: Any, data_root: Path, files: Mapping[str, Path], items: Sequence[Item],
@@ -37,9 +42,6 @@ def submission_track(folder: Path, tracks: Sequence[str]) -> str:
     InputError
         The declared track is not one of the edition's.
     """
-    import json
-
-    from dressmeup.errors import InputError
 
     path = Path(folder) / "submission.json"
     try:
@@ -64,7 +66,6 @@ def evaluate_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np.ndarr
     V : (n, 3) float64, F : (m, 3) int64 the mesh.
     uv : (n, 2) per vertex or (k, 2) per corner with ``uv_faces (m, 3)``.
     """
-    from dressmeup.metrics.uv import ase_details, qce_details, uv_validity
 
     out: dict[str, float] = {}
     if {"qce", "qce_max", "zero_area"} & set(metrics):
@@ -74,8 +75,6 @@ def evaluate_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np.ndarr
     if "ase" in metrics:
         out["ase"] = float(ase_details(V, F, uv, uv_faces).abs_mean)
     if {"seam_length", "charts", "packing"} & set(metrics):
-        from dressmeup.metrics.uv import uv_seams
-
         out.update(uv_seams(V, F, uv, uv_faces).as_dict())
     if {"flip", "overlap"} & set(metrics):
         v = uv_validity(V, F, uv, uv_faces,
@@ -86,8 +85,6 @@ def evaluate_uv(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np.ndarr
 
 def score_job(job: Mapping[str, Any]) -> dict[str, Any]:
     """Score one UV map job."""
-    from dressmeup.bench.tasks.uvparam.data import read_prediction
-    from dressmeup.io.mesh import load_mesh
 
     t0 = time.perf_counter()
     mesh = load_mesh(job["meta"]["mesh_path"])

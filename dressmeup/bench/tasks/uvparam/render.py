@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 from dressmeup.bench.tasks.base import MetricSpec
-from dressmeup.bench.tasks.uvparam.config import METRICS
+from dressmeup.bench.tasks.uvparam.config import METRICS, PARETO
 
 
 def metric_specs(edition: Any) -> list[MetricSpec]:
@@ -34,9 +35,6 @@ def pareto_front(scores: Mapping[str, Mapping[str, float]],
         Names of the methods on the front; methods with a missing or non-finite value are
         never on it.
     """
-    import math
-
-    from dressmeup.bench.tasks.uvparam.config import PARETO
 
     names = tuple(metrics or PARETO)
     pts = {}

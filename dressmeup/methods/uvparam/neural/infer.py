@@ -94,6 +94,7 @@ def cluster_decimate(V: np.ndarray, F: np.ndarray, n_vertices: int) -> tuple[np.
 def _patchnet_on(model: NeuralUVModel, Vn: np.ndarray, F: np.ndarray, use_operator_cache: bool,
                  **operator_options):
     """PatchNet's probabilities (n, K) and last hidden features (n, d) on a mesh."""
+    # heavy: torch (~1.1 s to import)
     import torch
 
     ops = compute_operators(Vn, F, k_eig=model.config.k_eig, use_cache=use_operator_cache,
@@ -134,6 +135,7 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
     UVResult
         ``info`` has per-stage seconds and the number of charts.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     t0, c0 = time.perf_counter(), time.process_time()
@@ -146,6 +148,7 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
         Vn = normalize_vertices(V)
         proxy = bool(proxy_vertices) and len(V) > 2 * int(proxy_vertices)
         if proxy:
+            # optional dependency (ImportError handled)
             from scipy.spatial import cKDTree
 
             Vp, Fp = cluster_decimate(V, F, int(proxy_vertices))

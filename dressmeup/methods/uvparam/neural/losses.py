@@ -94,6 +94,7 @@ def _corner_vectors(P, faces):
 
 def triangle_cosines(P, faces, eps: float = 1e-12):
     """Cosines of the three corner angles of each triangle, (f, 3), for 2D or 3D points."""
+    # heavy: torch (~1.1 s to import)
     import torch
 
     out = []
@@ -110,6 +111,7 @@ def triangle_areas_2d(uv, faces):
 
 def triangle_areas_3d(x, faces):
     """Triangle areas (f,)."""
+    # heavy: torch (~1.1 s to import)
     import torch
 
     a, b, c = x[faces[:, 0]], x[faces[:, 1]], x[faces[:, 2]]

@@ -14,12 +14,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from dressmeup.errors import InputError
 from dressmeup.geometry.mesh import as_arrays
+from dressmeup.geometry.simplify import decimate
 from dressmeup.methods.uvparam.base import UVResult
 
-__all__ = ["NeuralMethod", "decimate_for_training", "PRETRAINED", "pretrained_path"]
+__all__ = ["NeuralMethod", "PRETRAINED", "pretrained_path"]
 
 #: names of the shipped pretrained models
 PRETRAINED = ("topwear", "bottomwear", "dress", "general")
@@ -34,7 +34,6 @@ def pretrained_path(name: str) -> Path:
     InputError
         Unknown name, or the weights are not installed.
     """
-    from dressmeup.errors import InputError
 
     if name not in PRETRAINED:
         raise InputError(f"pretrained: expected one of {', '.join(PRETRAINED)} or 'category', "
@@ -45,31 +44,6 @@ def pretrained_path(name: str) -> Path:
                          "missing): reinstall dressmeup, or train one with "
                          "benchmarks/train_uvparam_pretrained.py")
     return path
-
-
-def decimate_for_training(V: np.ndarray, F: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
-    """Edge-collapse decimation (libigl) to about ``n_vertices``; the mesh itself if already small.
-
-    Returns
-    -------
-    V : (n2, 3) float64
-    F : (m2, 3) int64
-    """
-    import igl
-
-    if len(V) <= 1.5 * n_vertices:
-        return V, F
-    target_faces = int(2 * n_vertices * len(F) / max(2 * len(V), 1))
-    out = igl.decimate(np.ascontiguousarray(V), np.ascontiguousarray(F, dtype=np.int64), max(target_faces, 64))
-    # libigl < 2.6 returns (success, U, G, J, I); 2.6 returns (U, G, J, I)
-    U, G = (out[1], out[2]) if len(out) == 5 else (out[0], out[1])
-    V2, F2 = np.asarray(U, dtype=np.float64), np.asarray(G, dtype=np.int64)
-    if len(F2) == 0:
-        return V, F
-    used = np.unique(F2)
-    remap = np.full(len(V2), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    return V2[used], remap[F2]
 
 
 class NeuralMethod:
@@ -100,8 +74,6 @@ class NeuralMethod:
     def __init__(self, config: str = "fast", checkpoint: str | Path | None = None,
                  use_operator_cache: bool = True, save_checkpoint: str | Path | None = None,
                  progress: bool = False, pretrained: str | None = None, **overrides: Any):
-        from dressmeup.errors import InputError
-
         if pretrained is not None and checkpoint is not None:
             raise InputError("neural: give either pretrained= or checkpoint=, not both")
         if pretrained is not None and pretrained != "category":
@@ -116,6 +88,7 @@ class NeuralMethod:
         self.overrides = overrides
 
     def _load(self, path: Path):
+        # heavy: scipy (~0.5 s to import)
         from dressmeup.methods.uvparam.neural.train import load_model
 
         key = str(path)
@@ -140,6 +113,7 @@ class NeuralMethod:
             applied (the mesh's hash is not among the model's training meshes), otherwise
             ``"per-mesh"``; ``info["model"]`` names the model used.
         """
+        # heavy: scipy (~0.5 s to import)
         from dressmeup.methods.uvparam.neural.infer import infer
         from dressmeup.methods.uvparam.neural.train import get_config, save_model, train
         from dressmeup.methods.uvparam.neural.train_set import mesh_sha
@@ -165,7 +139,7 @@ class NeuralMethod:
         else:
             info["track"] = "per-mesh"
             cfg = get_config(self.config, **self.overrides)
-            Vt, Ft = decimate_for_training(V, F, cfg.train_vertices)
+            Vt, Ft = decimate(V, F, cfg.train_vertices)
             model = train(Vt, Ft, cfg, progress=self.progress)
             info["seconds_train"] = time.perf_counter() - t0
             info["train_vertices"] = len(Vt)

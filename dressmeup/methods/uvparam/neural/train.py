@@ -8,6 +8,7 @@ tensors and numbers (loaded with ``weights_only=True``).
 
 from __future__ import annotations
 
+import io
 import logging
 import time
 from dataclasses import asdict, dataclass, field, fields, replace
@@ -16,8 +17,11 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import dijkstra
 
 from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
+from dressmeup.geometry.uv_atlas import split_charts
+from dressmeup.io.atomic import atomic_write_bytes
 from dressmeup.methods.nn.diffusion_net import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
 from dressmeup.methods.uvparam.neural.patchnet import (
@@ -27,6 +31,7 @@ from dressmeup.methods.uvparam.neural.patchnet import (
     patchnet_inputs,
 )
 from dressmeup.methods.uvparam.neural.uv_mlp import build_mlp, count_parameters
+from dressmeup.progress import progress as bar
 
 __all__ = ["NeuralConfig", "CONFIGS", "NeuralUVModel", "train", "get_config", "plain_values",
            "chart_codes", "chart_rows", "save_model", "load_model"]
@@ -189,7 +194,6 @@ def chart_rows(F: np.ndarray, chart_ids: np.ndarray):
     row_chart : (N,) int64, the chart of each row
     row_faces : (m, 3) int64, each face's corners as rows (same face order)
     """
-    from dressmeup.geometry.uv_atlas import split_charts
 
     rv, rc = [], []
     row_faces = np.zeros_like(F)
@@ -205,7 +209,6 @@ def chart_rows(F: np.ndarray, chart_ids: np.ndarray):
 def _iso_pairs(Vn: np.ndarray, row_vertex: np.ndarray, row_chart: np.ndarray, row_faces: np.ndarray,
                sigma: float):
     """Row pairs (i < j) of the same chart with edge-graph geodesic (inside the chart) < sigma."""
-    from scipy.sparse.csgraph import dijkstra
 
     G = _edge_graph(Vn[row_vertex], row_faces)  # rows of different charts are disconnected
     D = dijkstra(G, directed=False, limit=sigma)
@@ -252,6 +255,7 @@ def train(V, F, config: str | NeuralConfig = "fast", progress: bool = True,
     ValueError
         Invalid mesh or configuration.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     old = torch.get_num_threads()
@@ -265,9 +269,8 @@ def train(V, F, config: str | NeuralConfig = "fast", progress: bool = True,
 
 def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool,
            init_patchnet: Any = None) -> NeuralUVModel:
+    # heavy: torch (~1.1 s to import)
     import torch
-
-    from dressmeup.progress import progress as bar
 
     V, F = as_arrays(V, F)
     t0 = time.perf_counter()
@@ -282,8 +285,6 @@ def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool,
     hist: dict = {k: [] for k in ("patch_total", "cos", "geo", "uv_total", "cycle", "iso", "angle", "area")}
 
     # --- PatchNet -------------------------------------------------------------------------
-    from scipy.sparse.csgraph import dijkstra
-
     n = len(Vn)
     lm = np.sort(rng.choice(n, size=min(n, cfg.geo_landmarks), replace=False))
     G = dijkstra(_edge_graph(Vn, F), directed=False, indices=lm)[:, lm]
@@ -385,11 +386,9 @@ def save_model(model: NeuralUVModel, path: str | Path, half: bool = False) -> No
         Store the weights as float16 (half the size; :func:`load_model` restores float32).
         Used for the checkpoints shipped in the package.
     """
-    import io
 
+    # heavy: torch (~1.1 s to import)
     import torch
-
-    from dressmeup.io.atomic import atomic_write_bytes
 
     def weights(module):
         sd = module.state_dict()
@@ -413,6 +412,7 @@ def load_model(path: str | Path) -> NeuralUVModel:
     ValueError
         Not a neural-UV checkpoint.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     path = Path(path)

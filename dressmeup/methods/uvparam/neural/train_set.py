@@ -21,7 +21,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from scipy.sparse.csgraph import dijkstra
 
+from dressmeup.cache import hash_arrays
 from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
 from dressmeup.methods.nn.diffusion_net import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
@@ -40,6 +42,7 @@ from dressmeup.methods.uvparam.neural.train import (
     chart_rows,
     get_config,
 )
+from dressmeup.progress import progress as bar
 
 __all__ = ["train_on_set", "converged", "mesh_sha"]
 
@@ -49,7 +52,6 @@ log = logging.getLogger(__name__)
 def mesh_sha(V: np.ndarray, F: np.ndarray) -> str:
     """Hash of a mesh's arrays (float64 vertices, int64 faces): how a checkpoint remembers
     the meshes it was trained on, so that a benchmark run can tell seen from unseen meshes."""
-    from dressmeup.cache import hash_arrays
 
     V, F = as_arrays(V, F)
     return hash_arrays(np.ascontiguousarray(V, dtype=np.float64),
@@ -97,12 +99,12 @@ class _PatchData:
 
 
 def _prepare(V, F, cfg: NeuralConfig, rng: np.random.Generator) -> _PatchData:
+    # heavy: torch (~1.1 s to import), igl (~0.4 s to import)
     import torch
-    from scipy.sparse.csgraph import dijkstra
 
-    from dressmeup.methods.uvparam.neural.method import decimate_for_training
+    from dressmeup.geometry.simplify import decimate
 
-    V, F = decimate_for_training(*as_arrays(V, F), cfg.train_vertices)
+    V, F = decimate(*as_arrays(V, F), cfg.train_vertices)
     Vn = normalize_vertices(V)
     ops = compute_operators(Vn, F, k_eig=cfg.k_eig)
     n = len(Vn)
@@ -125,6 +127,7 @@ def _patch_loss(patchnet, d: _PatchData, cfg: NeuralConfig):
 
 
 def _uv_data(d: _PatchData, patchnet, cfg: NeuralConfig) -> dict:
+    # heavy: torch (~1.1 s to import)
     import torch
 
     with torch.no_grad():
@@ -145,6 +148,7 @@ def _uv_data(d: _PatchData, patchnet, cfg: NeuralConfig) -> dict:
 
 
 def _uv_loss(fwd, bwd, u: dict, cfg: NeuralConfig, gen):
+    # heavy: torch (~1.1 s to import)
     import torch
 
     uv = fwd(u["inp"])
@@ -197,6 +201,7 @@ def train_on_set(train_meshes: Sequence[tuple[np.ndarray, np.ndarray]],
     ValueError
         No training or no validation meshes, or an invalid configuration.
     """
+    # heavy: torch (~1.1 s to import)
     import torch
 
     if not train_meshes or not val_meshes:
@@ -214,9 +219,8 @@ def train_on_set(train_meshes: Sequence[tuple[np.ndarray, np.ndarray]],
 
 def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every, tol,
                   progress, on_eval) -> NeuralUVModel:
+    # heavy: torch (~1.1 s to import)
     import torch
-
-    from dressmeup.progress import progress as bar
 
     t0 = time.perf_counter()
     rng = np.random.default_rng(cfg.seed)

@@ -30,6 +30,7 @@ def build_mlp(n_in: int, n_out: int, width: int, depth: int, out_scale: float = 
     -------
     torch.nn.Module mapping (N, n_in) to (N, n_out).
     """
+    # heavy: torch (~1.1 s to import)
     import torch
     from torch import nn
 

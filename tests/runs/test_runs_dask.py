@@ -7,7 +7,7 @@ import numpy as np
 
 
 def test_uvparam_baseline_on_dask_matches_in_process(dask_cluster, tmp_path):
-    from dressmeup.bench import runs
+    from dressmeup import runs
 
     data = runs.build_data("synth-uvparam-mini-v1", tmp_path / "meshes")
     serial = runs.run_uvparam_baseline("lscm", "synth-uvparam-mini-v1", data, tmp_path / "s")
@@ -22,7 +22,7 @@ def test_uvparam_baseline_on_dask_matches_in_process(dask_cluster, tmp_path):
 
 
 def test_baseline_uvparam_command_on_an_existing_scheduler(dask_cluster, tmp_path):
-    from dressmeup.bench import runs
+    from dressmeup import runs
     from dressmeup.cli import main
 
     data = runs.build_data("synth-uvparam-mini-v1", tmp_path / "meshes")

@@ -1,4 +1,4 @@
-"""One path from a method to a submission: the baseline CLIs go through bench.runs, record
+"""One path from a method to a submission: the baseline CLIs go through dressmeup.runs, record
 the one hardware string and parse --param by the one rule."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dressmeup.cli import main
 
 @pytest.fixture(scope="module")
 def uv_mesh_set(tmp_path_factory):
-    from dressmeup.bench import runs
+    from dressmeup import runs
 
     root = tmp_path_factory.mktemp("uvset")
     ed = root / "uv.json"

@@ -180,9 +180,11 @@ def _skirt(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 def _body(n: int | None) -> tuple[np.ndarray, np.ndarray]:
     try:
+        # optional dependency (ImportError handled)
         from dressmeup.body import get_body_model
     except ImportError as exc:  # the body stage is not installed/ready
         raise InputError("mesh 'body-*': dressmeup.body.get_body_model is not available") from exc
+    # heavy: trimesh (~0.7 s to import)
     import trimesh
 
     model = get_body_model("anny")
@@ -194,6 +196,7 @@ def _body(n: int | None) -> tuple[np.ndarray, np.ndarray]:
     V, F = np.asarray(skin.vertices, dtype=np.float64), np.asarray(skin.faces, dtype=np.int64)
     if n is None:
         return V, F
+    # heavy: igl (~0.4 s to import)
     import igl
 
     while len(V) * 1.2 < n:  # Loop subdivision roughly quadruples the count

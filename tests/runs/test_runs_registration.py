@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dressmeup.bench import runs
+from dressmeup import runs
 from dressmeup.body import BodyParams
 from dressmeup.body.registration import RegistrationResult, add_registrar
 from dressmeup.errors import InputError

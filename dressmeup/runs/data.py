@@ -1,0 +1,101 @@
+"""Building the data an edition pins (the synthetic generator, UV mesh sets) and telling
+whether data on disk are the pinned ones."""
+
+from __future__ import annotations
+
+import inspect
+import os
+import shutil
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from dressmeup.bench.edition import Edition, load_edition
+from dressmeup.bench.parts import export_parts
+from dressmeup.bench.tasks.common import manifest_sha256, other_data_reason
+from dressmeup.data.parts import part_of
+from dressmeup.data.synth import generate_dataset
+from dressmeup.data.uvmeshes import build_mesh_set
+from dressmeup.errors import InputError
+from dressmeup.runs.common import Log, _quiet
+
+
+def build_data(edition: str | Edition, root: str | os.PathLike, log: Log = _quiet) -> Path:
+    """Generate (or resume) the data an edition pins into ``root``.
+
+    ``retarget`` editions of the synthetic generator call
+    :func:`dressmeup.data.synth.generate_dataset` with the pinned parameters and seed;
+    ``uvparam`` editions build their mesh set. Real datasets cannot be generated.
+
+    Raises
+    ------
+    InputError
+        For editions of real datasets or unknown generators.
+    """
+    ed = load_edition(edition)
+    root = Path(root)
+    pin = ed.dataset
+    if pin.kind != "generated":
+        raise InputError(f"edition {ed.name} is scored on a real dataset (manifest "
+                         f"{pin.manifest_sha256[:12]}...); it cannot be generated")
+    t0 = time.perf_counter()
+    if ed.task == "uvparam":
+        build_mesh_set(root, mesh_ids=pin.params.get("mesh_ids", ()),
+                       garments=pin.params.get("garments"), seed=pin.seed)
+    else:
+        accepted = set(inspect.signature(generate_dataset).parameters)
+        unknown = sorted(set(pin.params) - accepted)
+        if unknown:
+            raise InputError(f"edition {ed.name}: generator parameters {unknown} are not "
+                             f"accepted by this toolkit's generate_dataset")
+        generate_dataset(root, seed=pin.seed, **pin.params)
+    log(f"data for {ed.name}: {root} ({time.perf_counter() - t0:.0f} s)")
+    other = data_differs(ed, root)
+    if other:
+        log(f"warning: {other}. This machine generates other data than the one that pinned "
+            "the edition (docs/synthetic-data.md, 'Reproducibility'); scores on it are marked "
+            "not comparable")
+    return root
+
+
+def data_differs(edition: str | Edition, root: str | os.PathLike) -> str | None:
+    """Why the generated data at ``root`` are not the data ``edition`` pins (its
+    ``expected_manifest_sha256``), or None when they are or the edition pins no manifest."""
+    ed = load_edition(edition)
+    if not (Path(root) / "manifest.parquet").is_file():
+        return None
+    return other_data_reason(ed, {"manifest_sha256": manifest_sha256(root)}, root)
+
+
+@dataclass(frozen=True)
+class DataParts:
+    """An edition's data as built by :func:`build_parts`: the full data (the generator's
+    working folder), the public part methods run on and the private part scoring reads."""
+
+    full: Path
+    public: Path
+    private: Path
+
+
+def build_parts(edition: str | Edition, root: str | os.PathLike, log: Log = _quiet,
+                allow_other_data: bool = False) -> DataParts:
+    """Generate (or resume) an edition's data into ``root/full`` and export its public and
+    private parts into ``root/public`` and ``root/private`` (kept when already complete).
+
+    ``allow_other_data`` exports data this machine generated differently from the pin (the
+    parts are then marked by their own manifests; scores on them are not comparable).
+    """
+    ed = load_edition(edition)
+    root = Path(root)
+    full = build_data(ed, root / "full", log=log)
+    public, private = root / "public", root / "private"
+    if part_of(public) != "public" or part_of(private) != "private":
+        for p in (public, private):
+            if p.exists():
+                shutil.rmtree(p)
+        res = export_parts(ed, full, public, private, allow_other_data=allow_other_data)
+        note = (f"; {len(res.public_answers)} scored item(s) have a public answer (a target "
+                "is also a source)" if res.public_answers else "")
+        log(f"public part {public} ({res.parts.public_files} files), private part {private} "
+            f"({res.parts.private_files} files){note}")
+    return DataParts(full=full, public=public, private=private)

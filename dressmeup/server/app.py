@@ -1,0 +1,174 @@
+"""The HTTP side of the evaluation server (FastAPI; its OpenAPI description at
+``/openapi.json``).
+
+API (JSON; a team authenticates with ``Authorization: Bearer <token>``):
+
+- ``GET /api/editions``: the editions scored here;
+- ``POST /api/submissions?edition=NAME``: the body is the submission archive (``.zip`` or
+  ``.tar.gz``); answers ``201 {"id", "status": "queued"}``, or ``422 {"problems": [...]}``
+  with every problem the validator found, ``413`` too large, ``429`` daily limit reached;
+- ``GET /api/submissions``, ``GET /api/submissions/{id}``: the team's own submissions and
+  their state (``queued`` / ``scoring`` / ``scored`` / ``failed`` with the reason);
+- ``GET /api/submissions/{id}/result``: the summary of a scored submission;
+- ``POST /api/submissions/{id}/publish`` (JSON ``{"method", "paper_url", "description"}``)
+  and ``POST /api/submissions/{id}/withdraw``.
+
+Pages: ``/leaderboard/...`` (the public report site of the published results), ``/team``
+(a team's submissions, the token typed into a form and kept in the page only).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import mimetypes
+import secrets
+from pathlib import Path
+from typing import Annotated, Any
+
+from fastapi import Depends, FastAPI, Header, HTTPException, Request
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, RedirectResponse
+from pydantic import BaseModel
+
+from dressmeup.errors import InputError
+from dressmeup.server.accounts import team_for_token
+from dressmeup.server.config import ServerConfig
+from dressmeup.server.db import Submission, Team
+from dressmeup.server.editions import registered
+from dressmeup.server.service import EvaluationServer, LimitReached, NotFound, Rejected
+from dressmeup.server.teampage import TEAM_PAGE
+from dressmeup.server.uploads import TooLarge, receive
+
+
+class Publication(BaseModel):
+    """What a team publishes with a result."""
+
+    method: str
+    paper_url: str = ""
+    description: str = ""
+
+
+def current_team(request: Request,
+                 authorization: Annotated[str | None, Header()] = None) -> Team:
+    """The team whose token the request carries (``Authorization: Bearer <token>``).
+
+    Raises
+    ------
+    HTTPException
+        401 for a missing, unknown or revoked token.
+    """
+    token = None
+    if authorization and authorization.lower().startswith("bearer "):
+        token = authorization[7:].strip()
+    with request.app.state.server.sessions() as s:
+        t = team_for_token(s, token)
+    if t is None:
+        raise HTTPException(401, "missing, unknown or revoked token (Authorization: "
+                                 "Bearer <token>)")
+    return t
+
+
+TeamDep = Annotated[Team, Depends(current_team)]
+
+
+def _view(sub: Submission) -> dict[str, Any]:
+    return {"id": sub.id, "edition": sub.edition, "status": sub.status, "error": sub.error,
+            "method": sub.method, "created_at": sub.created_at.isoformat(),
+            "scored_at": sub.scored_at.isoformat() if sub.scored_at else None,
+            "published": sub.published, "public_method": sub.public_method,
+            "paper_url": sub.paper_url, "description": sub.description}
+
+
+def create_app(server: EvaluationServer) -> FastAPI:
+    """The FastAPI application of ``server`` (the scorer is started and stopped with it)."""
+    @contextlib.asynccontextmanager
+    async def lifespan(_app: FastAPI):  # the scorer runs while the application does
+        server.start()
+        try:
+            yield
+        finally:
+            server.stop()
+
+    app = FastAPI(title="dressmeup evaluation server", lifespan=lifespan,
+                  description="Submit retargeting, UV, registration and fusion results; they "
+                              "are scored against withheld answers (docs/server.md).",
+                  version="1", docs_url=None, redoc_url=None)
+    app.state.server = server
+    cfg = server.config
+
+    @app.exception_handler(InputError)
+    async def _input_error(_request: Request, exc: InputError) -> JSONResponse:
+        if isinstance(exc, Rejected):
+            return JSONResponse({"detail": "the submission is invalid",
+                                 "problems": exc.problems}, status_code=422)
+        code = 404 if isinstance(exc, NotFound) else 429 if isinstance(exc, LimitReached) \
+            else 413 if isinstance(exc, TooLarge) else 400
+        return JSONResponse({"detail": str(exc)}, status_code=code)
+
+    @app.get("/api/editions")
+    def editions() -> list[dict[str, str]]:
+        with server.sessions() as s:
+            return [{"name": e.name, "edition_hash": e.edition_hash} for e in registered(s)]
+
+    @app.post("/api/submissions", status_code=201)
+    async def submit(request: Request, edition: str, t: TeamDep) -> dict:
+        length = request.headers.get("content-length")
+        limit = cfg.max_upload_mb << 20
+        if length is not None and length.isdigit() and int(length) > limit:
+            raise TooLarge(f"the upload is larger than the server's limit of "
+                           f"{cfg.max_upload_mb} MB")
+        dest = cfg.folder("uploads") / f"{secrets.token_hex(16)}.upload"
+        upload = await receive(request.stream(), dest, limit)
+        sub = server.accept(t, edition, upload)
+        return {"id": sub.id, "status": sub.status}
+
+    @app.get("/api/submissions")
+    def mine(t: TeamDep) -> list[dict]:
+        return [_view(s) for s in server.mine(t)]
+
+    @app.get("/api/submissions/{sub_id}")
+    def one(sub_id: str, t: TeamDep) -> dict:
+        return _view(server.get(t, sub_id))
+
+    @app.get("/api/submissions/{sub_id}/result")
+    def result(sub_id: str, t: TeamDep) -> dict:
+        return server.result(t, sub_id)
+
+    @app.post("/api/submissions/{sub_id}/publish")
+    def publish(sub_id: str, body: Publication, t: TeamDep) -> dict:
+        return _view(server.publish(t, sub_id, body.method, body.paper_url, body.description))
+
+    @app.post("/api/submissions/{sub_id}/withdraw")
+    def withdraw(sub_id: str, t: TeamDep) -> dict:
+        return _view(server.withdraw(t, sub_id))
+
+    @app.get("/", include_in_schema=False)
+    def root() -> RedirectResponse:
+        return RedirectResponse("/leaderboard/")
+
+    @app.get("/team", include_in_schema=False, response_class=HTMLResponse)
+    def team_page() -> str:
+        return TEAM_PAGE
+
+    @app.get("/leaderboard/{path:path}", include_in_schema=False)
+    def leaderboard(path: str) -> Any:
+        site = cfg.root / "site"
+        if not site.exists():
+            return HTMLResponse("<!DOCTYPE html><title>Leaderboards</title><h1>Leaderboards"
+                                "</h1><p>No result has been published yet.</p>")
+        base = site.resolve()
+        target = (base / (path or "index.html")).resolve()
+        if target.is_dir():
+            target = target / "index.html"
+        if base not in target.parents or not target.is_file():
+            raise HTTPException(404, "no such page")
+        media = mimetypes.guess_type(target.name)[0] or "application/octet-stream"
+        return FileResponse(target, media_type=media,
+                            headers={"Cache-Control": "no-cache",
+                                     "X-Content-Type-Options": "nosniff"})
+
+    return app
+
+
+def app_for(root: str | Path) -> FastAPI:
+    """The application of the server whose folder is ``root`` (for ``uvicorn --factory``)."""
+    return create_app(EvaluationServer(ServerConfig.from_env(root)))
