@@ -79,6 +79,7 @@ class ClothSettings:
     plateau_window: int = 5
     plateau_grad: float = 0.1  # ... as long as the residual is below this
     max_iterations: int = 200
+    refactor_every: int = 10  # iterations between two factorisations of the Hessian
 
     def to_dict(self) -> dict:
         """The settings as a JSON-able dict."""
@@ -330,7 +331,7 @@ def solve(model: ClothModel, start: np.ndarray, loads: Loads, tolerance: float |
     force_unit = model.weight_mean * model.scale
     it, e, gnorm, gmax, npairs = 0, float("nan"), float("inf"), float("inf"), 0
     energies: list[float] = []
-    lu = None
+    lu, factored, alpha = None, 0, 1.0
     surface = BodySurface(loads.body_V, loads.body_F)
     body = None
     while True:
@@ -347,18 +348,16 @@ def solve(model: ClothModel, start: np.ndarray, loads: Loads, tolerance: float |
                    and max(window) - min(window) < s.energy_tolerance * s.plateau_window)
         if gnorm < tol or plateau or it >= cap:
             break
-        d, lu = _newton_direction(H, g, lu)
-        # no vertex moves more than 0.45 x its distance to the nearest tracked cloth
-        # primitive (a pair closes by at most 0.9 of its gap), nor more than max_move
         bound = np.minimum(0.45 * pairs.nearest(model.n, s.self_detect), s.max_move)
-        length = np.sqrt(np.einsum("ij,ij->i", d, d))
-        cut = np.minimum(1.0, bound / np.maximum(length, 1e-15))
-        alpha = _line_search(lin, x, e, g, d * cut[:, None])
-        if alpha is not None:  # each vertex's step cut to its own bound
-            d = d * cut[:, None]
-        else:  # the whole step scaled to the tightest bound (a descent direction)
-            d = d * float(cut.min())
-            alpha = _line_search(lin, x, e, g, d) or 0.0
+        # a fresh factorisation at the start, after a cut-back step, and every few iterations
+        fresh = lu is None or alpha < 1.0 or it - factored >= s.refactor_every
+        while True:
+            if fresh:
+                lu, factored = _factor(H), it
+            d, alpha, cut = _step(lin, x, e, g, H, lu, bound)
+            if alpha > 0 or fresh:
+                break
+            fresh = True  # the old factorisation's direction failed: a fresh one
         x = x + alpha * d
         it += 1
         if trace is not None:
@@ -384,42 +383,50 @@ def _line_search(lin: _Linearized, x: np.ndarray, e: float, g: np.ndarray,
     return None
 
 
-def _newton_direction(H: sp.csc_matrix, g: np.ndarray, lu=None):
-    """``(-H^-1 g as (n, 3), factorisation)``: conjugate gradients preconditioned by the
-    factorisation of an earlier Hessian of the same solve (the Hessian changes little between
-    iterations), refactorised when they need more than 8 iterations; a tiny diagonal shift
-    keeps free directions solvable."""
-    n3 = H.shape[0]
+def _factor(H: sp.csc_matrix):
+    """Sparse LU of ``H`` plus a tiny diagonal shift (free directions stay solvable)."""
     shift = 1e-8 * float(np.abs(H.diagonal()).max())
-    A = (H + sp.identity(n3, format="csc") * shift).tocsc()
-    b = -g.ravel()
-    if lu is not None:
-        x, ok = _pcg(A, b, lu.solve, 1e-2, 8)
-        if ok:
-            return x.reshape(-1, 3), lu
-    lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-              options={"SymmetricMode": True})
-    return lu.solve(b).reshape(-1, 3), lu
+    return splu((H + sp.identity(H.shape[0], format="csc") * shift).tocsc(),
+                permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                options={"SymmetricMode": True})
 
 
-def _pcg(A, b: np.ndarray, precondition, rtol: float, max_iter: int):
-    """Preconditioned conjugate gradients on ``A x = b``; ``(x, converged)``. Dot products
-    are elementwise products summed by numpy (no BLAS call)."""
+def _step(lin: _Linearized, x: np.ndarray, e: float, g: np.ndarray, H, lu,
+          bound: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    """One iteration's move ``(d (n, 3), alpha, cut (n,))``: a Newton direction (three
+    conjugate-gradient iterations on ``H`` preconditioned by the factorisation ``lu``, which
+    may be of an earlier Hessian), each vertex's move cut to its ``bound``, then a
+    backtracking line search; when the cut makes it climb, the whole move is scaled to the
+    tightest bound instead. ``alpha`` 0: no descent found."""
+    d = _pcg(H, -g.ravel(), lu.solve, 3).reshape(-1, 3)
+    length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    cut = np.minimum(1.0, bound / np.maximum(length, 1e-15))
+    alpha = _line_search(lin, x, e, g, d * cut[:, None])
+    if alpha is not None:  # each vertex's step cut to its own bound
+        return d * cut[:, None], alpha, cut
+    d = d * float(cut.min())
+    return d, _line_search(lin, x, e, g, d) or 0.0, cut
+
+
+def _pcg(A, b: np.ndarray, precondition, iterations: int) -> np.ndarray:
+    """``iterations`` of preconditioned conjugate gradients on ``A x = b`` from the
+    preconditioned right-hand side (dot products: elementwise products summed by numpy, no
+    BLAS call)."""
     x = precondition(b)
     r = b - A @ x
-    bnorm = float(np.sqrt(np.sum(b * b)))
     z = precondition(r)
     p = z
     rz = float(np.sum(r * z))
-    for _ in range(max_iter):
-        if float(np.sqrt(np.sum(r * r))) <= rtol * bnorm:
-            return x, True
+    for _ in range(iterations):
         Ap = A @ p
-        alpha = rz / float(np.sum(p * Ap))
+        pAp = float(np.sum(p * Ap))
+        if not pAp > 0 or not rz > 0:
+            break
+        alpha = rz / pAp
         x = x + alpha * p
         r = r - alpha * Ap
         z = precondition(r)
         rz_new = float(np.sum(r * z))
         p = z + (rz_new / rz) * p
         rz = rz_new
-    return x, float(np.sqrt(np.sum(r * r))) <= rtol * bnorm
+    return x

@@ -35,7 +35,8 @@ class DressSettings:
 
     body_step: float = 0.02  # m, largest body vertex move (near the garment) per path step
     near: float = 0.10  # m, body vertices this close to the garment count for body_step
-    step_tolerance: float = 1e-2  # residual force ending an intermediate solve
+    step_tolerance: float = 3e-2  # residual force ending an intermediate solve
+    step_iterations: int = 10  # ... or this many iterations
     final_tolerance: float = 1e-3  # ... the last solve of a path (the written garment)
     cloth: ClothSettings = field(default_factory=ClothSettings)
 
@@ -52,6 +53,7 @@ class DressSettings:
                                  "max_iterations": int(c.max_iterations * factor)})
         return DressSettings(body_step=self.body_step / factor, near=self.near,
                              step_tolerance=self.step_tolerance / factor,
+                             step_iterations=int(self.step_iterations * factor),
                              final_tolerance=self.final_tolerance / factor, cloth=cloth)
 
 
@@ -149,7 +151,8 @@ class Dresser:
             loads = Loads(body_V, self.body_F, self.anchors.points(body_V),
                           self.anchors.weight, self.up)
             res = solve(self.model, x, loads,
-                        tolerance=s.final_tolerance if final else s.step_tolerance)
+                        tolerance=s.final_tolerance if final else s.step_tolerance,
+                        max_iterations=None if final else s.step_iterations)
             x, last = res.vertices, res.stats
             iterations += last["iterations"]
             unconverged += not last["converged"]
