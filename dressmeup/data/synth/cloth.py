@@ -62,7 +62,7 @@ class ClothSettings:
     bending_ratio: float = 0.02  # hinge stiffness relative to stretch
     density: float = 0.15  # kg/m^2
     gravity: float = 9.81  # m/s^2
-    body_stiffness: float = 2.0e5  # N/m^3 (per unit area)
+    body_stiffness: float = 1.0e6  # N/m^3 (per unit area)
     body_margin: float = 0.005  # m, body contact starts this far outside the body
     body_track: float = 0.005  # m, body features this much further away are tracked too
     anchor_stiffness: float = 2.0e4  # N/m^3 (per unit area)
@@ -212,7 +212,8 @@ class _Linearized:
         self.g_up = (model.mass * s.gravity)[:, None] * loads.up[None, :]
         self.wb = s.body_stiffness * model.area
         self.wa = s.anchor_stiffness * model.area * loads.anchor_weight
-        self.ws = s.self_stiffness * model.area[pairs.vertex] if len(pairs.vertex) else None
+        self.ws = (s.self_stiffness * model.area[pairs.ids].mean(1) if len(pairs.ids)
+                   else None)
 
     def energy(self, x: np.ndarray) -> float:
         s = self.m.settings
@@ -241,8 +242,7 @@ class _Linearized:
 
     def _self_gap(self, x):
         p = self.pairs
-        c = np.einsum("pk,pkd->pd", p.bary, x[p.triangle])
-        return np.einsum("ij,ij->i", x[p.vertex] - c, p.normals)
+        return np.einsum("ij,ij->i", np.einsum("pk,pkd->pd", p.coef, x[p.ids]), p.normals)
 
     def gradient_hessian(self, x: np.ndarray):
         """(energy, gradient (n, 3), sparse Hessian (3n, 3n) csc), all scaled."""
@@ -286,8 +286,7 @@ class _Linearized:
             pen = np.clip(s.self_thickness - self._self_gap(x), 0.0, None)
             on = pen > 0
             e += 0.5 * np.sum(self.ws * pen * pen)
-            coef = np.concatenate([np.ones((len(pen), 1)), -p.bary], axis=1)  # (q, 4)
-            ids = np.concatenate([p.vertex[:, None], p.triangle], axis=1)
+            coef, ids = p.coef, p.ids
             f = -(self.ws * pen)[:, None, None] * coef[:, :, None] * p.normals[:, None, :]
             for c in range(3):
                 grad[:, c] += np.bincount(ids.ravel(), weights=f[:, :, c].ravel(), minlength=n)
@@ -336,8 +335,9 @@ def solve(model: ClothModel, start: np.ndarray, loads: Loads, tolerance: float |
     body = None
     while True:
         body = surface.contact(x, s.body_margin + s.body_track, previous=body)
-        pairs = self_contacts(x, model.faces, model.exclude, s.self_detect)
-        npairs = len(pairs.vertex)
+        pairs = self_contacts(x, model.faces, model.exclude, s.self_detect,
+                              model.springs[:model.n_stretch])
+        npairs = len(pairs.ids)
         lin = _Linearized(model, loads, body, pairs)
         e, g, H = lin.gradient_hessian(x)
         per_vertex = np.sqrt(np.einsum("ij,ij->i", g, g)) / force_unit

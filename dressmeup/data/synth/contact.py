@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from dressmeup.geometry.mesh import face_normals
+from dressmeup.geometry.mesh import edges, face_normals
 from dressmeup.geometry.proximity import SurfaceIndex, closest_point_on_triangles
 
 
@@ -52,24 +52,31 @@ class BodyContact:
 
 @dataclass
 class SelfContact:
-    """Vertex-triangle pairs: ``vertex (q,) int64``, ``triangle (q, 3) int64`` (its vertex
-    ids), ``bary (q, 3)`` of the closest point, unit ``normals (q, 3)`` from it to the vertex,
-    ``distance (q,)`` at detection."""
+    """Self-contact pairs of the cloth, vertex-triangle and edge-edge alike: the four cloth
+    vertices of each pair ``ids (q, 4) int64`` (vertex, triangle corners; or the two edges'
+    ends), ``coef (q, 4)`` such that ``sum_k coef_k x_ids_k`` is the vector from the closest
+    point of the second primitive to that of the first, unit ``normals (q, 3)`` along it at
+    detection, ``distance (q,)`` at detection and the ``kind (q,)`` (0 vertex-triangle, 1
+    edge-edge)."""
 
-    vertex: np.ndarray
-    triangle: np.ndarray
-    bary: np.ndarray
+    ids: np.ndarray
+    coef: np.ndarray
     normals: np.ndarray
     distance: np.ndarray
+    kind: np.ndarray
 
     def nearest(self, n: int, default: float) -> np.ndarray:
-        """Per cloth vertex ``(n,)``: the smallest distance of a pair it is in (as the vertex
-        or a triangle corner), ``default`` where it is in none."""
+        """Per cloth vertex ``(n,)``: the smallest distance of a pair it is in, ``default``
+        where it is in none."""
         out = np.full(n, float(default))
-        np.minimum.at(out, self.vertex, self.distance)
-        for k in range(3):
-            np.minimum.at(out, self.triangle[:, k], self.distance)
+        for k in range(4):
+            np.minimum.at(out, self.ids[:, k], self.distance)
         return out
+
+
+def _no_pairs() -> SelfContact:
+    return SelfContact(np.zeros((0, 4), np.int64), np.zeros((0, 4)), np.zeros((0, 3)),
+                       np.zeros(0), np.zeros(0, np.int64))
 
 
 class BodySurface:
@@ -282,11 +289,22 @@ def _excluded(keys: np.ndarray, v: np.ndarray, w: np.ndarray, n: int) -> np.ndar
 
 
 def self_contacts(x: np.ndarray, faces: np.ndarray, exclude: np.ndarray,
-                  radius: float) -> SelfContact:
-    """Vertex-triangle pairs of the cloth ``x (n, 3)``, ``faces (m, 3)`` closer than
-    ``radius`` (metres), without pairs whose triangle has a corner in ``exclude``
-    (:func:`topological_exclusion`)."""
+                  radius: float, cloth_edges: np.ndarray | None = None) -> SelfContact:
+    """Vertex-triangle and edge-edge pairs of the cloth ``x (n, 3)``, ``faces (m, 3)``
+    closer than ``radius`` (metres), without pairs of which two vertices are in ``exclude``
+    (:func:`topological_exclusion`); ``cloth_edges (e, 2)``: the edges to pair (default:
+    those of ``faces``). Edge-edge pairs of nearly parallel edges are left to the
+    vertex-triangle pairs."""
     F = np.asarray(faces, np.int64)
+    vt = _vertex_triangle(x, F, exclude, radius)
+    E = edges(F) if cloth_edges is None else np.asarray(cloth_edges, np.int64)
+    ee = _edge_edge(x, E, exclude, radius)
+    out = SelfContact(*(np.concatenate([getattr(vt, k), getattr(ee, k)]) for k in (
+        "ids", "coef", "normals", "distance", "kind")))
+    return out
+
+
+def _vertex_triangle(x, F, exclude, radius) -> SelfContact:
     n = len(x)
     tri = x[F]
     cen = tri.mean(1)
@@ -296,15 +314,15 @@ def self_contacts(x: np.ndarray, faces: np.ndarray, exclude: np.ndarray,
     keep = ~(_excluded(exclude, v, F[f, 0], n) | _excluded(exclude, v, F[f, 1], n)
              | _excluded(exclude, v, F[f, 2], n))
     v, f = v[keep], f[keep]
-    if len(v):
-        c = closest_point_on_triangles(x[v], tri[f, 0], tri[f, 1], tri[f, 2])
-        diff = x[v] - c
-        d = np.sqrt(np.einsum("ij,ij->i", diff, diff))
-        near = d < radius
-        v, f, c, diff, d = v[near], f[near], c[near], diff[near], d[near]
     if not len(v):
-        z = np.zeros((0, 3))
-        return SelfContact(np.zeros(0, np.int64), np.zeros((0, 3), np.int64), z, z, np.zeros(0))
+        return _no_pairs()
+    c = closest_point_on_triangles(x[v], tri[f, 0], tri[f, 1], tri[f, 2])
+    diff = x[v] - c
+    d = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+    near = d < radius
+    v, f, c, diff, d = v[near], f[near], c[near], diff[near], d[near]
+    if not len(v):
+        return _no_pairs()
     order = np.lexsort((f, v))
     v, f, c, diff, d = v[order], f[order], c[order], diff[order], d[order]
     bary = barycentric(c, tri[f])
@@ -312,7 +330,60 @@ def self_contacts(x: np.ndarray, faces: np.ndarray, exclude: np.ndarray,
     side = np.sign(np.einsum("ij,ij->i", diff, fn))
     nrm = np.where((d > 1e-9)[:, None], diff / np.maximum(d, 1e-12)[:, None],
                    fn * np.where(side == 0, 1.0, side)[:, None])
-    return SelfContact(v, F[f], bary, nrm, d)
+    ids = np.concatenate([v[:, None], F[f]], axis=1)
+    coef = np.concatenate([np.ones((len(v), 1)), -bary], axis=1)
+    return SelfContact(ids, coef, nrm, d, np.zeros(len(v), np.int64))
+
+
+def _edge_edge(x, E, exclude, radius) -> SelfContact:
+    n = len(x)
+    a, b = x[E[:, 0]], x[E[:, 1]]
+    mid = 0.5 * (a + b)
+    half = float(np.linalg.norm(b - a, axis=1).max()) * 0.5
+    P = cKDTree(mid).query_pairs(radius + 2.0 * half, output_type="ndarray")
+    if not len(P):
+        return _no_pairs()
+    i, j = P[:, 0].astype(np.int64), P[:, 1].astype(np.int64)
+    bad = np.zeros(len(i), bool)
+    for p in range(2):
+        for q in range(2):
+            bad |= _excluded(exclude, E[i, p], E[j, q], n)
+    i, j = i[~bad], j[~bad]
+    if not len(i):
+        return _no_pairs()
+    s, t, ok = _segment_params(a[i], b[i], a[j], b[j])
+    pa = a[i] + s[:, None] * (b[i] - a[i])
+    pb = a[j] + t[:, None] * (b[j] - a[j])
+    diff = pa - pb
+    d = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+    # interior of both edges (an end's contact is a vertex-triangle pair's), not parallel
+    keep = ok & (d < radius) & (d > 1e-9) & (s > 1e-6) & (s < 1 - 1e-6) & (t > 1e-6) \
+        & (t < 1 - 1e-6)
+    i, j, s, t, diff, d = i[keep], j[keep], s[keep], t[keep], diff[keep], d[keep]
+    if not len(i):
+        return _no_pairs()
+    order = np.lexsort((j, i))
+    i, j, s, t, diff, d = i[order], j[order], s[order], t[order], diff[order], d[order]
+    ids = np.stack([E[i, 0], E[i, 1], E[j, 0], E[j, 1]], axis=1)
+    coef = np.stack([1.0 - s, s, -(1.0 - t), -t], axis=1)
+    return SelfContact(ids, coef, diff / d[:, None], d, np.ones(len(i), np.int64))
+
+
+def _segment_params(p0, p1, q0, q1):
+    """Parameters ``(s, t, ok)`` of the closest points of segments ``p0 p1`` and ``q0 q1``
+    (rows); ``ok`` is False for nearly parallel segments."""
+    u, v, w = p1 - p0, q1 - q0, p0 - q0
+    a = np.einsum("ij,ij->i", u, u)
+    b = np.einsum("ij,ij->i", u, v)
+    c = np.einsum("ij,ij->i", v, v)
+    d = np.einsum("ij,ij->i", u, w)
+    e = np.einsum("ij,ij->i", v, w)
+    den = a * c - b * b
+    ok = den > 1e-6 * a * c
+    s = np.clip(np.where(ok, (b * e - c * d) / np.where(ok, den, 1.0), 0.0), 0.0, 1.0)
+    t = np.clip((b * s + e) / np.maximum(c, 1e-30), 0.0, 1.0)
+    s = np.clip((b * t - d) / np.maximum(a, 1e-30), 0.0, 1.0)
+    return s, t, ok
 
 
 def barycentric(p: np.ndarray, tri: np.ndarray) -> np.ndarray:

@@ -36,13 +36,28 @@ class DressSettings:
     body_step: float = 0.02  # m, largest body vertex move (near the garment) per path step
     near: float = 0.10  # m, body vertices this close to the garment count for body_step
     step_tolerance: float = 3e-2  # residual force ending an intermediate solve
-    step_iterations: int = 10  # ... or this many iterations
+    step_iterations: int = 30  # ... or this many iterations
     final_tolerance: float = 1e-3  # ... the last solve of a path (the written garment)
     cloth: ClothSettings = field(default_factory=ClothSettings)
 
     def to_dict(self) -> dict:
         """The settings as a JSON-able dict."""
         return asdict(self)
+
+    @classmethod
+    def from_dict(cls, overrides: dict) -> DressSettings:
+        """The defaults with ``overrides`` (its ``"cloth"`` entry: overrides of
+        :class:`ClothSettings`); unknown names raise ``ValueError`` naming them."""
+        over = dict(overrides)
+        cloth_over = dict(over.pop("cloth", {}) or {})
+        known = {f for f in cls.__dataclass_fields__ if f != "cloth"}
+        known_cloth = set(ClothSettings.__dataclass_fields__)
+        bad = sorted(set(over) - known) + [f"cloth.{k}" for k in sorted(set(cloth_over)
+                                                                          - known_cloth)]
+        if bad:
+            raise ValueError(f"dress settings: unknown {bad}; known {sorted(known)} and "
+                             f"cloth.{sorted(known_cloth)}")
+        return cls(**over, cloth=ClothSettings(**cloth_over))
 
     def longer(self, factor: float = 2.0) -> DressSettings:
         """The same path run ``factor`` times longer: ``factor`` times as many intermediate
