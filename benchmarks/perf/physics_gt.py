@@ -83,8 +83,8 @@ class Scene:
 
     def paths(self, gtype: str, pose_name: str, garment_V: np.ndarray, settings):
         """Intermediate bodies: the design body at rest, the shape path, the pose path."""
-        from dressmeup.data.synth.simulation import path_bodies
         from dressmeup.data.synth.poses import pose_axis_angle
+        from dressmeup.data.synth.simulation import path_bodies
 
         s0, s1 = self.shapes
         rest = self.body(s0)
@@ -141,9 +141,8 @@ def run_newton(scene: Scene, gtype: str, pose_name: str, run: str, frame_s: floa
 def newton_follow(start, rest_V, faces, anchors, bodies, body_F, up, frame_s=0.1,
                   substeps=10, settle_s=2.0, speed_tol=1e-3):
     """The garment through ``bodies`` with newton's VBD (see the module docstring)."""
-    import warp as wp  # reason: optional dependency of this study only
-
     import newton  # reason: optional dependency of this study only
+    import warp as wp  # reason: optional dependency of this study only
 
     wp.config.quiet = True
     n_body = len(bodies[0])

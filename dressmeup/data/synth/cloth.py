@@ -10,26 +10,32 @@ One solve finds a local minimum, near the start, of
   stiffness ``bending_ratio * Y``;
 - gravity: ``sum_i m_i g h_i`` (areal density times vertex area, ``h`` the height);
 - body contact: a one-sided quadratic penalty keeping every vertex ``body_margin`` outside
-  the body, linearised at the vertex's closest body point and, where the body folds onto
-  itself, at the closest point of the opposite side of the fold
-  (:class:`dressmeup.data.synth.contact.BodySurface`), re-linearised at every iteration;
+  the body, one plane per body feature (face, edge or vertex) locally closest to the vertex
+  (both sides where the body folds onto itself), re-linearised at every iteration and kept
+  for the rest of the solve while the vertex stays near
+  (:class:`dressmeup.data.synth.contact.BodySurface`);
 - anchors: where the garment rests on the body (waistband, shoulders), a spring to a point
   fixed on the body surface (face and barycentric coordinates, plus the offset along its
   normal) that the body carries along when it changes: an elastic band's grip, not a target
   taken from the garment;
 - self-contact: a one-sided quadratic penalty keeping each vertex ``self_thickness`` away
-  from the triangles near it that are not its topological neighbours (vertex-triangle pairs
-  found by a k-d tree and measured exactly, re-linearised at every iteration).
+  from the cloth's triangles and each edge that far from the other edges, for every pair
+  closer than ``self_detect`` whose primitives share no vertex (vertex-triangle and
+  edge-edge pairs found by k-d trees and measured exactly, re-linearised at every
+  iteration: :func:`dressmeup.data.synth.contact.self_contacts`).
 
 The minimum is found by a projected Newton method (each spring's Hessian made positive
-semi-definite by dropping its compressive transverse part; sparse LU solve; backtracking line
-search). Every iteration moves no vertex further than 0.45 times its distance to the nearest
-cloth triangle or vertex tracked by the self-contact detection (``self_detect`` when none is
-tracked), so two layers of cloth cannot pass through each other between two detections
-(the bound of Vertex Block Descent's divide-and-truncate, Chen et al. 2024), and none
-further than ``max_move``. The solve stops when the residual force (RMS
-over vertices, relative to the mean vertex weight) is below ``tolerance``, or after
-``max_iterations``.
+semi-definite by dropping its compressive transverse part; the direction by three conjugate
+gradient iterations preconditioned by a sparse LU factorisation, refreshed at the start, after
+a cut-back step and every ``refactor_every`` iterations; backtracking line search). Every
+iteration moves no vertex further than 0.45 times its distance to the nearest self-contact
+pair it is in (``self_detect`` when none is tracked), so two layers of cloth cannot pass
+through each other between two detections (the bound of Vertex Block Descent's
+divide-and-truncate, Chen et al. 2024), and none further than ``max_move``. The solve stops
+when the residual force (RMS over vertices, relative to the mean vertex weight) is below
+``tolerance``; or when the energy has changed by less than ``energy_tolerance`` per iteration
+over the last ``plateau_window`` iterations with a residual below ``plateau_grad`` (the
+contacts' re-linearisation leaves a residual floor); or after ``max_iterations``.
 
 All arithmetic is float64 numpy/scipy without BLAS-3 calls of torch or MKL: elementwise
 operations, sums, sparse products and SuperLU, so the numbers do not depend on MKL's code
@@ -62,7 +68,7 @@ class ClothSettings:
     bending_ratio: float = 0.02  # hinge stiffness relative to stretch
     density: float = 0.15  # kg/m^2
     gravity: float = 9.81  # m/s^2
-    body_stiffness: float = 1.0e6  # N/m^3 (per unit area)
+    body_stiffness: float = 5.0e5  # N/m^3 (per unit area)
     body_margin: float = 0.005  # m, body contact starts this far outside the body
     body_track: float = 0.005  # m, body features this much further away are tracked too
     anchor_stiffness: float = 2.0e4  # N/m^3 (per unit area)
@@ -78,7 +84,7 @@ class ClothSettings:
     energy_tolerance: float = 1e-5
     plateau_window: int = 5
     plateau_grad: float = 0.1  # ... as long as the residual is below this
-    max_iterations: int = 200
+    max_iterations: int = 300
     refactor_every: int = 10  # iterations between two factorisations of the Hessian
 
     def to_dict(self) -> dict:

@@ -269,9 +269,14 @@ def _angle_weighted_normals(V: np.ndarray, F: np.ndarray, fn: np.ndarray) -> np.
     return out
 
 
-def topological_exclusion(F: np.ndarray, n: int, rings: int = 2) -> np.ndarray:
-    """Sorted keys ``v * n + w`` (int64) of vertex pairs at most ``rings`` edges apart."""
+def topological_exclusion(F: np.ndarray, n: int, rings: int = 0) -> np.ndarray:
+    """Sorted keys ``v * n + w`` (int64) of vertex pairs at most ``rings`` edges apart (0:
+    each vertex with itself only, so a pair is left out when its primitives share a vertex:
+    a tight fold of the cloth is still a contact)."""
     F = np.asarray(F, np.int64)
+    if rings == 0:
+        v = np.arange(n, dtype=np.int64)
+        return v * n + v
     i = np.concatenate([F[:, 0], F[:, 1], F[:, 2], F[:, 1], F[:, 2], F[:, 0]])
     j = np.concatenate([F[:, 1], F[:, 2], F[:, 0], F[:, 0], F[:, 1], F[:, 2]])
     A = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n)) + sp.identity(n, format="csr")

@@ -188,7 +188,7 @@ def _dress_job(job) -> dict[str, Any]:
                            "samples": [], "build_cpu_s": time.process_time() - t_cpu}
     dresser = Dresser(V0, F, BodyAnchors(V0, garment.support, design.rest_V, skin_F), skin_F,
                       design.frame.up, settings)
-    settled, settle = dresser.follow(V0, [design.rest_V])
+    settled, settle = dresser.follow(settings.start(V0), [design.rest_V])
     for sid in dict.fromkeys(s for s, _ in missing):
         body = bodies[sid]
         if sid == design.sid:

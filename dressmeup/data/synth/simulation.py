@@ -33,11 +33,15 @@ from dressmeup.geometry.proximity import closest_points
 class DressSettings:
     """Path and solver settings of :class:`Dresser` (SI units)."""
 
-    body_step: float = 0.02  # m, largest body vertex move (near the garment) per path step
+    body_step: float = 0.03  # m, largest body vertex move (near the garment) per path step
     near: float = 0.10  # m, body vertices this close to the garment count for body_step
-    step_tolerance: float = 3e-2  # residual force ending an intermediate solve
-    step_iterations: int = 30  # ... or this many iterations
+    step_tolerance: float = 5e-2  # residual force ending an intermediate solve
+    step_iterations: int = 10  # ... or this many iterations
     final_tolerance: float = 1e-3  # ... the last solve of a path (the written garment)
+    # sensitivity checks only: every vertex of the designed garment moved this far (m) in a
+    # random direction (seeded by start_seed) before it settles
+    start_jitter: float = 0.0
+    start_seed: int = 0
     cloth: ClothSettings = field(default_factory=ClothSettings)
 
     def to_dict(self) -> dict:
@@ -69,7 +73,16 @@ class DressSettings:
         return DressSettings(body_step=self.body_step / factor, near=self.near,
                              step_tolerance=self.step_tolerance / factor,
                              step_iterations=int(self.step_iterations * factor),
-                             final_tolerance=self.final_tolerance / factor, cloth=cloth)
+                             final_tolerance=self.final_tolerance / factor,
+                             start_jitter=self.start_jitter, start_seed=self.start_seed,
+                             cloth=cloth)
+
+    def start(self, rest_V: np.ndarray) -> np.ndarray:
+        """The state a garment settles from: ``rest_V (n, 3)``, moved by ``start_jitter``."""
+        if self.start_jitter <= 0:
+            return np.asarray(rest_V, np.float64)
+        u = np.random.default_rng([self.start_seed, 5]).normal(size=np.shape(rest_V))
+        return rest_V + self.start_jitter * u / np.linalg.norm(u, axis=1, keepdims=True)
 
 
 class BodyAnchors:
