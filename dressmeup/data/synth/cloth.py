@@ -55,7 +55,6 @@ from dressmeup.data.synth.contact import (
     BodySurface,
     SelfContact,
     self_contacts,
-    topological_exclusion,
 )
 from dressmeup.geometry.mesh import edges, face_areas
 
@@ -141,7 +140,8 @@ class ClothModel:
         # energies in units of (total weight x 1 cm): O(1) numbers for the line search
         self.scale = 1.0 / max(self.mass.sum() * s.gravity * 0.01, 1e-12)
         self.weight_mean = float(self.mass.mean() * s.gravity)
-        self.exclude = topological_exclusion(self.faces, n)
+        # self-contact leaves out pairs of vertices closer than this at rest (neighbours)
+        self.rest_gap = 1.25 * float(L[: len(E)].mean())
         # block pattern: diagonal + both directions of every spring
         i = np.concatenate([np.arange(n), self.springs[:, 0], self.springs[:, 1]])
         j = np.concatenate([np.arange(n), self.springs[:, 1], self.springs[:, 0]])
@@ -341,7 +341,7 @@ def solve(model: ClothModel, start: np.ndarray, loads: Loads, tolerance: float |
     body = None
     while True:
         body = surface.contact(x, s.body_margin + s.body_track, previous=body)
-        pairs = self_contacts(x, model.faces, model.exclude, s.self_detect,
+        pairs = self_contacts(x, model.faces, model.rest_V, model.rest_gap, s.self_detect,
                               model.springs[:model.n_stretch])
         npairs = len(pairs.ids)
         lin = _Linearized(model, loads, body, pairs)

@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from dressmeup.geometry.mesh import edges, face_normals
@@ -269,55 +268,38 @@ def _angle_weighted_normals(V: np.ndarray, F: np.ndarray, fn: np.ndarray) -> np.
     return out
 
 
-def topological_exclusion(F: np.ndarray, n: int, rings: int = 0) -> np.ndarray:
-    """Sorted keys ``v * n + w`` (int64) of vertex pairs at most ``rings`` edges apart (0:
-    each vertex with itself only, so a pair is left out when its primitives share a vertex:
-    a tight fold of the cloth is still a contact)."""
-    F = np.asarray(F, np.int64)
-    if rings == 0:
-        v = np.arange(n, dtype=np.int64)
-        return v * n + v
-    i = np.concatenate([F[:, 0], F[:, 1], F[:, 2], F[:, 1], F[:, 2], F[:, 0]])
-    j = np.concatenate([F[:, 1], F[:, 2], F[:, 0], F[:, 0], F[:, 1], F[:, 2]])
-    A = sp.csr_matrix((np.ones(len(i)), (i, j)), shape=(n, n)) + sp.identity(n, format="csr")
-    R = A
-    for _ in range(rings - 1):
-        R = R @ A
-    R = R.tocoo()
-    return np.unique(R.row.astype(np.int64) * n + R.col)
+def _rest_close(rest_V: np.ndarray, a: np.ndarray, b: np.ndarray, gap: float) -> np.ndarray:
+    """Whether cloth vertices ``a`` and ``b`` (rows) are closer than ``gap`` in the rest shape."""
+    d = rest_V[a] - rest_V[b]
+    return np.einsum("ij,ij->i", d, d) < gap * gap
 
 
-def _excluded(keys: np.ndarray, v: np.ndarray, w: np.ndarray, n: int) -> np.ndarray:
-    q = v * n + w
-    pos = np.minimum(np.searchsorted(keys, q), len(keys) - 1)
-    return keys[pos] == q
-
-
-def self_contacts(x: np.ndarray, faces: np.ndarray, exclude: np.ndarray,
+def self_contacts(x: np.ndarray, faces: np.ndarray, rest_V: np.ndarray, rest_gap: float,
                   radius: float, cloth_edges: np.ndarray | None = None) -> SelfContact:
     """Vertex-triangle and edge-edge pairs of the cloth ``x (n, 3)``, ``faces (m, 3)``
-    closer than ``radius`` (metres), without pairs of which two vertices are in ``exclude``
-    (:func:`topological_exclusion`); ``cloth_edges (e, 2)``: the edges to pair (default:
-    those of ``faces``). Edge-edge pairs of nearly parallel edges are left to the
-    vertex-triangle pairs."""
+    closer than ``radius`` (metres), without pairs of which two vertices are closer than
+    ``rest_gap`` in the rest shape ``rest_V (n, 3)`` (neighbours on the cloth; a fold two
+    rings wide is still a contact); ``cloth_edges (e, 2)``: the edges to pair (default: those
+    of ``faces``). Edge-edge pairs of nearly parallel edges are left to the vertex-triangle
+    pairs."""
     F = np.asarray(faces, np.int64)
-    vt = _vertex_triangle(x, F, exclude, radius)
+    R = np.asarray(rest_V, np.float64)
+    vt = _vertex_triangle(x, F, R, rest_gap, radius)
     E = edges(F) if cloth_edges is None else np.asarray(cloth_edges, np.int64)
-    ee = _edge_edge(x, E, exclude, radius)
+    ee = _edge_edge(x, E, R, rest_gap, radius)
     out = SelfContact(*(np.concatenate([getattr(vt, k), getattr(ee, k)]) for k in (
         "ids", "coef", "normals", "distance", "kind")))
     return out
 
 
-def _vertex_triangle(x, F, exclude, radius) -> SelfContact:
-    n = len(x)
+def _vertex_triangle(x, F, R, gap, radius) -> SelfContact:
     tri = x[F]
     cen = tri.mean(1)
     reach = radius + float(np.sqrt(((tri - cen[:, None]) ** 2).sum(2)).max())
     dm = cKDTree(x).sparse_distance_matrix(cKDTree(cen), reach, output_type="ndarray")
     v, f = dm["i"].astype(np.int64), dm["j"].astype(np.int64)
-    keep = ~(_excluded(exclude, v, F[f, 0], n) | _excluded(exclude, v, F[f, 1], n)
-             | _excluded(exclude, v, F[f, 2], n))
+    keep = ~(_rest_close(R, v, F[f, 0], gap) | _rest_close(R, v, F[f, 1], gap)
+             | _rest_close(R, v, F[f, 2], gap))
     v, f = v[keep], f[keep]
     if not len(v):
         return _no_pairs()
@@ -340,8 +322,7 @@ def _vertex_triangle(x, F, exclude, radius) -> SelfContact:
     return SelfContact(ids, coef, nrm, d, np.zeros(len(v), np.int64))
 
 
-def _edge_edge(x, E, exclude, radius) -> SelfContact:
-    n = len(x)
+def _edge_edge(x, E, R, gap, radius) -> SelfContact:
     a, b = x[E[:, 0]], x[E[:, 1]]
     mid = 0.5 * (a + b)
     half = float(np.linalg.norm(b - a, axis=1).max()) * 0.5
@@ -352,7 +333,7 @@ def _edge_edge(x, E, exclude, radius) -> SelfContact:
     bad = np.zeros(len(i), bool)
     for p in range(2):
         for q in range(2):
-            bad |= _excluded(exclude, E[i, p], E[j, q], n)
+            bad |= _rest_close(R, E[i, p], E[j, q], gap)
     i, j = i[~bad], j[~bad]
     if not len(i):
         return _no_pairs()
