@@ -140,8 +140,8 @@ class ClothModel:
         # energies in units of (total weight x 1 cm): O(1) numbers for the line search
         self.scale = 1.0 / max(self.mass.sum() * s.gravity * 0.01, 1e-12)
         self.weight_mean = float(self.mass.mean() * s.gravity)
-        # self-contact leaves out pairs of vertices closer than this at rest (neighbours)
-        self.rest_gap = 1.25 * float(L[: len(E)].mean())
+        # self-contact leaves out pairs of vertices closer than one mean edge at rest
+        self.rest_gap = float(L[: len(E)].mean())
         # block pattern: diagonal + both directions of every spring
         i = np.concatenate([np.arange(n), self.springs[:, 0], self.springs[:, 1]])
         j = np.concatenate([np.arange(n), self.springs[:, 1], self.springs[:, 0]])
