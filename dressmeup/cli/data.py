@@ -37,8 +37,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "the options above are then taken from the edition) and check its "
                         "manifest against the edition's expected sha256")
     add_executor_args(p, default_workers=1,
-                      what="garment of generators 2.x and 3.x (--edition ...-v3, -v4; the data do not depend "
-                           "on where they run)")
+                      what="garment of generators 2.x and 3.x (--edition ...-v3, ...-v4; the "
+                           "data do not depend on where they run)")
     p.set_defaults(func=_synth)
 
     v = subparsers.add_parser(
