@@ -5,13 +5,13 @@ The v4 ground truth is made by simulation from each garment's design body at res
 only the source samples' garments and every sample's body. A participant could still apply
 the toolkit's own generator operators to public files. Each such shortcut below must land no
 closer to the ground truth (mean P2S over the edition's pairs) than the best reference method
-scored the same way (the ``rigid`` and ``skinning`` baselines):
+scored the same way (the ``rigid``, ``skinning`` and ``transfer`` baselines; ``transfer`` is
+itself the generator-2.x operator that carries the source garment by the body's displacement
+at its closest point, :func:`dressmeup.data.synth.wardrobe.transfer_to_body`: this test found
+it closer than ``skinning`` on tiny v4, so it became a reference method):
 
 - the source garment unchanged;
-- the source garment carried by the body's displacement from the source body to the target
-  body at its closest point (the two bodies share their topology; generator 2.x's fit start,
-  :func:`dressmeup.data.synth.wardrobe.transfer_to_body`);
-- that start relaxed by generator 2.1.0's quasi-static solver on the target body
+- the ``transfer`` start relaxed by generator 2.1.0's quasi-static solver on the target body
   (:func:`dressmeup.data.synth.drape.drape`, the source garment's edge lengths as rest
   lengths);
 - generator 3.0.0's own simulation run from the source garment: the source body unposed to
@@ -118,8 +118,7 @@ def _simulated(pub: _Public) -> np.ndarray:
     return x
 
 
-SHORTCUTS = {"unchanged": lambda pub: pub.V, "transfer": _transfer, "relaxed": _relaxed,
-             "simulated": _simulated}
+SHORTCUTS = {"unchanged": lambda pub: pub.V, "relaxed": _relaxed, "simulated": _simulated}
 
 
 def test_no_shortcut_beats_the_best_reference(tiny, tmp_path):
@@ -129,8 +128,9 @@ def test_no_shortcut_beats_the_best_reference(tiny, tmp_path):
     ed, parts = tiny
     pairs = edition_pairs(ed, open_dataset(str(parts.public.resolve())))
     assert len(pairs) == 6 and {p.track for p in pairs} == {"re-pose", "re-shape", "cross"}
-    subs = runs.run_baselines(ed, parts.public, tmp_path / "ref", methods=["rigid", "skinning"])
-    assert set(subs) == {"rigid", "skinning"}
+    refs = ["rigid", "skinning", "transfer"]
+    subs = runs.run_baselines(ed, parts.public, tmp_path / "ref", methods=refs)
+    assert set(subs) == set(refs)
     reference = {}
     for name, sub in subs.items():
         res = score_submission(sub, ed, parts.private, tmp_path / f"res-ref-{name}", workers=1,
