@@ -33,9 +33,12 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.body import BodyParams
 from dressmeup.data.synth.garments import build_garment
 from dressmeup.data.synth.scans import SCAN_BODY, clothed_scan
 from dressmeup.data.synth.simulation import BodyAnchors, Dresser, DressSettings, path_bodies
+from dressmeup.data.synth.stats import summarize_dress_stats
+from dressmeup.data.synth.texture import procedural_texture
 from dressmeup.data.synth.wardrobe import (
     _STATE,
     BODY_DECIMALS,
@@ -49,6 +52,8 @@ from dressmeup.data.synth.wardrobe import (
     run_garment_jobs,
     wearers,
 )
+from dressmeup.data.writer import DatasetWriter
+from dressmeup.progress import progress
 
 VERSION = "3.0.0"
 #: the solver figures copied to the top of every sample's stats (from the pose path's end)
@@ -85,10 +90,6 @@ def generate_v4(out: str | os.PathLike, subjects: int = 4, poses: int = 3,
     -------
     Path of the dataset root.
     """
-    from dressmeup.data.synth.stats import summarize_dress_stats
-    from dressmeup.data.writer import DatasetWriter
-    from dressmeup.progress import progress
-
     gps = tuple(int(x) for x in garments_per_split)
     if len(gps) != 3:
         raise ValueError(f"garments_per_split: expected (train, val, test), got {gps!r}")
@@ -146,8 +147,6 @@ def generate_v4(out: str | os.PathLike, subjects: int = 4, poses: int = 3,
 
 def _rest_body(shape: np.ndarray) -> np.ndarray:
     """Skin vertices ``(b, 3)`` of the body of phenotype ``shape`` at rest (rounded)."""
-    from dressmeup.body import BodyParams
-
     S = _STATE
     model = S["model"]
     out = model.posed(BodyParams(model=model.name, shape=shape,
@@ -157,8 +156,6 @@ def _rest_body(shape: np.ndarray) -> np.ndarray:
 
 def _posed_body(shape: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """Skin vertices ``(b, 3)`` of the body ``shape`` in ``pose`` (rounded)."""
-    from dressmeup.body import BodyParams
-
     S = _STATE
     model = S["model"]
     out = model.posed(BodyParams(model=model.name, shape=shape, pose=pose))
@@ -169,8 +166,6 @@ def _dress_job(job) -> dict[str, Any]:
     """Build one garment, settle it on its design body, take it to every subject it is worn
     by (shape path) and into every pose (pose path); every array to write, in the format of
     generator 2.1.0's garment job."""
-    from dressmeup.data.synth.texture import procedural_texture
-
     gid, g, missing = job
     S = _STATE
     t_cpu = time.process_time()
