@@ -132,6 +132,12 @@ class ClothModel:
         self.springs = np.concatenate([E, H])
         L = np.linalg.norm(self.rest_V[self.springs[:, 1]] - self.rest_V[self.springs[:, 0]],
                            axis=1)
+        # a hinge whose opposite corners coincide (a remeshing artefact) has no rest length
+        ok = L > 1e-9
+        if not ok.all():
+            n_e = len(E)
+            E, H = E[ok[:n_e]], H[ok[n_e:]]
+            self.springs, L = self.springs[ok], L[ok]
         A = 0.5 * (self.area[self.springs[:, 0]] + self.area[self.springs[:, 1]])
         ratio = np.concatenate([np.ones(len(E)), np.full(len(H), s.bending_ratio)])
         self.rest_len = L
