@@ -1,8 +1,9 @@
 """``dressmeup demo``: the whole journey on built-in synthetic data, in a few minutes.
 
-1. generate a small synthetic DressMeUp-style dataset (the ``synth-retarget-mini-v3``
-   edition's pinned parameters: three garments each worn by two very different bodies;
-   ``--quick``: ``synth-retarget-tiny-v3``);
+1. generate a small synthetic DressMeUp-style dataset (the ``synth-retarget-mini-v4``
+   edition's pinned parameters: three garments each dressed by simulation onto two very
+   different bodies; ``--quick``: ``synth-retarget-tiny-v4``), split into its public and
+   private parts;
 2. run every retargeting baseline the toolkit provides into submissions;
 3. validate and score them, and print the leaderboard;
 4. when the UV stage is installed: build the ``synth-uvparam-mini-v1`` mesh set, run the UV
@@ -31,8 +32,8 @@ from typing import Any
 from dressmeup.errors import DressmeupError
 from dressmeup.viz.site import write_site
 
-DEMO_EDITION = "synth-retarget-mini-v3"
-QUICK_EDITION = "synth-retarget-tiny-v3"
+DEMO_EDITION = "synth-retarget-mini-v4"
+QUICK_EDITION = "synth-retarget-tiny-v4"
 UV_EDITION = "synth-uvparam-mini-v1"
 #: UV baselines run by the demo (the neural method runs as its own row, pretrained).
 UV_DEMO_METHODS = ("xatlas", "lscm", "harmonic", "slim")

@@ -124,7 +124,10 @@ class Edition:
         it moves when its solver runs longer or starts elsewhere): leaderboards never call a
         smaller difference separated; empty when not measured.
     pairs : retarget pair sampling, ``{"seed": int, "per_track": {track: pairs per source
-        garment}}``; empty: every pair of the split.
+        garment}}``, optionally ``"categories"`` and ``"sources": {"pose": POSE_ID,
+        "subjects": N}`` (the sources disjoint from the targets: see
+        :func:`dressmeup.bench.tasks.retarget.data.sample_pairs`); empty: every pair of the
+        split.
     description : free text (not hashed).
     source : where it was loaded from (not hashed).
     """
@@ -361,14 +364,22 @@ def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]
     if not isinstance(pairs, dict):
         problems.append(f"pairs must be an object, got {type(pairs).__name__}")
         return tuple(tracks), primary, {}
-    for key in sorted(set(pairs) - {"seed", "per_track", "categories", "source_poses"}):
+    for key in sorted(set(pairs) - {"seed", "per_track", "categories", "source_poses",
+                                    "sources"}):
         problems.append(f"unknown field pairs.{key} (known: seed, per_track, categories, "
-                        "source_poses)")
+                        "source_poses, sources)")
     for key in ("categories", "source_poses"):
         vals = pairs.get(key)
         if vals is not None and (not isinstance(vals, list) or not vals
                                  or not all(isinstance(c, str) and c for c in vals)):
             problems.append(f"pairs.{key} must be a non-empty list of names, got {vals!r}")
+    src = pairs.get("sources")
+    if src is not None and not (
+            isinstance(src, dict) and set(src) == {"pose", "subjects"}
+            and isinstance(src["pose"], str) and isinstance(src["subjects"], int)
+            and not isinstance(src["subjects"], bool) and src["subjects"] >= 1):
+        problems.append(f"pairs.sources must be {{\"pose\": POSE_ID, \"subjects\": N >= 1}}, "
+                        f"got {src!r}")
     if pairs:
         seed = pairs.get("seed")
         if not isinstance(seed, int) or isinstance(seed, bool):

@@ -1,6 +1,7 @@
 """The whole journey, tiny: synthetic data -> baselines -> validate -> score -> leaderboard.
 
-Uses the ``synth-retarget-tiny-v3`` edition (procedural body, 12 test pairs in three tracks). The generated
+Uses the ``synth-retarget-tiny-v4`` edition (procedural body, ground truth by simulation, 6 test
+pairs in three tracks; baselines run on its public part, scored with the private one). The generated
 data go to the test cache (``$DRESSMEUP_CACHE/e2e/<edition>-<hash>``) and are reused by later
 runs: the generator resumes and is deterministic, so a cached dataset is the same dataset.
 """
@@ -13,7 +14,7 @@ import pandas as pd
 
 from dressmeup.cli import main
 
-EDITION = "synth-retarget-tiny-v3"
+EDITION = "synth-retarget-tiny-v4"
 
 
 def test_synth_to_leaderboard(tmp_path, capsys, other_data):
@@ -22,11 +23,14 @@ def test_synth_to_leaderboard(tmp_path, capsys, other_data):
     from dressmeup.cache import cache_dir
 
     ed = load_edition(EDITION)
-    data = runs.build_data(ed, cache_dir("e2e") / f"{ed.name}-{ed.hash[:10]}")
+    parts = runs.build_parts(ed, cache_dir("e2e") / f"{ed.name}-{ed.hash[:10]}",
+                             allow_other_data=True)
+    data = parts.private
     # a machine known to generate other data scores them as a user there must: marked
     # not comparable (--allow-other-data)
-    other = ["--allow-other-data"] if other_data(ed, data) else []
-    subs = runs.run_baselines(ed, data, tmp_path / "subs", methods=["rigid", "skinning"])
+    other = ["--allow-other-data"] if other_data(ed, parts.full) else []
+    subs = runs.run_baselines(ed, parts.public, tmp_path / "subs",
+                              methods=["rigid", "skinning"])
     assert sorted(subs) == ["rigid", "skinning"]
 
     results = []
@@ -37,12 +41,12 @@ def test_synth_to_leaderboard(tmp_path, capsys, other_data):
                      "--workers", "1", "--no-progress", *other]) == 0
         results.append(out)
         summary = json.loads((out / "summary.json").read_text())
-        assert summary["counts"] == {"items": 12, "ok": 12, "failed": 0}
+        assert summary["counts"] == {"items": 6, "ok": 6, "failed": 0}
         assert summary["edition"]["hash"] == ed.hash
         table = pd.read_parquet(out / "per_sample.parquet")
         assert set(table["status"]) == {"ok"}
-        assert table["track"].value_counts().to_dict() == {"re-pose": 4, "re-shape": 4,
-                                                           "cross": 4}
+        assert table["track"].value_counts().to_dict() == {"re-pose": 2, "re-shape": 2,
+                                                           "cross": 2}
     # Scoring again into the same folder is refused (exit 2), the result stays.
     assert main(["score", str(subs["rigid"]), "-e", EDITION, "-d", str(data),
                  "-o", str(results[0]), "--workers", "1"]) == 2

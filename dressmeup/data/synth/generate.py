@@ -107,8 +107,16 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                      garments_per_split: tuple[int, int, int] | list[int] | None = None,
                      categories: list[str] | None = None, pose_steps: int = 3,
                      workers: int = 1, executor: Any = None, pose_set: str = "generator",
-                     wear: str = "all", scan_body: str = "whole") -> Path:
+                     wear: str = "all", scan_body: str = "whole",
+                     dress: dict[str, Any] | None = None) -> Path:
     """Generate (or resume) the synthetic dataset in ``out``.
+
+    ``version="3.0.0"`` runs generator 3.0.0 (:func:`dressmeup.data.synth.simulated.generate_v4`:
+    the plan of 2.1.0, every garment dressed by simulation from its design body at rest); it
+    reads ``subjects``, ``poses``, ``seed``, ``body_model``, ``edge_length``, ``write_scan``,
+    ``texture_size``, ``garments_per_split``, ``categories``, ``scan_body``, ``workers`` or
+    ``executor``, and ``dress`` (overrides of
+    :class:`dressmeup.data.synth.simulation.DressSettings`, its ``cloth`` ones nested).
 
     ``version="2.1.0"`` runs generator 2.1.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
     every garment worn by every subject, identical poses; it reads ``subjects``, ``poses``,
@@ -146,6 +154,26 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
     Path of the dataset root.
     """
 
+    if str(version).startswith("3."):
+        # start-up time: generator 3.x's modules load when it runs
+        from dressmeup.data.synth.simulated import VERSION as V3
+        from dressmeup.data.synth.simulated import generate_v4
+        from dressmeup.data.synth.simulation import DressSettings
+
+        if version != V3:
+            raise InputError(f"version: this toolkit generates 3.x as {V3}, got {version!r}")
+        if (pose_set, wear) != ("generator", "all"):
+            raise InputError(f"pose_set={pose_set!r}, wear={wear!r}: generator {V3} dresses "
+                             "every garment on every subject in the generator poses")
+        return generate_v4(out, subjects=subjects, poses=poses,
+                           garments_per_split=garments_per_split or (6, 2, 4), seed=seed,
+                           body_model=body_model, categories=categories,
+                           edge_length=edge_length, write_scan=write_scan,
+                           texture_size=texture_size,
+                           dress_settings=DressSettings.from_dict(dress or {}),
+                           workers=workers, executor=executor, scan_body=scan_body)
+    if dress:
+        raise InputError("dress: settings of generator 3.x; this version does not read them")
     if str(version).startswith("2."):
         if version != VERSION:
             retired = (" (2.0.0's drapes depended on the CPU's float32 rounding; "
@@ -161,7 +189,8 @@ def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 
                            pose_set=pose_set, wear=wear, scan_body=scan_body,
                            **({"executor": executor} if executor is not None else {}))
     if version != GENERATOR_VERSION:
-        raise InputError(f"version: expected {GENERATOR_VERSION!r} or '2.1.0', got {version!r}")
+        raise InputError(f"version: expected {GENERATOR_VERSION!r}, '2.1.0' or '3.0.0', got "
+                         f"{version!r}")
     if (pose_set, wear, scan_body) != ("generator", "all", "whole"):
         raise InputError(f"pose_set={pose_set!r}, wear={wear!r}, scan_body={scan_body!r}: "
                          f"generator {GENERATOR_VERSION} draws generator poses for every "

@@ -47,3 +47,46 @@ def summarize_stats(root: str | os.PathLike,
         "skinning_mean_mm_by_type": {k: round(float(np.mean(v)), 3)
                                      for k, v in sorted(by_type.items())},
     }
+
+
+def summarize_dress_stats(root: str | os.PathLike,
+                          sample_ids: list[str] | None = None) -> dict[str, Any]:
+    """Aggregate generator 3.x's per-sample statistics (``generator/stats/*.json``).
+
+    Returns
+    -------
+    dict: ``n``; ``inside_area_pct`` and ``self_intersecting_faces`` (median, mean, max);
+    ``strain_mean`` (mean); the solver's end state over samples: ``grad_norm_max``,
+    ``unconverged`` (samples whose last solve missed its tolerance), ``iterations_mean``;
+    per garment type the median inside area and self-intersecting faces.
+    """
+    files = sorted((Path(root) / "generator" / "stats").glob("[!.]*.json"))
+    if sample_ids is not None:
+        wanted = set(sample_ids)
+        files = [f for f in files if f.stem in wanted]
+    rows = [json.loads(f.read_text()) for f in files]
+    if not rows:
+        return {}
+
+    def trio(key: str) -> dict[str, float]:
+        a = np.array([r[key] for r in rows], float)
+        return {"median": round(float(np.median(a)), 4), "mean": round(float(a.mean()), 4),
+                "max": round(float(a.max()), 4)}
+
+    by_type: dict[str, list[dict]] = {}
+    for r in rows:
+        by_type.setdefault(r["garment_type"], []).append(r)
+    return {
+        "n": len(rows),
+        "inside_area_pct": trio("inside_area_pct"),
+        "self_intersecting_faces": trio("self_intersecting_faces"),
+        "strain_mean": round(float(np.mean([r["strain_mean"] for r in rows])), 5),
+        "grad_norm_max": round(float(np.max([r["grad_norm"] for r in rows])), 6),
+        "unconverged": int(sum(not r["converged"] for r in rows)),
+        "iterations_mean": round(float(np.mean([r["iterations"] for r in rows])), 1),
+        "by_type": {t: {"inside_area_pct_median": round(float(np.median(
+                            [r["inside_area_pct"] for r in v])), 4),
+                        "self_intersecting_faces_median": float(np.median(
+                            [r["self_intersecting_faces"] for r in v]))}
+                    for t, v in sorted(by_type.items())},
+    }

@@ -481,27 +481,42 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
             todo.append((gid, g, missing))
     setup = (body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan,
              scan_body)
-    if isinstance(executor, LocalExecutor):
-        # its one-worker mode runs jobs in THIS process, whose libraries did not load with
-        # CANONICAL_ENV: the spawned pool below (same size) always starts fresh workers
+    if isinstance(executor, LocalExecutor):  # recorded below as the pool's size
         workers, executor = executor.workers, None
-    if todo and executor is not None:
-        _run_on(executor, setup, todo, writer, out, bar)
-    elif todo:
-        # the numbers are computed in fresh worker processes whose libraries load with the
-        # canonical numerics (CANONICAL_ENV); this process only writes, in plan order
-        ctx = multiprocessing.get_context("spawn")
-        with canonical_numerics(), ProcessPoolExecutor(
-                max(1, min(workers, len(todo))), mp_context=ctx, initializer=_init_worker,
-                initargs=(os.getpid(), *setup)) as pool:
-            for res in pool.map(_garment_job, todo):
-                _write_garment(writer, out, res, bar)
+    run_garment_jobs(_garment_job, setup, todo, writer, out, bar, workers, executor)
     for _ in bar:
         pass
     report = summarize_stats(out)
     return writer.finalize(report=report, timings={
         "last_run_s": round(time.perf_counter() - t_start, 2),
         "last_run_main_cpu_s": round(time.process_time() - cpu_start, 2), "workers": workers})
+
+
+def run_garment_jobs(job_fn: Any, setup: tuple, todo: list, writer: Any, out: Path, bar: Any,
+                     workers: int, executor: Any) -> None:
+    """Compute the garments of ``todo`` with ``job_fn`` (a module-level function of one
+    garment's job, run after :func:`_setup` of ``setup``) and write them here, in plan order.
+
+    The numbers are computed in fresh worker processes whose libraries load with the
+    canonical numerics (:data:`CANONICAL_ENV`): ``executor``'s (a Dask cluster's workers
+    start with them) or, without one, a spawned pool of ``workers`` processes; this process
+    only writes.
+    """
+    if not todo:
+        return
+    if isinstance(executor, LocalExecutor):
+        # its one-worker mode runs jobs in THIS process, whose libraries did not load with
+        # CANONICAL_ENV: the spawned pool below (same size) always starts fresh workers
+        workers, executor = executor.workers, None
+    if executor is not None:
+        _run_on(executor, setup, todo, writer, out, bar, job_fn)
+        return
+    ctx = multiprocessing.get_context("spawn")
+    with canonical_numerics(), ProcessPoolExecutor(
+            max(1, min(workers, len(todo))), mp_context=ctx, initializer=_init_worker,
+            initargs=(os.getpid(), *setup)) as pool:
+        for res in pool.map(job_fn, todo):
+            _write_garment(writer, out, res, bar)
 
 
 #: per-process state of the garment jobs (body model, subjects, poses), set by :func:`_setup`
@@ -543,8 +558,9 @@ class GarmentJob:
 
     __name__ = "synth_garment"
 
-    def __init__(self, setup: tuple) -> None:
+    def __init__(self, setup: tuple, job_fn: Any = None) -> None:
         self.setup = setup
+        self.job_fn = job_fn or _garment_job
 
     def __call__(self, job) -> dict[str, Any]:
         # heavy: torch (~1.1 s to import)
@@ -552,10 +568,11 @@ class GarmentJob:
 
         torch.set_num_threads(1)
         _setup(*self.setup)
-        return _garment_job(job)
+        return self.job_fn(job)
 
 
-def _run_on(executor: Any, setup: tuple, todo: list, writer: Any, out: Path, bar: Any) -> None:
+def _run_on(executor: Any, setup: tuple, todo: list, writer: Any, out: Path, bar: Any,
+            job_fn: Any = None) -> None:
     """Compute the garments of ``todo`` on ``executor`` (one job per garment; a Dask cluster's
     workers start with :data:`CANONICAL_ENV`) and write them here, in plan order."""
 
@@ -564,7 +581,7 @@ def _run_on(executor: Any, setup: tuple, todo: list, writer: Any, out: Path, bar
         if getattr(executor, "_client", None) is not None:
             executor.check_worker_env()
     with canonical_numerics():  # inherited by local pool workers started inside
-        for _i, res in in_order(executor.run(GarmentJob(setup), todo)):
+        for _i, res in in_order(executor.run(GarmentJob(setup, job_fn), todo)):
             if isinstance(res, BaseException):
                 raise res
             _write_garment(writer, out, res, bar)

@@ -1,7 +1,8 @@
 """Garment retargeting methods (the DressMeUp task): ``get_method(name, **hyperparameters)``.
 
 Methods: ``rigid`` (root-joint alignment, the lower bound), ``skinning`` (skinning-weight
-transfer, unpose, repose: the classical baseline), ``isomap`` (thesis 4.3.1: Isomap
+transfer, unpose, repose: the classical baseline), ``transfer`` (the body's displacement at
+each vertex's closest point between the two posed bodies), ``isomap`` (thesis 4.3.1: Isomap
 correspondences through the body template), ``isomap-refine`` (thesis 4.3.2: self-supervised
 refinement network; ``isomap-refine-fast``: a narrower network; ``isomap-refine-sup``: the same
 network trained with ground truth, thesis 4.3.3.1), ``isomap-offset`` (the loose-garment
@@ -28,6 +29,7 @@ __all__ = ["get_method", "available_methods", "METHODS", "POSTPROCESSES", "LEADE
 METHODS = {
     "rigid": ("dressmeup.methods.retarget.rigid", "RigidRetarget"),
     "skinning": ("dressmeup.methods.retarget.skinning", "SkinningRetarget"),
+    "transfer": ("dressmeup.methods.retarget.transfer", "BodyTransfer"),
     "isomap": ("dressmeup.methods.retarget.isomap", "IsomapRetarget"),
     "isomap-offset": ("dressmeup.methods.retarget.isomap", "IsomapOffset"),
     "isomap-refine": ("dressmeup.methods.retarget.refine", "IsomapRefine"),
@@ -41,7 +43,7 @@ POSTPROCESSES = {
 
 
 # the rows of the reference leaderboards: every base method and the chains worth comparing
-LEADERBOARD = ("rigid", "skinning", "isomap", "isomap+penetration", "isomap-offset", "isomap-refine",
+LEADERBOARD = ("rigid", "skinning", "transfer", "isomap", "isomap+penetration", "isomap-offset", "isomap-refine",
                "isomap-refine+penetration", "isomap-refine-sup")
 
 

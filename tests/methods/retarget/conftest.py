@@ -48,9 +48,9 @@ def tiny(body_model):
 
 
 @pytest.fixture(scope="session")
-def tiny_v3_data(tmp_path_factory):
-    """The synth-retarget-tiny-v3 data (procedural body, 2 subjects), built once per run."""
+def tiny_v4_data(tmp_path_factory):
+    """The synth-retarget-tiny-v4 data (procedural body, 2 subjects), built once per run."""
     pytest.importorskip("dressmeup.runs")
     from dressmeup.runs import build_data
 
-    return build_data("synth-retarget-tiny-v3", tmp_path_factory.mktemp("data") / "tiny")
+    return build_data("synth-retarget-tiny-v4", tmp_path_factory.mktemp("data") / "tiny")

@@ -49,6 +49,13 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     another pose or whose target is in one of those poses (sources and targets then never
     overlap: every answer can be withheld; the thesis protocol: held-out poses).
 
+    With ``"sources": {"pose": P, "subjects": N}`` (the v4 editions) the sources and the
+    targets are disjoint, so that every answer can be withheld: per garment, N of its
+    subjects, drawn by a generator seeded with ``(seed, crc32(garment id), 99)``, in pose P
+    are the sources, and the pairs are those from a source to any sample that is not one
+    (other pose of the same subject: re-pose; another subject in P: re-shape; another subject
+    in another pose: cross).
+
     Parameters
     ----------
     pairs : :class:`dressmeup.data.RetargetPair` list (e.g. ``ds.retarget_pairs(split)``).
@@ -71,6 +78,8 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     if poses:
         pairs = [p for p in pairs if p.source.pose_id in poses
                  and p.target.pose_id not in poses]
+    if pairs_spec.get("sources"):
+        pairs = disjoint_pairs(pairs, pairs_spec["sources"], seed)
     order = sorted(per)
     groups: dict[tuple[str, str], list] = {}
     for p in pairs:
@@ -83,6 +92,27 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
         n = min(int(per[track]), len(group))
         out += [group[i] for i in sorted(rng.choice(len(group), size=n, replace=False))]
     return sorted(out, key=lambda p: p.pair_id)
+
+
+def disjoint_pairs(pairs: list, sources: dict[str, Any], seed: int) -> list:
+    """The pairs whose source is one of each garment's chosen sources (``sources["subjects"]``
+    subjects in pose ``sources["pose"]``, seeded per garment) and whose target is none of
+    them (see :func:`sample_pairs`)."""
+    subjects: dict[str, set[str]] = {}
+    for p in pairs:
+        subjects.setdefault(p.source.garment_id, set()).add(p.source.subject_id)
+    chosen = {}
+    for g, subs in sorted(subjects.items()):
+        subs_sorted = sorted(subs)
+        rng = np.random.default_rng([seed, zlib.crc32(g.encode()), 99])
+        k = min(int(sources["subjects"]), len(subs_sorted))
+        chosen[g] = {subs_sorted[i] for i in rng.choice(len(subs_sorted), size=k,
+                                                         replace=False)}
+
+    def is_source(s) -> bool:
+        return s.pose_id == sources["pose"] and s.subject_id in chosen[s.garment_id]
+
+    return [p for p in pairs if is_source(p.source) and not is_source(p.target)]
 
 
 def edition_pairs(edition: Any, dataset: Any) -> list:
