@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from dressmeup.data.synth.config import GENERATOR_VERSION, SynthConfig, synth_config
 from dressmeup.data.synth.drape import DrapeSettings, drape
-from dressmeup.data.synth.generate import GENERATOR_VERSION, generate_dataset
+from dressmeup.data.synth.generate import generate_dataset
 from dressmeup.data.synth.stats import summarize_stats
 
-__all__ = ["DrapeSettings", "GENERATOR_VERSION", "drape", "generate_dataset", "summarize_stats"]
+__all__ = ["DrapeSettings", "GENERATOR_VERSION", "SynthConfig", "drape", "generate_dataset",
+           "summarize_stats", "synth_config"]

@@ -29,6 +29,7 @@ import numpy as np
 from dressmeup.body import BodyParams, get_body_model
 from dressmeup.body.skinning import lbs
 from dressmeup.data.splits import split_by_garment
+from dressmeup.data.synth.config import GENERATOR_VERSION, SynthConfig, synth_config
 from dressmeup.data.synth.drape import DrapeSettings, drape
 from dressmeup.data.synth.dressing import garment_weights
 from dressmeup.data.synth.garments import (
@@ -49,9 +50,8 @@ from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
 
-GENERATOR_VERSION = "1.1.0"
-# 1.1.0: splits stratified by garment category (1.0.0: plain seeded shuffle); garments and
-# drapes are unchanged
+# GENERATOR_VERSION 1.1.0: splits stratified by garment category (1.0.0: plain seeded
+# shuffle); garments and drapes are unchanged
 DEFAULT_EDGE_LENGTH = {"anny": 0.02, "procedural": 0.025}
 
 def _skin(model) -> tuple[np.ndarray, np.ndarray]:
@@ -96,98 +96,89 @@ def plan_dataset(subjects: int, garments: int, poses: int, seed: int, types: Seq
     return plan
 
 
-def generate_dataset(out: str | os.PathLike, subjects: int = 3, garments: int = 4,
-                     poses: int = 5, seed: int = 0, body_model: str = "anny",
-                     registration_noise: float = 0.0, edge_length: float | None = None,
-                     write_scan: bool = True, types: list[str] | None = None,
-                     split_fractions: tuple[float, float, float] = (0.6, 0.2, 0.2),
-                     drape_settings: DrapeSettings | None = None,
-                     texture_size: int = 256, split_strategy: str = "stratified",
-                     version: str = GENERATOR_VERSION,
-                     garments_per_split: tuple[int, int, int] | list[int] | None = None,
-                     categories: list[str] | None = None, pose_steps: int = 3,
-                     workers: int = 1, executor: Any = None, pose_set: str = "generator",
-                     wear: str = "all", scan_body: str = "whole",
-                     dress: dict[str, Any] | None = None) -> Path:
+def generate_dataset(out: str | os.PathLike, config: SynthConfig | None = None, *,
+                     workers: int = 1, executor: Any = None, **settings: Any) -> Path:
     """Generate (or resume) the synthetic dataset in ``out``.
-
-    ``version="3.0.0"`` runs generator 3.0.0 (:func:`dressmeup.data.synth.simulated.generate_v4`:
-    the plan of 2.1.0, every garment dressed by simulation from its design body at rest); it
-    reads ``subjects``, ``poses``, ``seed``, ``body_model``, ``edge_length``, ``write_scan``,
-    ``texture_size``, ``garments_per_split``, ``categories``, ``scan_body``, ``workers`` or
-    ``executor``, and ``dress`` (overrides of
-    :class:`dressmeup.data.synth.simulation.DressSettings`, its ``cloth`` ones nested).
-
-    ``version="2.1.0"`` runs generator 2.1.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
-    every garment worn by every subject, identical poses; it reads ``subjects``, ``poses``,
-    ``seed``, ``body_model``, ``edge_length``, ``write_scan``, ``texture_size``,
-    ``drape_settings``, ``garments_per_split``, ``categories``, ``pose_steps``, ``pose_set``
-    (library pose set: ``generator``, ``registration`` or ``all``), ``wear`` (``all`` or
-    ``rotate``: one garment per subject and pose), ``scan_body`` (``whole`` or ``uncovered``:
-    the body under the garment left out of the scan) and ``workers``
-    (processes; the output does not depend on it) or ``executor`` (one job per garment on a
-    :mod:`dressmeup.executors` executor, e.g. Dask; same output)); any other version runs
-    generator 1.1.0 below (the ``*-v2`` editions' data), which ignores ``garments_per_split``,
-    ``categories``, ``pose_steps``, ``workers`` and ``executor`` and refuses a ``pose_set``,
-    ``wear`` or ``scan_body`` other than the default.
 
     Parameters
     ----------
     out : output folder.
-    subjects, garments, poses : counts (garments per subject; poses per garment).
-    seed : random seed; the dataset is a deterministic function of all arguments.
-    body_model : ``anny`` (default) or ``procedural`` (tiny, for tests).
-    registration_noise : std of Gaussian noise added to the stored pose (radians) and shape
-        (phenotype units); 0 stores the true parameters.
-    edge_length : garment edge length in metres (default 20 mm for anny, 25 mm procedural).
-    write_scan : write ``scan.ply`` (body + garment) per sample.
-    types : garment types to draw from (default: all of ``garment_types.json``).
-    split_fractions : (train, val, test) fractions of garments.
-    drape_settings : cloth material and solver settings.
-    texture_size : texture image side in pixels.
-    split_strategy : ``"stratified"`` (by garment category, so test covers every category
-        with two or more garments) or ``"random"`` (generator 1.0.0's plain shuffle); see
-        :func:`dressmeup.data.splits.split_by_garment`. Recorded in ``dataset.json``.
+    config : the dataset's settings (:class:`~dressmeup.data.synth.config.SynthConfig`;
+        default: its defaults, generator 1.1.0).
+    workers : processes of generators 2.x and 3.x (the output does not depend on it).
+    executor : a :mod:`dressmeup.executors` executor (e.g. Dask) running one job per garment
+        for generators 2.x and 3.x instead of ``workers`` processes; same output.
+    **settings : fields of ``SynthConfig`` replacing those of ``config``, e.g.
+        ``generate_dataset(out, version="2.1.0", subjects=4, poses=3)``.
+
+    ``version="3.0.0"`` runs generator 3.0.0 (:func:`dressmeup.data.synth.simulated.generate_v4`:
+    the plan of 2.1.0, every garment dressed by simulation from its design body at rest);
+    ``version="2.1.0"`` runs generator 2.1.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
+    every garment worn by every subject, identical poses); ``"1.1.0"`` runs the generator
+    below (the ``*-v2`` editions' data): each subject wears its own garments in jittered
+    poses, splits by garment (stratified by category or random, recorded in
+    ``dataset.json``), and it refuses a ``pose_set``, ``wear`` or ``scan_body`` other than
+    the default. Which settings each version reads: ``SynthConfig``.
 
     Returns
     -------
     Path of the dataset root.
     """
-
-    if str(version).startswith("3."):
-        # start-up time: generator 3.x's modules load when it runs
-        from dressmeup.data.synth.simulated import VERSION as V3
-        from dressmeup.data.synth.simulated import generate_v4
-        from dressmeup.data.synth.simulation import DressSettings
-
-        if version != V3:
-            raise InputError(f"version: this toolkit generates 3.x as {V3}, got {version!r}")
-        if (pose_set, wear) != ("generator", "all"):
-            raise InputError(f"pose_set={pose_set!r}, wear={wear!r}: generator {V3} dresses "
-                             "every garment on every subject in the generator poses")
-        return generate_v4(out, subjects=subjects, poses=poses,
-                           garments_per_split=garments_per_split or (6, 2, 4), seed=seed,
-                           body_model=body_model, categories=categories,
-                           edge_length=edge_length, write_scan=write_scan,
-                           texture_size=texture_size,
-                           dress_settings=DressSettings.from_dict(dress or {}),
-                           workers=workers, executor=executor, scan_body=scan_body)
-    if dress:
+    c = synth_config(config, **settings)
+    if str(c.version).startswith("3."):
+        return _generate_3x(out, c, workers, executor)
+    if c.dress:
         raise InputError("dress: settings of generator 3.x; this version does not read them")
-    if str(version).startswith("2."):
-        if version != VERSION:
-            retired = (" (2.0.0's drapes depended on the CPU's float32 rounding; "
-                       "docs/synthetic-data.md, Reproducibility)" if version == "2.0.0" else "")
-            raise InputError(f"version: this toolkit generates 2.x as {VERSION}, got "
-                             f"{version!r}{retired}")
-        return generate_v3(out, subjects=subjects, poses=poses,
-                           garments_per_split=garments_per_split or (6, 2, 4), seed=seed,
-                           body_model=body_model, categories=categories,
-                           edge_length=edge_length, write_scan=write_scan,
-                           texture_size=texture_size, pose_steps=pose_steps,
-                           drape_settings=drape_settings, workers=workers,
-                           pose_set=pose_set, wear=wear, scan_body=scan_body,
-                           **({"executor": executor} if executor is not None else {}))
+    if str(c.version).startswith("2."):
+        return _generate_2x(out, c, workers, executor)
+    return _generate_1x(out, c)
+
+
+def _generate_3x(out: str | os.PathLike, c: SynthConfig, workers: int, executor: Any) -> Path:
+    """Generator 3.x with the settings it reads."""
+    # start-up time: generator 3.x's modules load when it runs
+    from dressmeup.data.synth.simulated import VERSION as V3
+    from dressmeup.data.synth.simulated import generate_v4
+    from dressmeup.data.synth.simulation import DressSettings
+
+    if c.version != V3:
+        raise InputError(f"version: this toolkit generates 3.x as {V3}, got {c.version!r}")
+    if (c.pose_set, c.wear) != ("generator", "all"):
+        raise InputError(f"pose_set={c.pose_set!r}, wear={c.wear!r}: generator {V3} dresses "
+                         "every garment on every subject in the generator poses")
+    return generate_v4(out, subjects=c.subjects, poses=c.poses,
+                       garments_per_split=c.garments_per_split or (6, 2, 4), seed=c.seed,
+                       body_model=c.body_model, categories=c.categories,
+                       edge_length=c.edge_length, write_scan=c.write_scan,
+                       texture_size=c.texture_size,
+                       dress_settings=DressSettings.from_dict(c.dress or {}),
+                       workers=workers, executor=executor, scan_body=c.scan_body)
+
+
+def _generate_2x(out: str | os.PathLike, c: SynthConfig, workers: int, executor: Any) -> Path:
+    """Generator 2.x with the settings it reads."""
+    if c.version != VERSION:
+        retired = (" (2.0.0's drapes depended on the CPU's float32 rounding; "
+                   "docs/synthetic-data.md, Reproducibility)" if c.version == "2.0.0" else "")
+        raise InputError(f"version: this toolkit generates 2.x as {VERSION}, got "
+                         f"{c.version!r}{retired}")
+    return generate_v3(out, subjects=c.subjects, poses=c.poses,
+                       garments_per_split=c.garments_per_split or (6, 2, 4), seed=c.seed,
+                       body_model=c.body_model, categories=c.categories,
+                       edge_length=c.edge_length, write_scan=c.write_scan,
+                       texture_size=c.texture_size, pose_steps=c.pose_steps,
+                       drape_settings=c.drape_settings, workers=workers,
+                       pose_set=c.pose_set, wear=c.wear, scan_body=c.scan_body,
+                       **({"executor": executor} if executor is not None else {}))
+
+
+def _generate_1x(out: str | os.PathLike, c: SynthConfig) -> Path:
+    """Generator 1.1.0 (module docstring)."""
+    version, subjects, garments, poses, seed = c.version, c.subjects, c.garments, c.poses, c.seed
+    body_model, registration_noise, edge_length = c.body_model, c.registration_noise, c.edge_length
+    write_scan, types, split_fractions = c.write_scan, c.types, c.split_fractions
+    drape_settings, texture_size, split_strategy = c.drape_settings, c.texture_size, c.split_strategy
+    pose_set, wear, scan_body = c.pose_set, c.wear, c.scan_body
     if version != GENERATOR_VERSION:
         raise InputError(f"version: expected {GENERATOR_VERSION!r}, '2.1.0' or '3.0.0', got "
                          f"{version!r}")

@@ -1,0 +1,74 @@
+"""What a generated dataset is a function of: one frozen configuration of the generator.
+
+:func:`dressmeup.data.synth.generate_dataset` takes a :class:`SynthConfig` (or its fields as
+keywords, checked by :func:`synth_config`); where it runs (``workers``, ``executor``) is not
+part of it, since the output does not depend on it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+from dressmeup.data.synth.drape import DrapeSettings
+from dressmeup.errors import InputError
+
+#: the generator version written when none is asked for (the ``*-v2`` editions' data)
+GENERATOR_VERSION = "1.1.0"
+
+
+@dataclass(frozen=True)
+class SynthConfig:
+    """Settings of one generated dataset; the dataset is a deterministic function of them.
+
+    Every version reads ``version``, ``subjects``, ``poses``, ``seed``, ``body_model``
+    (``anny`` or ``procedural``), ``edge_length`` (garment edge in metres; None: the body
+    model's default), ``write_scan`` and ``texture_size`` (pixels).
+
+    Generator 1.1.0 (``version="1.1.0"``) also reads ``garments`` (per subject),
+    ``registration_noise`` (std of the noise added to the stored pose, radians, and shape,
+    phenotype units), ``types`` (garment types; None: all), ``split_fractions`` (train, val,
+    test fractions of garments), ``split_strategy`` (``stratified`` or ``random``) and
+    ``drape_settings``.
+
+    Generators 2.x and 3.x read ``garments_per_split`` ((train, val, test) garments per
+    category; None: (6, 2, 4)), ``categories`` (None: all) and ``scan_body`` (``whole`` or
+    ``uncovered``); 2.x also ``pose_steps``, ``pose_set`` (``generator``, ``registration``
+    or ``all``), ``wear`` (``all`` or ``rotate``) and ``drape_settings``; 3.x ``dress``
+    (overrides of :class:`dressmeup.data.synth.simulation.DressSettings`).
+    """
+
+    version: str = GENERATOR_VERSION
+    subjects: int = 3
+    poses: int = 5
+    seed: int = 0
+    body_model: str = "anny"
+    edge_length: float | None = None
+    write_scan: bool = True
+    texture_size: int = 256
+    garments: int = 4
+    registration_noise: float = 0.0
+    types: list[str] | None = None
+    split_fractions: tuple[float, float, float] = (0.6, 0.2, 0.2)
+    split_strategy: str = "stratified"
+    drape_settings: DrapeSettings | None = None
+    garments_per_split: tuple[int, int, int] | list[int] | None = None
+    categories: list[str] | None = None
+    pose_steps: int = 3
+    pose_set: str = "generator"
+    wear: str = "all"
+    scan_body: str = "whole"
+    dress: dict[str, Any] | None = None
+
+
+FIELDS = tuple(f.name for f in dataclasses.fields(SynthConfig))
+
+
+def synth_config(config: SynthConfig | None = None, **settings: Any) -> SynthConfig:
+    """``config`` (default :class:`SynthConfig`) with ``settings`` replaced; an unknown
+    setting raises :class:`~dressmeup.errors.InputError` naming the known ones."""
+    unknown = sorted(set(settings) - set(FIELDS))
+    if unknown:
+        raise InputError(f"unknown generator setting(s) {unknown}; known: {', '.join(FIELDS)}")
+    return dataclasses.replace(config or SynthConfig(), **settings)
