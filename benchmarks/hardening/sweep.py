@@ -12,7 +12,7 @@ valid) with one line per case that is not a clear error or correct.
     python benchmarks/hardening/sweep.py --only register      # cases whose name has it
     python benchmarks/hardening/sweep.py --json out.json      # also every case's outcome
 
-Heavy (minutes of CPU): run it under the shared lock, e.g. ``flock /work/heavy.lock``.
+Heavy (minutes of CPU): run it alone on the machine.
 The regression tests in tests/ are the CI guarantee; this script is the wide net.
 """
 

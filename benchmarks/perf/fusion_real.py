@@ -20,7 +20,7 @@ For each, it times and scores:
   first) with and without refinement, and accuracy / completeness against the ground truth.
 
 F@10mm and its precision / recall compare each dressmeup mesh with the Open3D mesh (200,000
-samples each). Run timings on a quiet machine (``flock /work/heavy.lock`` where shared) and
+samples each). Run timings on a quiet machine (nothing else heavy running) and
 print the load beside them.
 
 Usage::
