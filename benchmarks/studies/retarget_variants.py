@@ -4,7 +4,7 @@ Runs each ``--methods`` entry (a ``get_method`` name, optional hyperparameters a
 ``key=value`` separated by ``,``) over the same pairs of a split and scores them with the
 benchmark's own per-pair scoring (``evaluate_pair``: P2S, ED, NC, IR on ``--n-samples``
 surface samples). Prints and writes a table of means per garment type and overall, and the
-per-pair values (JSON). Used for the loose-garment variant and for Table 4.5's comparison.
+per-pair values (JSON). Used for the loose-garment variant and for the supervised vs self-supervised comparison.
 
     python benchmarks/studies/retarget_variants.py --data ROOT --split test \\
         --methods isomap isomap-offset isomap+penetration isomap-offset+penetration \\
