@@ -320,7 +320,8 @@ def drape_stats(V: np.ndarray, F: np.ndarray, rest_V: np.ndarray, body_V: np.nda
     -------
     dict: ``deepest_mm`` (deepest vertex inside the body, >= 0), ``inside_area_pct`` (share of
     the garment's area whose face centroid is inside the body, by the winding number),
-    ``strain_mean`` / ``strain_p99`` (|l / L - 1| over edges), ``self_intersecting_faces``
+    ``strain_mean`` / ``strain_p99`` (|l / L - 1| over edges of non-zero rest length
+    ``L``), ``self_intersecting_faces``
     (pymeshlab).
     """
     # heavy: pymeshlab (~0.3 s to import)
@@ -333,7 +334,8 @@ def drape_stats(V: np.ndarray, F: np.ndarray, rest_V: np.ndarray, body_V: np.nda
     E = edges(F)
     L = np.linalg.norm(rest_V[E[:, 1]] - rest_V[E[:, 0]], axis=1)
     le = np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1)
-    strain = np.abs(le / L - 1.0)
+    rest = L > 0  # an edge of zero rest length (coincident remeshed vertices) has no strain
+    strain = np.abs(le[rest] / L[rest] - 1.0)
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(np.asarray(V, np.float64), np.asarray(F, np.int32)))
     ms.compute_selection_by_self_intersections_per_face()
