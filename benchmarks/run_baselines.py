@@ -48,6 +48,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--train-steps", type=int, default=300,
                     help="self-supervised training steps of trainable retargeting baselines")
     ap.add_argument("--results", default=str(RESULTS), help="where the tables are rewritten")
+    ap.add_argument("--allow-other-data", action="store_true",
+                    help="score data this machine generated differently from the edition's pin "
+                         "(every row is then marked not comparable)")
     ap.add_argument("--keep-results", nargs="+", default=None, metavar="RUN",
                     help="with --methods: the tables also show the other methods' results from "
                          "earlier run folders (RUN/results/<edition>/<method>; a later RUN wins), "
@@ -79,7 +82,8 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
         t0 = time.perf_counter()
         ed = load_edition(name)
         log(f"== {ed.name} ({ed.task}) ==")
-        parts = runs.build_parts(ed, work / "data" / ed.name, log=log)
+        parts = runs.build_parts(ed, work / "data" / ed.name, log=log,
+                                 allow_other_data=args.allow_other_data)
         kw = {"train_steps": args.train_steps} if ed.task == "retarget" else {}
         subs = runs.run_baselines(ed, parts.public, run / "submissions" / ed.name,
                                   methods=args.methods, log=log, executor=baseline_executor,
