@@ -241,3 +241,30 @@ def edges(F: np.ndarray) -> np.ndarray:
     e = np.sort(e, axis=1)
     e = e[e[:, 0] != e[:, 1]]
     return np.unique(e, axis=0)
+
+
+def weld_coincident(V: np.ndarray, F: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Merge vertices with identical coordinates and drop the faces that lose a corner.
+
+    Parameters
+    ----------
+    V : (n, 3) vertices; F : (m, 3) int faces.
+
+    Returns
+    -------
+    (V', F', vertex_map, kept): ``V'`` (n', 3) the first vertex of each group of equal
+    coordinates, in the order of first occurrence; ``F'`` (m', 3) the kept faces re-indexed;
+    ``vertex_map`` (n,) the new index of every old vertex; ``kept`` (m,) bool, which faces
+    stayed. Without coincident vertices everything is returned unchanged (identity map).
+    """
+    V = np.asarray(V)
+    F = np.asarray(F)
+    _, first, inv = np.unique(V, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    vertex_map = rank[np.asarray(inv).ravel()]
+    G = vertex_map[F]
+    kept = (G[:, 0] != G[:, 1]) & (G[:, 1] != G[:, 2]) & (G[:, 0] != G[:, 2])
+    return V[np.sort(first)], G[kept], vertex_map, kept

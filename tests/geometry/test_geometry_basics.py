@@ -287,3 +287,20 @@ def test_exact_faces_do_not_depend_on_the_bvh_pick():
         d2, p2, fid2 = closest_points(V + shift, F, Q + shift, exact_faces=True)
         np.testing.assert_array_equal(fid2, fid)
         np.testing.assert_allclose(p2 - shift, p, rtol=0, atol=1e-9)
+
+
+def test_weld_coincident_merges_equal_vertices_and_drops_collapsed_faces():
+    from dressmeup.geometry.mesh import weld_coincident
+
+    # a quad (0, 1, 2, 3) with vertex 4 a copy of vertex 2, and a sliver face (1, 2, 4)
+    V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [1, 1, 0]], float)
+    F = np.array([[0, 1, 2], [0, 4, 3], [1, 2, 4]])
+    W, G, vmap, kept = weld_coincident(V, F)
+    assert np.array_equal(W, V[:4])
+    assert vmap.tolist() == [0, 1, 2, 3, 2]
+    assert kept.tolist() == [True, True, False]
+    assert G.tolist() == [[0, 1, 2], [0, 2, 3]]
+    # nothing to weld: everything unchanged
+    W2, G2, vmap2, kept2 = weld_coincident(V[:4], F[:1])
+    assert np.array_equal(W2, V[:4]) and np.array_equal(G2, F[:1])
+    assert vmap2.tolist() == [0, 1, 2, 3] and kept2.all()

@@ -53,6 +53,7 @@ from dressmeup.data.synth.wardrobe import (
     wearers,
 )
 from dressmeup.data.writer import DatasetWriter
+from dressmeup.geometry.mesh import weld_coincident
 from dressmeup.progress import progress
 
 VERSION = "3.0.0"
@@ -174,14 +175,20 @@ def _dress_job(job) -> dict[str, Any]:
     design = bodies[g["design_subject"]]
     garment = build_garment(g["type"], g["params"], design.rest_V, skin_F, S["labels"],
                             design.frame, edge_length=S["edge"])
-    V0, F = quantize(garment.vertices, STORE_DECIMALS), garment.faces
+    # coincident vertices (a remeshing artefact, or two within the 1 µm storage grid) would
+    # make springs of zero rest length: weld them and drop the faces that collapse
+    V0, F, vmap, kept = weld_coincident(quantize(garment.vertices, STORE_DECIMALS),
+                                        garment.faces)
+    uv_faces = None if garment.uv_faces is None else np.asarray(garment.uv_faces)[kept]
+    support = np.zeros(len(V0))
+    np.maximum.at(support, vmap, np.asarray(garment.support, np.float64))
     tex, pattern = procedural_texture(np.random.default_rng([S["seed"], 7919, int(gid[1:])]),
                                       S["texture_size"])
     res: dict[str, Any] = {"gid": gid, "g": g, "V0": V0, "F": F, "uv": garment.uv,
-                           "uv_faces": garment.uv_faces, "category": garment.category,
+                           "uv_faces": uv_faces, "category": garment.category,
                            "garment_type": garment.garment_type, "tex": tex, "fitted": {},
                            "samples": [], "build_cpu_s": time.process_time() - t_cpu}
-    dresser = Dresser(V0, F, BodyAnchors(V0, garment.support, design.rest_V, skin_F), skin_F,
+    dresser = Dresser(V0, F, BodyAnchors(V0, support, design.rest_V, skin_F), skin_F,
                       design.frame.up, settings)
     settled, settle = dresser.follow(settings.start(V0), [design.rest_V])
     for sid in dict.fromkeys(s for s, _ in missing):
