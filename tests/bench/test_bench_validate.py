@@ -139,3 +139,38 @@ def test_size_limit_and_dataset_pin(scored, bench_data, tmp_path):
     rep = validate_submission(scored["gt"]["sub"], real, bench_data)
     assert [p.kind for p in rep.problems] == ["dataset"]
     assert "manifest sha256" in rep.problems[0].message
+
+
+def test_a_pinned_settings_override_matches_the_recorded_settings(bench_data, tmp_path):
+    """An edition pins the overrides of a settings object (``{"dress": {"body_step": 0.04}}``);
+    the generator records the complete settings: the data match when every pinned entry
+    does, and not when one differs."""
+    import json
+    import shutil
+    import sys
+    from pathlib import Path
+
+    from dressmeup.bench import load_edition
+    from dressmeup.bench.tasks.common import check_pin
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from conftest import FIXTURE_GENERATOR, write_edition
+
+    root = tmp_path / "data"
+    shutil.copytree(bench_data, root)
+    meta = json.loads((root / "dataset.json").read_text())
+    full = {"body_step": 0.04, "near": 0.1, "cloth": {"youngs": 200.0, "tolerance": 0.001}}
+    meta["generator"]["params"] = {**meta["generator"]["params"], "dress": full}
+    (root / "dataset.json").write_text(json.dumps(meta))
+
+    def pinned(dress):
+        return load_edition(write_edition(
+            tmp_path / "ed.json",
+            dataset={"kind": "generated", "generator": FIXTURE_GENERATOR["name"],
+                     "generator_version": FIXTURE_GENERATOR["version"],
+                     "params": {**FIXTURE_GENERATOR["params"], "dress": dress}, "seed": 0}))
+
+    assert check_pin(pinned({"body_step": 0.04}), root)[1] == []
+    assert check_pin(pinned({"cloth": {"youngs": 200}}), root)[1] == []
+    problems = check_pin(pinned({"body_step": 0.05}), root)[1]
+    assert problems and "dress=" in problems[0]

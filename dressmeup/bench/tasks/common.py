@@ -123,7 +123,7 @@ def check_pin(edition: Any, root: str | os.PathLike) -> tuple[dict[str, Any], li
     params = rec["params"] if isinstance(rec["params"], dict) else {}
     for key, value in pin.params.items():
         got = params.get(key, "<missing>")
-        if _norm(got) != _norm(value):
+        if not _pinned_matches(got, value):
             problems.append(f"dataset parameter {key}={got!r}, edition pins {value!r}")
     if len(problems) > before:
         problems.append(f"this is not the data of edition {edition.name}: generate it with "
@@ -142,6 +142,15 @@ def _norm(v: Any) -> Any:
     if isinstance(v, float) and v.is_integer():
         return int(v)
     return v
+
+
+def _pinned_matches(got: Any, pinned: Any) -> bool:
+    """Whether a recorded generator parameter matches the edition's pin: equal values, or for
+    a settings object (a dict) every pinned entry matching the recorded one (an edition pins
+    the overrides; the generator records the complete settings)."""
+    if isinstance(pinned, dict) and isinstance(got, dict):
+        return all(k in got and _pinned_matches(got[k], v) for k, v in pinned.items())
+    return _norm(got) == _norm(pinned)
 
 
 #: Bound on the magnitude of a predicted coordinate (metres, or UV units).
