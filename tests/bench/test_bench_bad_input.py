@@ -21,7 +21,10 @@ def data_copy(bench_data, tmp_path):
 
 
 def _run(capsys, *argv):
-    status = main(list(map(str, argv)))
+    try:
+        status = main(list(map(str, argv)))
+    except SystemExit as exc:  # a usage error found while parsing the options
+        status = exc.code
     out = capsys.readouterr()
     assert "Traceback" not in out.err, out.err
     return status, out.out + out.err

@@ -100,5 +100,7 @@ def test_unreadable_files_exit_nonzero_naming_the_file(files, capsys, tmp_path):
         != 0
     )
     assert "nobody.ply" in capsys.readouterr().err
-    assert main(["metrics", str(d / "gt.ply"), str(d / "gt.ply"), "--samples", "0"]) != 0
+    with pytest.raises(SystemExit) as exc:  # a usage error found while parsing the options
+        main(["metrics", str(d / "gt.ply"), str(d / "gt.ply"), "--samples", "0"])
+    assert exc.value.code == 2
     assert "--samples" in capsys.readouterr().err
