@@ -27,6 +27,21 @@ def _obj_index(tok: str, count: int) -> int:
     return i - 1 if i > 0 else count + i
 
 
+def _obj_face(parts: list[str], n_v: int, n_t: int) -> tuple[list[int], list[int]]:
+    """The 0-based vertex and texture indices of the corners of one ``f`` line (texture
+    indices only for the corners that have one)."""
+    vi: list[int] = []
+    ti: list[int] = []
+    for corner in parts[1:]:
+        sub = corner.split("/")
+        vi.append(_obj_index(sub[0], n_v))
+        if len(sub) > 1 and sub[1]:
+            ti.append(_obj_index(sub[1], n_t))
+    if len(vi) < 3:
+        raise InputError("a face needs at least three corners")
+    return vi, ti
+
+
 def read_obj(path: Path) -> tuple:
     """Parse an OBJ file into ``(V, F, uv, uv_faces, texture, colours)``, exactly as written.
 
@@ -73,15 +88,7 @@ def read_obj(path: Path) -> tuple:
                     uvs.extend(vals)
                     n_t += 1
                 elif key == "f":
-                    vi: list[int] = []
-                    ti: list[int] = []
-                    for corner in parts[1:]:
-                        sub = corner.split("/")
-                        vi.append(_obj_index(sub[0], n_v))
-                        if len(sub) > 1 and sub[1]:
-                            ti.append(_obj_index(sub[1], n_t))
-                    if len(vi) < 3:
-                        raise InputError("a face needs at least three corners")
+                    vi, ti = _obj_face(parts, n_v, n_t)
                     if len(ti) != len(vi):
                         missing_vt = True
                     for k in range(1, len(vi) - 1):
