@@ -22,9 +22,10 @@ from dressmeup.metrics._common import (
     check_samples,
     mesh_arrays,
 )
-from dressmeup.metrics.distance import DEFAULT_FSCORE_THRESHOLDS, chamfer_details, euclidean
+from dressmeup.metrics.distance import chamfer_details, euclidean
 from dressmeup.metrics.normals import normal_consistency_details
 from dressmeup.metrics.penetration import interpenetration_ratio, penetrating_vertex_fraction
+from dressmeup.metrics.reconstruction import DEFAULT_FSCORE_THRESHOLDS
 from dressmeup.metrics.uv import ase_details, qce_details
 from dressmeup.metrics.uv_layout import uv_validity
 
