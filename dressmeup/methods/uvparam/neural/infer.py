@@ -15,7 +15,7 @@ import numpy as np
 from dressmeup.geometry.mesh import as_arrays, face_areas
 from dressmeup.geometry.uv_atlas import orient_chart_uv, signed_uv_areas
 from dressmeup.geometry.uv_packing import pack_charts
-from dressmeup.methods.nn.diffusion_net import compute_operators
+from dressmeup.methods.nn.diffusion_ops import compute_operators
 from dressmeup.methods.uvparam.base import UVResult
 from dressmeup.methods.uvparam.neural.patchnet import (
     assign_charts,

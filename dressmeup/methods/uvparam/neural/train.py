@@ -24,7 +24,7 @@ from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
 from dressmeup.geometry.uv_atlas import split_charts
 from dressmeup.io.atomic import atomic_write_bytes
 from dressmeup.methods.nn.checkpoint import load_checkpoint
-from dressmeup.methods.nn.diffusion_net import compute_operators
+from dressmeup.methods.nn.diffusion_ops import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
 from dressmeup.methods.uvparam.neural.patchnet import (
     assign_charts,

@@ -26,7 +26,7 @@ from scipy.sparse.csgraph import dijkstra
 from dressmeup.cache import hash_arrays
 from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
 from dressmeup.methods.nn.convergence import converged
-from dressmeup.methods.nn.diffusion_net import compute_operators
+from dressmeup.methods.nn.diffusion_ops import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
 from dressmeup.methods.uvparam.neural.patchnet import (
     assign_charts,
