@@ -28,20 +28,22 @@ from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
 from dressmeup.methods.nn.convergence import converged
 from dressmeup.methods.nn.diffusion_ops import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
+from dressmeup.methods.uvparam.neural.model import (
+    NeuralConfig,
+    NeuralUVModel,
+    build_modules,
+    get_config,
+)
 from dressmeup.methods.uvparam.neural.patchnet import (
     assign_charts,
     normalize_vertices,
     patchnet_inputs,
 )
 from dressmeup.methods.uvparam.neural.train import (
-    NeuralConfig,
-    NeuralUVModel,
-    _build_modules,
     _edge_graph,
     _iso_pairs,
     chart_codes,
     chart_rows,
-    get_config,
 )
 from dressmeup.progress import progress as bar
 
@@ -206,7 +208,7 @@ def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every
     val = [_prepare(V, F, cfg, rng) for V, F in val_meshes]
     t_prep = time.perf_counter()
     left = budget - (t_prep - t0)
-    patchnet, fwd, bwd = _build_modules(cfg)
+    patchnet, fwd, bwd = build_modules(cfg)
     hist: dict = {k: [] for k in ("patch_total", "cos", "geo", "uv_total", "cycle", "iso",
                                   "angle", "area")}
     hist.update(val_patch=[], val_uv=[], stopped={}, train_mesh_sha=shas,
