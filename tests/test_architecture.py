@@ -22,7 +22,7 @@ LAYERS: list[set[str]] = [
     {"dressmeup", "errors", "limits", "cache", "progress", "io.atomic", "io.jsonable",
      "io.jsonio", "io.npz", "io.pickles", "io.images", "io.tables", "io.hashing", "io.outlock",
      "executors", "hyperparameters"},
-    {"geometry"},
+    {"geometry", "io.ply", "io.obj"},
     {"metrics", "io.mesh"},
     {"body"},
     {"capture"},

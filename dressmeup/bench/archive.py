@@ -25,17 +25,20 @@ import json
 import os
 import shutil
 import tarfile
-import time
-import urllib.error
-import urllib.parse
-import urllib.request
-from collections.abc import Iterator
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path, PurePosixPath
 from typing import Any
 
 from dressmeup.bench.edition import Edition, load_edition
+from dressmeup.bench.transfer import (
+    blocks,
+    copy_resumable,
+    download,
+    is_url,
+    join_source,
+    read_small,
+)
 from dressmeup.data import layout
 from dressmeup.data.parts import part_of, part_record
 from dressmeup.errors import InputError
@@ -47,7 +50,6 @@ from dressmeup.progress import progress
 
 INDEX_FORMAT = "dressmeup-archive-index/1"
 PINS_FORMAT = "dressmeup-edition-parts/1"
-CHUNK = 1 << 20
 #: the hidden copy of the index a fetched folder keeps (``edition verify`` reads it)
 LOCAL_INDEX = ".dressmeup-index.json"
 
@@ -159,34 +161,6 @@ def load_pins(edition: str | Edition) -> dict[str, Any] | None:
 
 
 # --------------------------------------------------------------------------------- fetch
-def _is_url(source: str) -> bool:
-    return urllib.parse.urlparse(source).scheme in ("http", "https")
-
-
-def _join(source: str, name: str) -> str:
-    return source.rstrip("/") + "/" + name if _is_url(source) else str(Path(source) / name)
-
-
-def _read_small(source: str) -> bytes:
-    """The bytes of a small file at a URL or path (refused beyond the ``json_bytes``
-    limit)."""
-    max_bytes = JSON_BYTES.value()
-    if _is_url(source):
-        try:
-            with urllib.request.urlopen(source, timeout=60) as r:
-                data = r.read(max_bytes + 1)
-        except (urllib.error.URLError, OSError) as exc:
-            raise InputError(f"cannot read {source}: {exc}") from exc
-    else:
-        p = Path(source)
-        if not p.is_file():
-            raise InputError(f"{p} not found")
-        with open(p, "rb") as fh:
-            data = fh.read(max_bytes + 1)
-    JSON_BYTES.check(len(data), source, "index size (read so far)")
-    return data
-
-
 def read_index(data: bytes, where: str) -> tuple[dict[str, Any], list[Entry]]:
     """Parse and check an index (its entries re-hashed against ``index_sha256``)."""
     index = parse_json_bytes(data, where)
@@ -216,47 +190,6 @@ def _safe_member(name: str, where: str) -> PurePosixPath:
         raise InputError(f"{where}: member {name!r} would leave the target folder or is "
                          "hidden; refused")
     return p
-
-
-def _download(url: str, dest: Path, size: int, retries: int = 3) -> None:
-    """Download ``url`` to ``dest``, resuming what ``dest`` holds with a range request."""
-    for attempt in range(retries + 1):
-        have = dest.stat().st_size if dest.exists() else 0
-        if have >= size:
-            return
-        req = urllib.request.Request(url, headers={"Range": f"bytes={have}-"} if have else {})
-        try:
-            with urllib.request.urlopen(req, timeout=60) as r:
-                mode = "ab" if have and r.status == 206 else "wb"
-                done = have if mode == "ab" else 0
-                with open(dest, mode) as fh:
-                    for block in progress(_blocks(r), desc=f"downloading {dest.name[:-5]}",
-                                          total=max(1, (size - done) // CHUNK)):
-                        fh.write(block)
-            if dest.stat().st_size < size:  # the server closed the connection early
-                raise ConnectionError(f"{dest.stat().st_size} of {size} bytes received")
-            return
-        except (urllib.error.URLError, OSError, ConnectionError) as exc:
-            if attempt == retries:
-                raise InputError(f"download of {url} failed after {retries + 1} tries "
-                                 f"({exc}); run the same command again to resume") from exc
-            time.sleep(min(2.0 ** attempt, 10.0))
-
-
-def _blocks(stream: Any) -> Iterator[bytes]:
-    while block := stream.read(CHUNK):
-        yield block
-
-
-def _copy_resumable(src: Path, dest: Path) -> None:
-    if not src.is_file():
-        raise InputError(f"{src} not found")
-    have = dest.stat().st_size if dest.exists() else 0
-    with open(src, "rb") as fin, open(dest, "ab" if have else "wb") as fout:
-        fin.seek(have)
-        total = max(1, (src.stat().st_size - have) // CHUNK)
-        for block in progress(_blocks(fin), desc=f"copying {src.name}", total=total):
-            fout.write(block)
 
 
 def fetch(edition: str | Edition, source: str, out: str | os.PathLike,
@@ -295,8 +228,8 @@ def fetch(edition: str | Edition, source: str, out: str | os.PathLike,
     if pin is None and require_pin:
         raise InputError(f"edition {ed.name} ships no pins for its {part} part: nothing to "
                          "verify a download against")
-    where = _join(source, f"{ed.name}-{part}.index.json")
-    index, entries = read_index(_read_small(where), where)
+    where = join_source(source, f"{ed.name}-{part}.index.json")
+    index, entries = read_index(read_small(where), where)
     if index.get("edition") != ed.name or index.get("part") != part:
         raise InputError(f"{where}: an index of {index.get('edition')}/{index.get('part')}, "
                          f"not of {ed.name}/{part}")
@@ -312,11 +245,11 @@ def fetch(edition: str | Edition, source: str, out: str | os.PathLike,
         raise InputError(f"{ed.name} {part}: needs {need / 1e9:.1f} GB (archive and files), "
                          f"{out} has {free / 1e9:.1f} GB free")
     partial = out / f".{arc['name']}.part"
-    src = _join(source, arc["name"])
-    if _is_url(source):
-        _download(src, partial, int(arc["bytes"]))
+    src = join_source(source, arc["name"])
+    if is_url(source):
+        download(src, partial, int(arc["bytes"]))
     else:
-        _copy_resumable(Path(src), partial)
+        copy_resumable(Path(src), partial)
     got, n_got = sha256_file(partial), partial.stat().st_size
     if got != arc["sha256"] or n_got != int(arc["bytes"]):
         partial.unlink()
@@ -358,7 +291,7 @@ def _unpack(archive: Path, out: Path, entries: list[Entry], where: str) -> None:
             h = hashlib.sha256()
             src = tar.extractfile(member)
             with open(dest, "wb") as fh:
-                for block in _blocks(src):
+                for block in blocks(src):
                     h.update(block)
                     fh.write(block)
             if h.hexdigest() != want.sha256:

@@ -23,7 +23,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from dressmeup.bench.tasks import get_task
+from dressmeup.bench.edition_pin import DatasetPin, parse_pin
+from dressmeup.bench.tasks import Task, get_task
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonio import parse_json_file
@@ -32,54 +33,6 @@ SCHEMA = "dressmeup-edition/1"
 TASKS = ("retarget", "uvparam", "fusion", "registration", "correspondence")
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 _REQUIRED = ("name", "version", "task", "dataset", "split", "metrics")
-
-
-@dataclass(frozen=True)
-class DatasetPin:
-    """What data an edition is scored on.
-
-    Attributes
-    ----------
-    kind : ``"generated"`` (pinned by generator, its version, parameters and seed) or
-        ``"real"`` (pinned by the sha256 of the dataset's manifest file).
-    generator : generator name, e.g. ``"dressmeup-synth"`` (generated only).
-    generator_version : generator version string (generated only).
-    params : generator parameters (generated only).
-    seed : generator seed (generated only).
-    manifest_sha256 : sha256 hex digest of the manifest file (real only).
-    name : optional human name of the dataset.
-    expected_manifest_sha256 : generated only, optional (v3 editions): the sha256 of the
-        manifest the pinned generator writes; scoring refuses data whose manifest differs
-        unless asked to score it as "not comparable".
-    """
-
-    kind: str
-    generator: str | None = None
-    generator_version: str | None = None
-    params: dict[str, Any] = field(default_factory=dict)
-    seed: int | None = None
-    manifest_sha256: str | None = None
-    name: str | None = None
-    expected_manifest_sha256: str | None = None
-
-    @property
-    def pinned_manifest_sha256(self) -> str | None:
-        """The manifest sha256 the data must have (real pin or generated expectation)."""
-        return self.manifest_sha256 if self.kind == "real" else self.expected_manifest_sha256
-
-    def to_dict(self) -> dict[str, Any]:
-        """Serialise (only the fields that apply to ``kind``)."""
-        if self.kind == "generated":
-            d: dict[str, Any] = {"kind": "generated", "generator": self.generator,
-                                 "generator_version": self.generator_version,
-                                 "params": copy.deepcopy(self.params), "seed": self.seed}
-            if self.expected_manifest_sha256:
-                d["expected_manifest_sha256"] = self.expected_manifest_sha256
-        else:
-            d = {"kind": "real", "manifest_sha256": self.manifest_sha256}
-        if self.name:
-            d["name"] = self.name
-        return d
 
 
 @dataclass(frozen=True)
@@ -254,6 +207,47 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
     problems: list[str] = []
     if not isinstance(data, dict):
         raise InputError(f"edition {source}: expected a JSON object, got {type(data).__name__}")
+    name, version, task = _parse_identity(data, problems)
+    pin = None
+    if "dataset" in data:
+        pin, pin_problems = parse_pin(data["dataset"])
+        problems += pin_problems
+    split = data.get("split", "")
+    if "split" in data and (not isinstance(split, str) or not split):
+        problems.append(f"split must be a non-empty string, got {split!r}")
+    metrics, options = _parse_metrics(data, task, problems)
+    primary = data.get("primary_metric", metrics[0] if metrics else "")
+    if metrics and primary not in metrics:
+        problems.append(f"primary_metric {primary!r} is not in metrics {metrics}")
+    per_category = data.get("per_category", [primary] if primary else [])
+    if not isinstance(per_category, list) or any(m not in metrics for m in per_category):
+        problems.append(f"per_category must list metrics of the edition, got {per_category!r}")
+        per_category = []
+    tracks, primary_track, pairs = _parse_tracks(data, metrics, problems)
+    if primary_track is not None and primary_track["metric"] != primary:
+        problems.append(f"primary.metric {primary_track['metric']!r} differs from primary_metric "
+                        f"{primary!r}: an edition ranks by one figure")
+    sensitivity = data.get("sensitivity", {})
+    if not isinstance(sensitivity, dict) or any(
+            m not in metrics or isinstance(v, bool) or not isinstance(v, (int, float)) or v < 0
+            for m, v in sensitivity.items()):
+        problems.append(f"sensitivity must map metrics of the edition to numbers >= 0, got "
+                        f"{sensitivity!r}")
+        sensitivity = {}
+    if problems:
+        raise InputError(f"edition {source} is invalid:\n  - " + "\n  - ".join(problems))
+    return Edition(name=name, version=int(version), task=data.get("task"), dataset=pin,
+                   split=split, metrics=tuple(metrics), options=options,
+                   primary=PrimaryFigure(primary, primary_track and primary_track["track"]),
+                   per_category=tuple(per_category),
+                   description=str(data.get("description", "")), source=source,
+                   tracks=tracks, pairs=pairs,
+                   sensitivity={str(k): float(v) for k, v in sensitivity.items()})
+
+
+def _parse_identity(data: dict[str, Any], problems: list[str]) -> tuple[Any, Any, Task | None]:
+    """Schema, required and unknown fields, ``name``, ``version`` and ``task`` (appends
+    problems). Returns the name, the version and the task (None when not a known task)."""
     schema = data.get("schema", SCHEMA)
     if schema != SCHEMA:
         problems.append(f"schema is {schema!r}, this toolkit reads {SCHEMA!r}")
@@ -278,67 +272,42 @@ def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:
             problems.append(f"task must be one of {', '.join(TASKS)}, got {task_name!r}")
         else:
             task = get_task(task_name)
-    pin = None
-    if "dataset" in data:
-        pin, pin_problems = _parse_pin(data["dataset"])
-        problems += pin_problems
-    split = data.get("split", "")
-    if "split" in data and (not isinstance(split, str) or not split):
-        problems.append(f"split must be a non-empty string, got {split!r}")
+    return name, version, task
+
+
+def _parse_metrics(data: dict[str, Any], task: Task | None,
+                   problems: list[str]) -> tuple[list, dict[str, Any]]:
+    """``metrics`` (metrics of the task) and ``options`` (the task's defaults, overridden by
+    known options; numeric ones must be numbers >= 0); appends problems."""
     metrics = data.get("metrics", [])
     options = dict(task.default_options) if task else {}
     user_options = data.get("options", {})
     if not isinstance(user_options, dict):
         problems.append(f"options must be an object, got {type(user_options).__name__}")
         user_options = {}
-    if task is not None:
-        known_metrics = [m.name for m in task.metrics]
-        if not isinstance(metrics, list) or not metrics:
-            problems.append("metrics must be a non-empty list")
-            metrics = []
-        for m in metrics:
-            if m not in known_metrics:
-                problems.append(f"metric {m!r} is not a {task_name} metric "
-                                f"({', '.join(known_metrics)})")
-        for key in sorted(set(user_options) - set(task.default_options)):
-            problems.append(f"unknown option {key!r} for task {task_name} "
-                            f"(known: {', '.join(sorted(task.default_options))})")
-        for key, value in user_options.items():
-            if key in task.default_options:
-                default = task.default_options[key]
-                if isinstance(default, (int, float)) and not isinstance(default, bool):
-                    if not isinstance(value, (int, float)) or isinstance(value, bool) \
-                            or value < 0:
-                        problems.append(f"option {key!r} must be a number >= 0, got {value!r}")
-                        continue
-                options[key] = value
-    primary = data.get("primary_metric", metrics[0] if metrics else "")
-    if metrics and primary not in metrics:
-        problems.append(f"primary_metric {primary!r} is not in metrics {metrics}")
-    per_category = data.get("per_category", [primary] if primary else [])
-    if not isinstance(per_category, list) or any(m not in metrics for m in per_category):
-        problems.append(f"per_category must list metrics of the edition, got {per_category!r}")
-        per_category = []
-    tracks, primary_track, pairs = _parse_tracks(data, metrics, problems)
-    if primary_track is not None and primary_track["metric"] != primary:
-        problems.append(f"primary.metric {primary_track['metric']!r} differs from primary_metric "
-                        f"{primary!r}: an edition ranks by one figure")
-    sensitivity = data.get("sensitivity", {})
-    if not isinstance(sensitivity, dict) or any(
-            m not in metrics or isinstance(v, bool) or not isinstance(v, (int, float)) or v < 0
-            for m, v in sensitivity.items()):
-        problems.append(f"sensitivity must map metrics of the edition to numbers >= 0, got "
-                        f"{sensitivity!r}")
-        sensitivity = {}
-    if problems:
-        raise InputError(f"edition {source} is invalid:\n  - " + "\n  - ".join(problems))
-    return Edition(name=name, version=int(version), task=task_name, dataset=pin,
-                   split=split, metrics=tuple(metrics), options=options,
-                   primary=PrimaryFigure(primary, primary_track and primary_track["track"]),
-                   per_category=tuple(per_category),
-                   description=str(data.get("description", "")), source=source,
-                   tracks=tracks, pairs=pairs,
-                   sensitivity={str(k): float(v) for k, v in sensitivity.items()})
+    if task is None:
+        return metrics, options
+    known_metrics = [m.name for m in task.metrics]
+    if not isinstance(metrics, list) or not metrics:
+        problems.append("metrics must be a non-empty list")
+        metrics = []
+    for m in metrics:
+        if m not in known_metrics:
+            problems.append(f"metric {m!r} is not a {task.name} metric "
+                            f"({', '.join(known_metrics)})")
+    for key in sorted(set(user_options) - set(task.default_options)):
+        problems.append(f"unknown option {key!r} for task {task.name} "
+                        f"(known: {', '.join(sorted(task.default_options))})")
+    for key, value in user_options.items():
+        if key in task.default_options:
+            default = task.default_options[key]
+            if isinstance(default, (int, float)) and not isinstance(default, bool):
+                if not isinstance(value, (int, float)) or isinstance(value, bool) \
+                        or value < 0:
+                    problems.append(f"option {key!r} must be a number >= 0, got {value!r}")
+                    continue
+            options[key] = value
+    return metrics, options
 
 
 def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]
@@ -394,42 +363,3 @@ def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]
                 if not isinstance(n, int) or isinstance(n, bool) or n < 1:
                     problems.append(f"pairs.per_track[{t!r}] must be an integer >= 1, got {n!r}")
     return tuple(tracks), primary, copy.deepcopy(pairs)
-
-
-def _parse_pin(d: Any) -> tuple[DatasetPin | None, list[str]]:
-    problems: list[str] = []
-    if not isinstance(d, dict):
-        return None, [f"dataset must be an object, got {type(d).__name__}"]
-    kind = d.get("kind")
-    name = d.get("name")
-    if kind == "generated":
-        for key in ("generator", "generator_version", "params", "seed"):
-            if key not in d:
-                problems.append(f"dataset.{key} is required for a generated dataset")
-        if "params" in d and not isinstance(d["params"], dict):
-            problems.append("dataset.params must be an object")
-        if "seed" in d and (not isinstance(d["seed"], int) or isinstance(d["seed"], bool)):
-            problems.append(f"dataset.seed must be an integer, got {d['seed']!r}")
-        extra = set(d) - {"kind", "generator", "generator_version", "params", "seed", "name",
-                          "expected_manifest_sha256"}
-        problems += [f"unknown field dataset.{k}" for k in sorted(extra)]
-        exp = d.get("expected_manifest_sha256")
-        if exp is not None and (not isinstance(exp, str) or not re.fullmatch(r"[0-9a-f]{64}", exp)):
-            problems.append(f"dataset.expected_manifest_sha256 must be a sha256 hex digest, "
-                            f"got {exp!r}")
-        if problems:
-            return None, problems
-        return DatasetPin(kind="generated", generator=str(d["generator"]),
-                          generator_version=str(d["generator_version"]),
-                          params=dict(d["params"]), seed=int(d["seed"]), name=name,
-                          expected_manifest_sha256=exp), []
-    if kind == "real":
-        sha = d.get("manifest_sha256")
-        if not isinstance(sha, str) or not re.fullmatch(r"[0-9a-f]{64}", sha):
-            problems.append(f"dataset.manifest_sha256 must be a sha256 hex digest, got {sha!r}")
-        extra = set(d) - {"kind", "manifest_sha256", "name"}
-        problems += [f"unknown field dataset.{k}" for k in sorted(extra)]
-        if problems:
-            return None, problems
-        return DatasetPin(kind="real", manifest_sha256=sha, name=name), []
-    return None, [f"dataset.kind must be 'generated' or 'real', got {kind!r}"]

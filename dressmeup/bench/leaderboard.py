@@ -75,6 +75,41 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
     loaded = [r if isinstance(r, Result) else load_result(r, table=True) for r in results]
     if not loaded:
         raise InputError("no results given")
+    ed, edition_check, comp, comparable = _one_edition(loaded)
+    task = get_task(ed.task)
+    columns, primary = _columns(ed, task, loaded, sort_by, per_category)
+    prim = ed.primary
+    factors = tuple(c for c in task.unit_columns
+                    if any(r.table is not None and c in r.table for r in loaded))
+    submission_tracks = task.track_level == "submission"
+    names = [r.method for r in loaded]
+    rows = [_row(r, columns, factors, names, submission_tracks, comp[id(r)]) for r in loaded]
+    results = {id(row): r for row, r in zip(rows, loaded, strict=True)}
+    spec = next(c.spec for c in columns if c.key == primary)
+    if submission_tracks and "#" in primary:
+        primary = primary.split("#")[0]   # each group is ranked on the metric overall
+    _sort_rows(rows, primary, spec, ed.tracks)
+    board = Leaderboard(edition=ed, manifest_sha256=(comparable or loaded)[0].manifest_hash,
+                        columns=columns, rows=rows, show_std=show_std, primary=primary,
+                        show_ci=bool(factors) if show_ci is None else show_ci,
+                        factors=factors, show_median=task.show_median,
+                        sensitivity=ed.sensitivity.get(prim.metric) if ed.sensitivity
+                        else None)
+    board.custom_edition = edition_check.source if edition_check.custom else None
+    board.few = _few_resamples(columns, rows)
+    _mark_separation(rows, [results[id(r)] for r in rows], primary, factors)
+    board.pareto = _mark_pareto(ed, rows)
+    board.best = _best_cells(columns, rows)
+    return board
+
+
+def _one_edition(loaded: list[Result]) -> tuple[Edition, Any, dict, list[Result]]:
+    """Refuse results of different editions, or comparable results of different datasets.
+
+    Returns the edition, the check of the results
+    (:func:`~dressmeup.bench.verify.verify_results`), each result's comparability (by
+    ``id``) and the comparable results.
+    """
     hashes = {r.edition_hash for r in loaded}
     if len(hashes) > 1:
         lines = [f"  {r.path}: edition {r.summary['edition']['name']} "
@@ -92,8 +127,13 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
                  for r in comparable]
         raise InputError("results scored on different datasets cannot share a leaderboard:\n"
                          + "\n".join(lines))
+    return ed, edition_check, comp, comparable
 
-    task = get_task(ed.task)
+
+def _columns(ed: Edition, task: Any, loaded: list[Result], sort_by: str | None,
+             per_category: Sequence[str] | None) -> tuple[list[Column], str]:
+    """The columns (every metric overall, then per track and per category) and the key of
+    the column rows are ranked by."""
     specs = task.metric_specs(ed)
     by_name = {s.name: s for s in specs}
     if sort_by is not None and sort_by not in by_name:
@@ -123,21 +163,18 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
         primary = prim.key
         if primary not in {c.key for c in columns}:
             columns.append(Column(primary, by_name[prim.metric], track=prim.track))
-    factors = tuple(c for c in task.unit_columns
-                    if any(r.table is not None and c in r.table for r in loaded))
-    submission_tracks = task.track_level == "submission"
-    names = [r.method for r in loaded]
-    rows = [_row(r, columns, factors, names, submission_tracks, comp[id(r)]) for r in loaded]
-    results = {id(row): r for row, r in zip(rows, loaded, strict=True)}
-    spec = next(c.spec for c in columns if c.key == primary)
-    if submission_tracks and "#" in primary:
-        primary = primary.split("#")[0]   # each group is ranked on the metric overall
-    order = {t: i for i, t in enumerate(ed.tracks)}
+    return columns, primary
+
+
+def _sort_rows(rows: list[BoardRow], primary: str, spec: Any,
+               tracks: Sequence[str]) -> None:
+    """Sort in place: comparable rows first, by group (in the edition's track order), then
+    by the primary figure (a row without it follows, ordered by the metric overall)."""
+    order = {t: i for i, t in enumerate(tracks)}
 
     def sort_key(row: BoardRow) -> tuple:
         nc = 0 if row.comparable else 1
         group = order.get(row.group, len(order)) if row.group is not None else 0
-        # a row without the primary value follows the others, ordered by the metric overall
         for missing, key in enumerate((primary, primary.split("#")[0])):
             v = row.mean(key)
             if v is not None and math.isfinite(v):
@@ -145,16 +182,12 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
         return (nc, group, 2, 0.0, row.method)
 
     rows.sort(key=sort_key)
-    board = Leaderboard(edition=ed, manifest_sha256=(comparable or loaded)[0].manifest_hash,
-                        columns=columns, rows=rows, show_std=show_std, primary=primary,
-                        show_ci=bool(factors) if show_ci is None else show_ci,
-                        factors=factors, show_median=task.show_median,
-                        sensitivity=ed.sensitivity.get(prim.metric) if ed.sensitivity
-                        else None)
-    board.custom_edition = edition_check.source if edition_check.custom else None
-    board.few = _few_resamples(columns, rows)
-    _mark_separation(rows, [results[id(r)] for r in rows], primary, factors)
-    board.pareto = _mark_pareto(ed, rows)
+
+
+def _best_cells(columns: list[Column], rows: list[BoardRow]) -> dict[str, set[int]]:
+    """Column key -> the rows whose printed value is the best among comparable rows (ties on
+    the printed value all marked)."""
+    best: dict[str, set[int]] = {}
     for c in columns:
         printed = []
         for i, row in enumerate(rows):
@@ -164,8 +197,8 @@ def build_leaderboard(results: Sequence[str | os.PathLike | Result], *,
         if not printed:
             continue
         best_val = (min if c.spec.better == "lower" else max)(v for v, _ in printed)
-        board.best[c.key] = {i for v, i in printed if v == best_val}
-    return board
+        best[c.key] = {i for v, i in printed if v == best_val}
+    return best
 
 
 def _row(r: Result, columns: list[Column], factors: tuple[str, ...], names: list[str],

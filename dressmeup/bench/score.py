@@ -26,7 +26,7 @@ from dressmeup.bench.results import (
     write_result,
 )
 from dressmeup.bench.submission import submission_hash
-from dressmeup.bench.tasks import get_task
+from dressmeup.bench.tasks import Task, get_task
 from dressmeup.bench.tasks.base import STATUS_ERROR
 from dressmeup.bench.tasks.common import other_data_reason
 from dressmeup.bench.validate import ValidationReport, validate_submission
@@ -108,16 +108,7 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     out = check_out_dir(out)
     ed = load_edition(edition)
     task = get_task(ed.task)
-    if part_of(data_root) == "public":
-        raise InputError(withheld_message(data_root, "the ground truth"))
-    report = validate_submission(submission, ed, data_root)
-    if not report.ok:
-        raise InvalidSubmissionError(report)
-    other_data = other_data_reason(ed, report.dataset or {}, data_root)
-    if other_data and not allow_other_data:
-        raise InputError(f"{other_data}. Regenerate the data (dressmeup.runs.build_data) "
-                         "on a supported machine, or pass --allow-other-data to score it anyway "
-                         "as 'not comparable'")
+    report, other_data = _admit(submission, ed, data_root, allow_other_data)
     report.dataset["files_verified"] = _verify_data(Path(data_root), report.items)
     sub_hash = submission_hash(submission)
     jobs = task.jobs(ed, Path(data_root), report.files, report.items,
@@ -125,23 +116,7 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     executor = executor or LocalExecutor(workers)
     # a distributed executor checks that its workers see what the jobs read
     require_shared(executor, data_root, submission, *_job_folders(jobs))
-    rows: list[dict[str, Any]] = []
-    bar = progress(executor.run(task.score_job, jobs), desc=f"scoring {ed.name}",
-                   total=len(jobs), disable=None if show_progress is None else not show_progress)
-    for i, res in bar:
-        if isinstance(res, BaseException):
-            job = jobs[i]
-            msg = "".join(traceback.format_exception_only(type(res), res)).strip()
-            rows.append({"sample_id": job["item_id"], "category": job["category"],
-                         **{k: v for k, v in job.get("meta", {}).items() if k != "data_root"},
-                         "status": STATUS_ERROR, "error": msg[:2000], "note": "",
-                         "seconds": float("nan")})
-        else:
-            # ids of the item (unit columns of the bootstrap: subject, session, garment)
-            for key, value in jobs[i].get("meta", {}).items():
-                if key != "data_root" and not key.endswith("_path"):
-                    res.setdefault(key, value)
-            rows.append(res)
+    rows = _score_jobs(executor, task, jobs, f"scoring {ed.name}", show_progress)
     table = _to_table(rows, list(ed.metrics), list(task.extra_columns))
     stats = summarise(table, list(ed.metrics), list(task.extra_columns),
                       unit_columns=task.unit_columns)
@@ -157,23 +132,71 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
         "submission": {"path": str(Path(submission).resolve()), "sha256": sub_hash},
         "units": {"distances": "m", "chamfer": "m^2 when squared", "ratios": "fraction"},
         **stats,
-        "provenance": {
-            "toolkit": "dressmeup", "toolkit_version": __version__,
-            "edition_hash": ed.hash,
-            "manifest_sha256": report.dataset.get("manifest_sha256"),
-            "submission_sha256": sub_hash,
-            "started_utc": started, "finished_utc": _now(),
-            "duration_s": round(time.perf_counter() - t_start, 3),
-            **environment(),  # host, platform, python
-            "executor": getattr(executor, "name", type(executor).__name__),
-            "workers": getattr(executor, "workers", None),
-        },
+        "provenance": _provenance(ed, report, sub_hash, executor, started, t_start),
     }
     if other_data:
         summary["comparable"] = False
         summary["not_comparable_reason"] = other_data
     path = write_result(out, table, summary, ed.to_dict())
     return ScoreResult(path=path, summary=summary, table=table)
+
+
+def _provenance(ed: Edition, report: ValidationReport, sub_hash: str, executor: Executor,
+                started: str, t_start: float) -> dict[str, Any]:
+    """What produced the result: toolkit, edition, data and submission hashes, times, host,
+    executor."""
+    return {
+        "toolkit": "dressmeup", "toolkit_version": __version__,
+        "edition_hash": ed.hash,
+        "manifest_sha256": report.dataset.get("manifest_sha256"),
+        "submission_sha256": sub_hash,
+        "started_utc": started, "finished_utc": _now(),
+        "duration_s": round(time.perf_counter() - t_start, 3),
+        **environment(),  # host, platform, python
+        "executor": getattr(executor, "name", type(executor).__name__),
+        "workers": getattr(executor, "workers", None),
+    }
+
+
+def _admit(submission, ed: Edition, data_root,
+           allow_other_data: bool) -> tuple[ValidationReport, str | None]:
+    """Refuse before any work: a public part (no ground truth), an invalid submission, data
+    other than the edition's pin unless allowed. Returns the validation report and the reason
+    the data is not the pinned data (None when it is)."""
+    if part_of(data_root) == "public":
+        raise InputError(withheld_message(data_root, "the ground truth"))
+    report = validate_submission(submission, ed, data_root)
+    if not report.ok:
+        raise InvalidSubmissionError(report)
+    other_data = other_data_reason(ed, report.dataset or {}, data_root)
+    if other_data and not allow_other_data:
+        raise InputError(f"{other_data}. Regenerate the data (dressmeup.runs.build_data) "
+                         "on a supported machine, or pass --allow-other-data to score it anyway "
+                         "as 'not comparable'")
+    return report, other_data
+
+
+def _score_jobs(executor: Executor, task: Task, jobs: list[dict], desc: str,
+                show_progress: bool | None) -> list[dict[str, Any]]:
+    """One row per job, in job order: the task's scores with the item's ids (the unit
+    columns of the bootstrap: subject, session, garment), or an error row."""
+    rows: list[dict[str, Any]] = []
+    bar = progress(executor.run(task.score_job, jobs), desc=desc, total=len(jobs),
+                   disable=None if show_progress is None else not show_progress)
+    for i, res in bar:
+        if isinstance(res, BaseException):
+            job = jobs[i]
+            msg = "".join(traceback.format_exception_only(type(res), res)).strip()
+            rows.append({"sample_id": job["item_id"], "category": job["category"],
+                         **{k: v for k, v in job.get("meta", {}).items() if k != "data_root"},
+                         "status": STATUS_ERROR, "error": msg[:2000], "note": "",
+                         "seconds": float("nan")})
+        else:
+            for key, value in jobs[i].get("meta", {}).items():
+                if key != "data_root" and not key.endswith("_path"):
+                    res.setdefault(key, value)
+            rows.append(res)
+    return rows
 
 
 def _verify_data(data_root: Path, items: list[Any]) -> int:

@@ -9,7 +9,7 @@ from typing import Any
 
 from dressmeup.bench.edition import Edition, load_edition
 from dressmeup.bench.submission import ITEM_ID_RE, read_info, submission_files
-from dressmeup.bench.tasks import Item, get_task
+from dressmeup.bench.tasks import Item, Task, get_task
 from dressmeup.errors import InputError
 
 #: Problem kinds, in report order.
@@ -116,20 +116,32 @@ def validate_submission(submission: str | os.PathLike, edition: str | os.PathLik
         raise InputError(f"submission {sub} is not a folder (expected submission.json plus one "
                          "file per item)")
     report = ValidationReport(edition=ed)
-    add = report.problems.append
+    _check_dataset(report, task, Path(data_root))
+    _check_info(report, sub)
+    by_id = _files_by_id(report, sub, tuple(task.file_suffixes))
+    _check_answers(report, task, by_id)
+    order = {k: i for i, k in enumerate(KINDS)}
+    report.problems.sort(key=lambda p: (order.get(p.kind, 99), p.item_id or ""))
+    return report
 
-    dataset_info, ds_problems = task.dataset_problems(ed, Path(data_root))
+
+def _check_dataset(report: ValidationReport, task: Task, data_root: Path) -> None:
+    """The dataset matches the edition's pin; the edition's items listed from it."""
+    ed, add = report.edition, report.problems.append
+    dataset_info, ds_problems = task.dataset_problems(ed, data_root)
     report.dataset = dataset_info
     for msg in ds_problems:
         add(Problem("dataset", msg))
-    items: list[Item] = []
     if not ds_problems:
         try:
-            items = task.items(ed, Path(data_root))
+            report.items = task.items(ed, data_root)
         except (InputError, FileNotFoundError, ValueError, KeyError) as exc:
             add(Problem("dataset", f"cannot list the edition's items from {data_root}: {exc}"))
-    report.items = items
 
+
+def _check_info(report: ValidationReport, sub: Path) -> None:
+    """``submission.json``: every field, and the edition and task it names."""
+    ed, add = report.edition, report.problems.append
     info, info_probs = read_info(sub)
     report.info = info
     for msg in info_probs:
@@ -142,9 +154,14 @@ def validate_submission(submission: str | os.PathLike, edition: str | os.PathLik
             add(Problem("metadata", f"submission.json edition is {info['edition']!r}, "
                                     f"validating against {ed.name!r}"))
 
-    suffixes = tuple(task.file_suffixes)
+
+def _files_by_id(report: ValidationReport, sub: Path,
+                 suffixes: tuple[str, ...]) -> dict[str, list[Path]]:
+    """Item id -> the plain files named ``<id><suffix>`` in ``sub``; anything else (links out
+    of the folder, FIFOs, folders, other names) is a problem."""
+    add = report.problems.append
     by_id: dict[str, list[Path]] = {}
-    sub_root = Path(sub).resolve()
+    sub_root = sub.resolve()
     for p in submission_files(sub):
         if p.is_symlink() and not p.resolve().is_relative_to(sub_root):
             add(Problem("unreadable", f"{p.name} is a symbolic link leaving the submission "
@@ -169,7 +186,14 @@ def validate_submission(submission: str | os.PathLike, edition: str | os.PathLik
                                  "letters, digits, '-' and '_'", path=str(p)))
             continue
         by_id.setdefault(stem, []).append(p)
+    return by_id
 
+
+def _check_answers(report: ValidationReport, task: Task, by_id: dict[str, list[Path]]) -> None:
+    """One file per expected item (missing, extra, duplicate), under the size limit, and each
+    file as the task's rules want it; fills ``report.files``."""
+    ed, items, add = report.edition, report.items, report.problems.append
+    suffixes = tuple(task.file_suffixes)
     expected = {it.item_id: it for it in items}
     if items:
         missing = [i for i in expected if i not in by_id]
@@ -200,6 +224,3 @@ def validate_submission(submission: str | os.PathLike, edition: str | os.PathLik
             for msg in task.check_file(path, expected[item_id], ed):
                 kind = "unreadable" if msg.startswith("unreadable") else "invalid"
                 add(Problem(kind, f"{path.name}: {msg}", item_id=item_id, path=str(path)))
-    order = {k: i for i, k in enumerate(KINDS)}
-    report.problems.sort(key=lambda p: (order.get(p.kind, 99), p.item_id or ""))
-    return report

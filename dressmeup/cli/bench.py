@@ -15,6 +15,15 @@ from dressmeup.limits import WORKERS
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Register the bench subcommands."""
+    _add_validate(subparsers)
+    _add_score(subparsers)
+    _add_leaderboard(subparsers)
+    _add_editions(subparsers)
+    _add_demo(subparsers)
+
+
+def _add_validate(subparsers: argparse._SubParsersAction) -> None:
+    """``validate-submission``: every problem of a submission at once."""
     p = subparsers.add_parser(
         "validate-submission", help="check a submission folder against an edition",
         description="Check a submission folder (submission.json + one file per item) against "
@@ -30,6 +39,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="problems printed per kind (default 50; 0 = all)")
     p.set_defaults(func=_validate)
 
+
+def _add_score(subparsers: argparse._SubParsersAction) -> None:
+    """``score``: validate and score a submission into a new results folder."""
     p = subparsers.add_parser(
         "score", help="validate and score a submission into a new results folder",
         description="Validate a submission (scoring never starts on an invalid one), score "
@@ -47,6 +59,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.set_defaults(func=_score, locks=("out",))
 
+
+def _add_leaderboard(subparsers: argparse._SubParsersAction) -> None:
+    """``leaderboard``: results of one edition as a table."""
     p = subparsers.add_parser(
         "leaderboard", help="turn results of one edition into a table (md, csv, latex, html)",
         description="Build a leaderboard from result folders of ONE edition and dataset: one "
@@ -70,6 +85,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "default: the edition's)")
     p.set_defaults(func=_leaderboard, locks=("out",))
 
+
+def _add_editions(subparsers: argparse._SubParsersAction) -> None:
+    """``editions``: list the shipped editions, or show one."""
     p = subparsers.add_parser(
         "editions", help="list the shipped benchmark editions (or show one)",
         description="List the benchmark editions shipped with the toolkit, or print one "
@@ -77,6 +95,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("name", nargs="?", default=None, help="edition name or path to show")
     p.set_defaults(func=_editions)
 
+
+def _add_demo(subparsers: argparse._SubParsersAction) -> None:
+    """``demo``: the whole journey on a small synthetic dataset."""
     p = subparsers.add_parser(
         "demo", help="the whole journey on a small synthetic dataset (a few minutes)",
         description="Generate a small synthetic dataset, run every available retargeting "

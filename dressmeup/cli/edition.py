@@ -25,6 +25,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "checksummed archives with an index; 'fetch' downloads and verifies a "
                     "part; 'verify' re-checks a data folder (docs/benchmark.md, 'Data').")
     esub = p.add_subparsers(dest="edition_command", metavar="ACTION", required=True)
+    _add_create(esub)
+    _add_export(esub)
+    _add_pack(esub)
+    _add_fetch(esub)
+    _add_verify(esub)
+
+
+def _add_create(esub: argparse._SubParsersAction) -> None:
+    """``edition create``: an edition pinned by a dataset's manifest sha256."""
     c = esub.add_parser(
         "create", help="write an edition pinned by the manifest sha256 of a dataset",
         description="Write an edition JSON pinned by the sha256 of DATA/manifest.parquet "
@@ -47,6 +56,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     c.add_argument("--overwrite", action="store_true", help="replace an existing file")
     c.set_defaults(func=_edition_create)
 
+
+def _add_export(esub: argparse._SubParsersAction) -> None:
+    """``edition export``: an edition's data split into its public and private parts."""
     c = esub.add_parser(
         "export", help="split an edition's full data into its public and private parts",
         description="Write the public part (train/val complete; of the scored split only what "
@@ -63,6 +75,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="export data whose manifest differs from the edition's pin")
     c.set_defaults(func=_export, locks=("public", "private"))
 
+
+def _add_pack(esub: argparse._SubParsersAction) -> None:
+    """``edition pack``: parts as checksummed archives with their indexes."""
     c = esub.add_parser(
         "pack", help="write a part (or both) as a checksummed archive with its index",
         description="Pack the data into NAME-<part>.tar.gz and NAME-<part>.index.json in "
@@ -77,6 +92,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="write the edition's pins file here")
     c.set_defaults(func=_pack, locks=("out", "pins"))
 
+
+def _add_fetch(esub: argparse._SubParsersAction) -> None:
+    """``edition fetch``: download a part and verify it."""
     c = esub.add_parser(
         "fetch", help="download a part of an edition's data and verify it",
         description="Download NAME-<part>.index.json and its archive from a folder or an "
@@ -93,6 +111,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="accept an edition that ships no pins (trust the index)")
     c.set_defaults(func=_fetch, locks=("out",))
 
+
+def _add_verify(esub: argparse._SubParsersAction) -> None:
+    """``edition verify``: re-check a data folder."""
     c = esub.add_parser(
         "verify", help="re-check a data folder against its index and the edition's pins",
         description="Hash every file of ROOT and compare with the index a fetch left and the "

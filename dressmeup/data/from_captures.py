@@ -205,28 +205,11 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
         if isinstance(earlier, dict) else {}
     settings = {"refine": bool(fusion_config.refine), "voxel_size": fusion_config.voxel_size}
     report = BuildReport()
-    todo: list[tuple[Path, list[str]]] = []
-    for sdir in folders:
-        try:
-            info = open_session(sdir).info
-            ids = [layout.make_sample_id(info.subject_id, g.id, info.pose_id)
-                   for g in info.garments]
-        except Exception as exc:  # noqa: BLE001 - one bad session must not stop the build
-            report.failed.append((str(sdir), _failure(exc)))
-            log.warning("build-dataset: skipped session %s: %s", sdir, _failure(exc))
-            continue
-        if ids and all(writer.has_sample(i) for i in ids):
-            report.skipped += len(ids)
-        else:
-            todo.append((sdir, ids))
+    todo = _sessions_to_build(folders, writer, report)
     executor = executor or LocalExecutor(1)
     require_shared(executor, *(s for s, _ in todo))
-    def scan_of(sdir: Path) -> str | None:
-        cand = Path(scans) / Path(sdir).name if scans else None
-        return str(cand) if cand is not None and (cand / "scan.ply").is_file() else None
-
     jobs = [{"session": str(sdir), "fusion": fusion_config, "extraction": extraction_config,
-             "body": body, "body_model": body_model, "scan_dir": scan_of(sdir)}
+             "body": body, "body_model": body_model, "scan_dir": _scan_of(scans, sdir)}
             for sdir, _ in todo]
     done = progress(executor.run(build_session, jobs), desc="sessions", total=len(jobs))
     for i, res in in_order(done):
@@ -234,16 +217,7 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
         try:
             if isinstance(res, BaseException):
                 raise res
-            for g, sid in zip(res["garments"], ids, strict=True):
-                if writer.has_sample(sid):
-                    report.skipped += 1
-                    continue
-                writer.add_sample(subject_id=res["subject_id"], garment_id=g["id"],
-                                  pose_id=res["pose_id"], category=g["category"],
-                                  garment_type=g["garment_type"], split=split,
-                                  garment=g["mesh"], body=res["body"], scan=res["scan"],
-                                  texture=g["texture"], sample_id=sid)
-                report.written += 1
+            _write_samples(writer, res, ids, split, report)
             built[Path(sdir).name] = {"scan": res["fusion"], "body": res["body_source"],
                                       "labels": res["labels_from"], "fusion": settings}
             log.info("%s: %d garment(s), %s, labels from %s, body from %s", sdir,
@@ -261,3 +235,46 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
         atomic_write_text(report.failures_path, json.dumps(
             [{"session": s, "error": e} for s, e in report.failed], indent=2) + "\n")
     return report
+
+
+def _sessions_to_build(folders: list[Path], writer: DatasetWriter,
+                       report: BuildReport) -> list[tuple[Path, list[str]]]:
+    """``(session folder, its sample ids)`` of the sessions with a sample still to write;
+    sessions already written count as skipped, unreadable ones as failed."""
+    todo: list[tuple[Path, list[str]]] = []
+    for sdir in folders:
+        try:
+            info = open_session(sdir).info
+            ids = [layout.make_sample_id(info.subject_id, g.id, info.pose_id)
+                   for g in info.garments]
+        except Exception as exc:  # noqa: BLE001 - one bad session must not stop the build
+            report.failed.append((str(sdir), _failure(exc)))
+            log.warning("build-dataset: skipped session %s: %s", sdir, _failure(exc))
+            continue
+        if ids and all(writer.has_sample(i) for i in ids):
+            report.skipped += len(ids)
+        else:
+            todo.append((sdir, ids))
+    return todo
+
+
+def _scan_of(scans: str | Path | None, sdir: Path) -> str | None:
+    """``SCANS/<session folder name>`` when it holds a ``scan.ply``, else None."""
+    cand = Path(scans) / Path(sdir).name if scans else None
+    return str(cand) if cand is not None and (cand / "scan.ply").is_file() else None
+
+
+def _write_samples(writer: DatasetWriter, res: dict[str, Any], ids: list[str], split: str,
+                   report: BuildReport) -> None:
+    """One sample per garment of a built session (:func:`build_session`'s result), skipping
+    those already in the dataset."""
+    for g, sid in zip(res["garments"], ids, strict=True):
+        if writer.has_sample(sid):
+            report.skipped += 1
+            continue
+        writer.add_sample(subject_id=res["subject_id"], garment_id=g["id"],
+                          pose_id=res["pose_id"], category=g["category"],
+                          garment_type=g["garment_type"], split=split,
+                          garment=g["mesh"], body=res["body"], scan=res["scan"],
+                          texture=g["texture"], sample_id=sid)
+        report.written += 1

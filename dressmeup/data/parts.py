@@ -162,6 +162,20 @@ def _copy_stats(src: Path, dst: Path) -> None:
     dst.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n", encoding="utf-8")
 
 
+def _left_out(rows: list[dict[str, Any]], withheld: Withheld) -> set[str]:
+    """The paths the public part leaves out: the withheld files and the files of every
+    withheld field of a sample (a field not in :data:`FILE_FIELDS` is refused)."""
+    gone = set(withheld.files)
+    for r in rows:
+        for f in withheld.fields.get(r["sample_id"], ()):
+            if f not in FILE_FIELDS:
+                raise InputError(f"withheld field {f!r} of {r['sample_id']}: expected one of "
+                                 f"{FILE_FIELDS}")
+            if r.get(f"{f}_path"):
+                gone.add(r[f"{f}_path"])
+    return gone
+
+
 def write_parts(full_root: str | os.PathLike, withheld: Withheld,
                 public_out: str | os.PathLike | None, private_out: str | os.PathLike | None,
                 label: Mapping[str, Any] | None = None) -> PartsReport:
@@ -203,14 +217,7 @@ def write_parts(full_root: str | os.PathLike, withheld: Withheld,
     for out in (public_out, private_out):
         if out is not None and Path(out).exists() and any(Path(out).iterdir()):
             raise InputError(f"{out} exists and is not empty: give a new folder for the part")
-    gone = set(withheld.files)
-    for r in rows:
-        for f in withheld.fields.get(r["sample_id"], ()):
-            if f not in FILE_FIELDS:
-                raise InputError(f"withheld field {f!r} of {r['sample_id']}: expected one of "
-                                 f"{FILE_FIELDS}")
-            if r.get(f"{f}_path"):
-                gone.add(r[f"{f}_path"])
+    gone = _left_out(rows, withheld)
     info = read_info(root)
     all_files = _files(root)
     missing = sorted(set(withheld.files) - set(all_files))

@@ -141,32 +141,64 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
 
     root = Path(root)
     rep = ValidationReport(root)
-    P = rep.problems
     if not root.is_dir():
-        P.append(f"{root}: not a folder")
+        rep.problems.append(f"{root}: not a folder")
         return rep
+    _check_info(root, rep)
+    rows = _read_rows(root, rep)
+    if rows is None:
+        return rep
+    part = part_record(root)
+    carried = set(part.get("splits") or ()) if part.get("part") == "private" else None
+    if carried is not None:
+        skipped = sum(1 for r in rows if r.get("split") not in carried)
+        if skipped:
+            rep.warnings.append(f"private part: the files of {skipped} sample(s) of splits "
+                                f"other than {sorted(carried)} are in the public part, not here")
+    if not rows:
+        rep.problems.append(f"{layout.MANIFEST}: no samples")
+    unique = _Uniqueness()
+    files = _FileChecks(root, rep.problems, check_meshes, check_hashes)
+    for i, r in enumerate(rows):
+        where = f"sample {r.get('sample_id')!r} (row {i})"
+        unique.check(i, r, where, rep)
+        if carried is None or r.get("split") in carried:
+            files.check_row(r, where)
+    if check_meshes:
+        _check_shared_topology(rows, files.faces_of, rep)
+    _warn_unreferenced(root, files.referenced, rep)
+    return rep
+
+
+def _check_info(root: Path, rep: ValidationReport) -> None:
+    """dataset.json: present, valid JSON, as its schema says; a build not finalized warns."""
     info_path = root / layout.DATASET_JSON
     if not info_path.is_file():
-        P.append(f"{layout.DATASET_JSON}: missing")
-    else:
-        try:
-            info = parse_json_file(info_path)
-        except InputError as exc:
-            P.append(str(exc))
-        else:
-            P.extend(schema_problems(info, "dataset", layout.DATASET_JSON))
-            if isinstance(info, dict) and info.get("complete") is False:
-                rep.warnings.append(f"{layout.DATASET_JSON}: build not finalized "
-                                    "(complete=false); re-run the build to finish it")
+        rep.problems.append(f"{layout.DATASET_JSON}: missing")
+        return
+    try:
+        info = parse_json_file(info_path)
+    except InputError as exc:
+        rep.problems.append(str(exc))
+        return
+    rep.problems.extend(schema_problems(info, "dataset", layout.DATASET_JSON))
+    if isinstance(info, dict) and info.get("complete") is False:
+        rep.warnings.append(f"{layout.DATASET_JSON}: build not finalized "
+                            "(complete=false); re-run the build to finish it")
+
+
+def _read_rows(root: Path, rep: ValidationReport) -> list[dict] | None:
+    """The manifest's rows, its column types and nulls checked; None when it cannot be read."""
+    P = rep.problems
     mpath = root / layout.MANIFEST
     if not mpath.is_file():
         P.append(f"{layout.MANIFEST}: missing")
-        return rep
+        return None
     try:
         table = read_manifest(mpath)
     except InputError as exc:
         P.append(f"{layout.MANIFEST}: {exc}")
-        return rep
+        return None
     public = "withheld" in table.column_names
     for name, typ, nullable, _d in columns(public):
         if name in table.column_names:
@@ -178,61 +210,73 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
                          "null value(s)")
     rows = table.to_pylist()
     rep.n_samples = len(rows)
-    part = part_record(root)
-    carried = set(part.get("splits") or ()) if part.get("part") == "private" else None
-    if carried is not None:
-        skipped = sum(1 for r in rows if r.get("split") not in carried)
-        if skipped:
-            rep.warnings.append(f"private part: the files of {skipped} sample(s) of splits "
-                                f"other than {sorted(carried)} are in the public part, not here")
-    if not rows:
-        P.append(f"{layout.MANIFEST}: no samples")
-    seen: dict[str, int] = {}
-    garment_pose: dict[tuple, str] = {}
-    garment_fields: dict[str, dict] = {}
-    faces_of: dict[str, list] = {}
-    referenced: set[Path] = set()
-    for i, r in enumerate(rows):
+    return rows
+
+
+@dataclass
+class _Uniqueness:
+    """What the rows seen so far claim: valid, unique sample ids; one sample per garment,
+    subject and pose; one split, category and type per garment (a garment may be worn by
+    several subjects, generator 2.x)."""
+
+    seen: dict[str, int] = field(default_factory=dict)
+    garment_pose: dict[tuple, str] = field(default_factory=dict)
+    garment_fields: dict[str, dict] = field(default_factory=dict)
+
+    def check(self, i: int, r: dict, where: str, rep: ValidationReport) -> None:
+        """Check row ``i`` against the rows before it."""
+        P = rep.problems
         sid = r.get("sample_id")
-        where = f"sample {sid!r} (row {i})"
         for f in ("sample_id", "subject_id", "garment_id", "pose_id"):
             v = r.get(f)
             if v is None or not isinstance(v, str) or not layout.ID_PATTERN.match(v):
                 P.append(f"{where}: {f} {v!r} is not a valid id (letters, digits, -, _)")
-        if sid in seen:
-            P.append(f"{where}: duplicate sample_id (also row {seen[sid]})")
-        seen.setdefault(sid, i)
+        if sid in self.seen:
+            P.append(f"{where}: duplicate sample_id (also row {self.seen[sid]})")
+        self.seen.setdefault(sid, i)
         key = (r.get("garment_id"), r.get("subject_id"), r.get("pose_id"))
-        if key in garment_pose:
+        if key in self.garment_pose:
             P.append(f"{where}: garment {key[0]!r} on subject {key[1]!r} in pose {key[2]!r} "
-                     f"also in {garment_pose[key]!r}")
-        garment_pose.setdefault(key, sid)
+                     f"also in {self.garment_pose[key]!r}")
+        self.garment_pose.setdefault(key, sid)
         split = r.get("split")
         if split not in KNOWN_SPLITS:
             rep.warnings.append(f"{where}: split {split!r} is not one of {KNOWN_SPLITS}")
         g = r.get("garment_id")
-        # a garment may be worn by several subjects (generator 2.x), but has one split,
-        # category and type
-        ref = garment_fields.setdefault(g, {k: r.get(k) for k in ("split", "category",
-                                                                   "garment_type")})
+        ref = self.garment_fields.setdefault(g, {k: r.get(k) for k in ("split", "category",
+                                                                        "garment_type")})
         for k, v in ref.items():
             if r.get(k) != v:
                 P.append(f"{where}: garment {g!r} has {k} {r.get(k)!r} here but {v!r} in "
                          "another sample (a garment has one split/category/type)")
+
+
+@dataclass
+class _FileChecks:
+    """The files a row names: inside ROOT, present, checksums, then their content."""
+
+    root: Path
+    problems: list[str]
+    check_meshes: bool
+    check_hashes: bool
+    referenced: set[Path] = field(default_factory=set)  # every file a row names
+    faces_of: dict[str, list] = field(default_factory=dict)  # garment -> faces of each pose
+
+    def check_row(self, r: dict, where: str) -> None:
+        """Check every path column of row ``r``."""
+        P = self.problems
         for col in PATH_COLUMNS:
             rel = r.get(col)
-            if carried is not None and split not in carried:
-                continue
             if rel is None:
                 if col == "garment_path" and "garment" not in withheld_fields(r):
                     P.append(f"{where}: {col} is missing")
                 continue
             try:
-                full = layout.resolve_inside(root, rel, col)
+                full = layout.resolve_inside(self.root, rel, col)
             except InputError as exc:
                 P.append(f"{where}: {exc}")
                 continue
-            referenced.add(full)
+            self.referenced.add(full)
             if not full.is_file():
                 P.append(f"{where}: {col} file {rel} does not exist")
                 continue
@@ -240,40 +284,51 @@ def validate_dataset(root: str | os.PathLike, check_meshes: bool = True,
             want = r.get(hcol)
             if want is None:
                 P.append(f"{where}: {hcol} missing for {rel}")
-            elif check_hashes and sha256_file(full) != want:
+            elif self.check_hashes and sha256_file(full) != want:
                 P.append(f"{where}: {rel} checksum differs from the manifest ({hcol}); "
                          "the file was modified or damaged")
-            if not check_meshes:
-                continue
-            if col == "garment_path":
-                m = _check_mesh(full, where, "garment", r.get("garment_vertices"),
-                                r.get("garment_faces"), P)
-                faces_of.setdefault(g, []).append(None if m is None else m.faces)
-            elif col == "scan_path":
-                _check_mesh(full, where, "scan", r.get("scan_vertices"), r.get("scan_faces"), P)
-            elif col == "body_path":
-                _check_body(full, where, P)
-            elif col == "texture_path":
-                try:  # size bounded from the header, structure verified, nothing decoded
-                    image_header(full, "texture", verify=True)
-                except (InputError, OSError) as exc:
-                    P.append(f"{where}: {exc}")
-    if check_meshes:
-        for g, faces in faces_of.items():
-            claimed = {r.get("topology_shared") for r in rows if r.get("garment_id") == g}
-            if any(f is None for f in faces):
-                continue
-            shared = all(f.shape == faces[0].shape and np.array_equal(f, faces[0]) for f in faces)
-            if True in claimed and not shared:
-                P.append(f"garment {g!r}: topology_shared is true but its poses have different "
-                         "faces")
-            if False in claimed and shared and len(faces) > 1:
-                rep.warnings.append(f"garment {g!r}: poses share faces but topology_shared is false")
+            if self.check_meshes:
+                self._check_content(col, full, r, where)
+
+    def _check_content(self, col: str, full: Path, r: dict, where: str) -> None:
+        P = self.problems
+        if col == "garment_path":
+            m = _check_mesh(full, where, "garment", r.get("garment_vertices"),
+                            r.get("garment_faces"), P)
+            self.faces_of.setdefault(r.get("garment_id"), []).append(
+                None if m is None else m.faces)
+        elif col == "scan_path":
+            _check_mesh(full, where, "scan", r.get("scan_vertices"), r.get("scan_faces"), P)
+        elif col == "body_path":
+            _check_body(full, where, P)
+        elif col == "texture_path":
+            try:  # size bounded from the header, structure verified, nothing decoded
+                image_header(full, "texture", verify=True)
+            except (InputError, OSError) as exc:
+                P.append(f"{where}: {exc}")
+
+
+def _check_shared_topology(rows: list[dict], faces_of: dict[str, list],
+                           rep: ValidationReport) -> None:
+    """``topology_shared`` of each garment agrees with the faces of its poses."""
+    for g, faces in faces_of.items():
+        claimed = {r.get("topology_shared") for r in rows if r.get("garment_id") == g}
+        if any(f is None for f in faces):
+            continue
+        shared = all(f.shape == faces[0].shape and np.array_equal(f, faces[0]) for f in faces)
+        if True in claimed and not shared:
+            rep.problems.append(f"garment {g!r}: topology_shared is true but its poses have "
+                                "different faces")
+        if False in claimed and shared and len(faces) > 1:
+            rep.warnings.append(f"garment {g!r}: poses share faces but topology_shared is false")
+
+
+def _warn_unreferenced(root: Path, referenced: set[Path], rep: ValidationReport) -> None:
+    """Files under samples/ that no row names (leftovers of interrupted writes among them)."""
     samples = root / layout.SAMPLES_DIR
     if samples.is_dir():
-        for p in sorted(_files_under(samples, P)):
+        for p in sorted(_files_under(samples, rep.problems)):
             if p.resolve() not in referenced:
                 kind = "temporary file of an interrupted write" if ".tmp" in p.name else \
                     "file not in the manifest"
                 rep.warnings.append(f"{p.relative_to(root)}: {kind}")
-    return rep

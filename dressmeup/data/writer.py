@@ -199,39 +199,16 @@ class DatasetWriter:
         """
         sid = sample_id if sample_id is not None else layout.make_sample_id(
             subject_id, garment_id, pose_id)
-        layout.check_id(sid, "sample_id")
-        for v, n in ((subject_id, "subject_id"), (garment_id, "garment_id"), (pose_id, "pose_id")):
-            layout.check_id(v, n)
-        for v, n in ((category, "category"), (garment_type, "garment_type"), (split, "split")):
-            if not isinstance(v, str) or not v:
-                raise InputError(f"{n}: expected a non-empty string, got {v!r}")
-        if sid in self._ids and not overwrite:
-            raise InputError(f"sample {sid!r} is already in {self.root} (pass overwrite=True)")
-        for r in self._rows:
-            if r["sample_id"] == sid:
-                continue
-            if r["garment_id"] == garment_id:
-                # a garment may be worn by several subjects (generator 2.x): a (subject,
-                # pose) is unique per garment
-                if r["pose_id"] == pose_id and r["subject_id"] == subject_id:
-                    raise InputError(f"garment {garment_id!r} already has pose {pose_id!r} "
-                                     f"on subject {subject_id!r} (sample {r['sample_id']!r})")
-                for key, val in (("split", split),
-                                 ("category", category), ("garment_type", garment_type)):
-                    if r[key] != val:
-                        raise InputError(f"garment {garment_id!r}: {key} {val!r} differs from "
-                                         f"{r[key]!r} of sample {r['sample_id']!r}; a garment "
-                                         f"has one {key}")
-        V, F, uv, uvf = _mesh_arrays(garment, "garment")
-        rel_dir = layout.sample_dir(subject_id, garment_id, pose_id)
-        d = layout.resolve_inside(self.root, rel_dir, "sample folder")
-        d.mkdir(parents=True, exist_ok=True)
         row: dict[str, Any] = {
             "sample_id": sid, "subject_id": subject_id, "garment_id": garment_id,
             "pose_id": pose_id, "category": category, "garment_type": garment_type,
             "split": split, "topology_shared": False,
         }
-
+        self._check_new_row(row, overwrite)
+        V, F, uv, uvf = _mesh_arrays(garment, "garment")
+        rel_dir = layout.sample_dir(subject_id, garment_id, pose_id)
+        d = layout.resolve_inside(self.root, rel_dir, "sample folder")
+        d.mkdir(parents=True, exist_ok=True)
         tex_arr = None if texture is None else self._texture_array(texture)
         save_mesh(d / layout.GARMENT_FILE, V, F, uv=uv, uv_faces=uvf, texture=tex_arr)
         if tex_arr is not None:
@@ -256,6 +233,34 @@ class DatasetWriter:
         self._rows = rows
         self._ids.add(sid)
         return dict(row)
+
+    def _check_new_row(self, row: dict[str, Any], overwrite: bool) -> None:
+        """Refuse, before anything is written: bad ids or labels, a sample id already present
+        (unless ``overwrite``), a garment's (subject, pose) twice, or a garment whose split,
+        category or type differs from its other samples."""
+        sid, garment_id = row["sample_id"], row["garment_id"]
+        layout.check_id(sid, "sample_id")
+        for n in ("subject_id", "garment_id", "pose_id"):
+            layout.check_id(row[n], n)
+        for n in ("category", "garment_type", "split"):
+            v = row[n]
+            if not isinstance(v, str) or not v:
+                raise InputError(f"{n}: expected a non-empty string, got {v!r}")
+        if sid in self._ids and not overwrite:
+            raise InputError(f"sample {sid!r} is already in {self.root} (pass overwrite=True)")
+        for r in self._rows:
+            if r["sample_id"] == sid or r["garment_id"] != garment_id:
+                continue
+            # a garment may be worn by several subjects (generator 2.x): a (subject, pose) is
+            # unique per garment
+            if r["pose_id"] == row["pose_id"] and r["subject_id"] == row["subject_id"]:
+                raise InputError(f"garment {garment_id!r} already has pose {row['pose_id']!r} "
+                                 f"on subject {row['subject_id']!r} (sample {r['sample_id']!r})")
+            for key in ("split", "category", "garment_type"):
+                if r[key] != row[key]:
+                    raise InputError(f"garment {garment_id!r}: {key} {row[key]!r} differs from "
+                                     f"{r[key]!r} of sample {r['sample_id']!r}; a garment "
+                                     f"has one {key}")
 
     @staticmethod
     def _texture_array(texture: Any) -> np.ndarray:

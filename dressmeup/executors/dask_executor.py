@@ -11,18 +11,15 @@ the item is yielded with ``distributed.KilledWorker``). Every index is yielded e
 Distributed runs assume a shared filesystem: :meth:`DaskExecutor.require_shared` names the
 folders the jobs read and write, and each run first checks, on every worker, that they are
 there with the same content (:class:`~dressmeup.errors.InputError` naming the path and the
-worker otherwise).
+worker otherwise). What runs on the workers: :mod:`dressmeup.executors.dask_worker`.
 """
 
 from __future__ import annotations
 
-import hashlib
 import importlib
 import importlib.util
 import logging
 import os
-import pickle
-import socket
 import sys
 import time
 import uuid
@@ -31,6 +28,13 @@ from pathlib import Path
 from typing import Any
 
 from dressmeup.errors import InputError
+from dressmeup.executors.dask_worker import (
+    call_job,
+    existing_ancestor,
+    see_paths,
+    worker_environ,
+    worker_plugin,
+)
 from dressmeup.io.jsonio import parse_json_file
 
 LOOPBACK = "127.0.0.1"
@@ -63,92 +67,6 @@ def dask_available() -> bool:
     return importlib.util.find_spec("distributed") is not None
 
 
-# ----------------------------------------------------------------------------- worker side
-def call_job(fn: Callable[[Any], Any], job: Any) -> tuple[bool, Any]:
-    """Run ``fn(job)`` on a worker; return ``(True, result)`` or ``(False, exception)``.
-
-    An exception that cannot be pickled is replaced by a ``RuntimeError`` carrying its type
-    and message, so that it always reaches the client.
-    """
-    try:
-        return True, fn(job)
-    except Exception as exc:  # noqa: BLE001 - one failing item must not stop a run
-        try:
-            pickle.dumps(exc)
-        except Exception:  # noqa: BLE001
-            exc = RuntimeError(f"{type(exc).__name__}: {exc}")
-        return False, exc
-
-
-def fingerprint(path: str) -> str:
-    """What a worker sees at ``path``: ``missing``, ``file:<size>`` or ``dir:<hash of the
-    sorted names directly inside>`` (enough to tell two different folders apart cheaply)."""
-    p = Path(path)
-    if p.is_file():
-        return f"file:{p.stat().st_size}"
-    if p.is_dir():
-        try:
-            names = sorted(os.listdir(p))
-        except OSError as exc:
-            return f"unreadable:{exc.strerror}"
-        return "dir:" + hashlib.sha256("\n".join(names).encode()).hexdigest()[:16]
-    return "missing"
-
-
-def _environ(names: Sequence[str]) -> dict[str, str | None]:
-    """Run on every worker: the values of the environment variables ``names``."""
-    return {k: os.environ.get(k) for k in names}
-
-
-def _existing_ancestor(path: str) -> str:
-    p = Path(path).absolute()
-    while not p.exists() and p != p.parent:
-        p = p.parent
-    return str(p)
-
-
-def see_paths(read: Sequence[str], write: Sequence[str]) -> dict[str, Any]:
-    """Run on every worker: the fingerprints of ``read`` paths and of the nearest existing
-    ancestor of each ``write`` path, with whether that ancestor is writable."""
-    return {"host": socket.gethostname(),
-            "read": {p: fingerprint(p) for p in read},
-            "write": {p: (fingerprint(_existing_ancestor(p)),
-                          os.access(_existing_ancestor(p), os.W_OK)) for p in write}}
-
-
-#: Imported in each worker's main thread before any task runs. Dask runs tasks in a thread
-#: pool; pymeshlab imported first in such a thread after open3d has run there corrupts the
-#: heap ("malloc_consolidate(): unaligned fastbin chunk detected", measured on the
-#: fusion clean-up of build-dataset), while an import in the main thread first is safe.
-MAIN_THREAD_IMPORTS = ("pymeshlab",)
-
-
-def _main_thread_imports(modules: Sequence[str] = MAIN_THREAD_IMPORTS) -> list[str]:
-    """Import ``modules`` (those installed) in the calling thread; return the imported ones."""
-    done = []
-    for name in modules:
-        if importlib.util.find_spec(name) is not None:
-            importlib.import_module(name)
-            done.append(name)
-    return done
-
-
-def _worker_plugin() -> Any:
-    """A WorkerPlugin whose ``setup`` (run in the worker's main thread, also for workers
-    that join or restart later) performs :data:`MAIN_THREAD_IMPORTS`."""
-    # heavy: distributed (optional)
-    from distributed import WorkerPlugin
-
-    class MainThreadImports(WorkerPlugin):
-        name = "dressmeup-main-thread-imports"
-
-        def setup(self, worker: Any) -> None:
-            _main_thread_imports()
-
-    return MainThreadImports()
-
-
-# ----------------------------------------------------------------------------- client side
 def _scheduler_address(scheduler: str) -> str:
     """The address of ``--scheduler``: the text itself, or the ``address`` a scheduler file
     (the JSON ``dask scheduler --scheduler-file`` writes) holds.
@@ -279,7 +197,7 @@ class DaskExecutor:
                     memory_limit=self.memory_limit or "auto", env=dict(self.worker_env))
             self._client = distributed.Client(self._cluster)
             where = f"LocalCluster of {self.workers} worker processes on {LOOPBACK}"
-        self._client.register_plugin(_worker_plugin())
+        self._client.register_plugin(worker_plugin())
         self.check_worker_env()
         self.startup_s = time.perf_counter() - t0
         dash_link = self._client.dashboard_link if dashboard_available() else None
@@ -308,7 +226,7 @@ class DaskExecutor:
         """
         if not self.worker_env or self._client is None:
             return
-        seen = self._client.run(_environ, sorted(self.worker_env))
+        seen = self._client.run(worker_environ, sorted(self.worker_env))
         for addr, env in sorted(seen.items()):
             bad = {k: v for k, v in self.worker_env.items() if env.get(k) != v}
             if bad:
@@ -356,7 +274,7 @@ class DaskExecutor:
                 if fp != here["write"][p][0] or not ok:
                     raise InputError(
                         f"{p}: Dask worker {addr} (host {got['host']}) cannot write there "
-                        f"(its nearest existing folder {_existing_ancestor(p)} is "
+                        f"(its nearest existing folder {existing_ancestor(p)} is "
                         f"{'different' if fp != here['write'][p][0] else 'read-only'} there); "
                         f"put the output on a filesystem shared by every worker")
 

@@ -70,21 +70,7 @@ def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resoluti
     row_comp = np.zeros(len(uv), dtype=np.int64)
     row_comp[uv_faces.reshape(-1)] = np.repeat(comp, 3)
     c_of_new = row_comp[vmap]
-    # the global scale: median ratio of packed to input distances between vertices of the
-    # same chart (robust to the few misplaced corners)
-    rng = np.random.default_rng(0)
-    a = rng.integers(0, len(vmap), size=min(200000, 4 * len(vmap)))
-    same = np.flatnonzero(c_of_new[a] == c_of_new[(a + 1) % len(vmap)])
-    i, j = a[same], (a[same] + 1) % len(vmap)
-    if len(i) < 10:  # charts of one vertex run: compare random pairs inside charts instead
-        order0 = np.argsort(c_of_new, kind="stable")
-        i, j = order0[:-1], order0[1:]
-        keep = c_of_new[i] == c_of_new[j]
-        i, j = i[keep], j[keep]
-    dn = np.linalg.norm(packed[i] - packed[j], axis=1)
-    do = np.linalg.norm(pre[vmap[i]] - pre[vmap[j]], axis=1)
-    ok = do > 1e-9
-    scale = float(np.median(dn[ok] / do[ok])) if np.any(ok) else 1.0
+    scale = _packed_scale(packed, pre[vmap], c_of_new)
     off = packed - scale * pre[vmap]
     n_c = int(comp.max()) + 1
     t = np.zeros((n_c, 2))
@@ -103,6 +89,29 @@ def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resoluti
         log.info("xatlas changed the charts (%d -> %d); using shelf packing", n_c, int(atlas.chart_count))
         out = shelf_pack(pre, row_comp, comp, padding / float(resolution))
     return out, uv_faces.copy()
+
+
+def _packed_scale(packed: np.ndarray, before: np.ndarray, chart: np.ndarray) -> float:
+    """The one scale xatlas applied: the median ratio of packed to input distances between
+    vertices of the same chart (robust to the few misplaced corners).
+
+    ``packed``, ``before`` : (r, 2) float64, each packed vertex after and before packing;
+    ``chart`` : (r,) int64, its chart. Pairs are drawn seeded (consecutive rows, or
+    neighbours in chart order when charts are runs of one vertex).
+    """
+    rng = np.random.default_rng(0)
+    a = rng.integers(0, len(chart), size=min(200000, 4 * len(chart)))
+    same = np.flatnonzero(chart[a] == chart[(a + 1) % len(chart)])
+    i, j = a[same], (a[same] + 1) % len(chart)
+    if len(i) < 10:  # charts of one vertex run: compare random pairs inside charts instead
+        order0 = np.argsort(chart, kind="stable")
+        i, j = order0[:-1], order0[1:]
+        keep = chart[i] == chart[j]
+        i, j = i[keep], j[keep]
+    dn = np.linalg.norm(packed[i] - packed[j], axis=1)
+    do = np.linalg.norm(before[i] - before[j], axis=1)
+    ok = do > 1e-9
+    return float(np.median(dn[ok] / do[ok])) if np.any(ok) else 1.0
 
 
 def _square_texels(uv: np.ndarray, atlas) -> np.ndarray:

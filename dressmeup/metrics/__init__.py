@@ -26,17 +26,10 @@ fusion quality / F-score       :func:`fusion_quality`, :func:`fscore`  see docs
 
 from dressmeup.metrics._common import TopologyMismatchError
 from dressmeup.metrics.distance import (
-    DEFAULT_FSCORE_THRESHOLDS,
-    FusionQuality,
-    accuracy,
     chamfer,
     chamfer_details,
-    chamfer_l1,
-    completeness,
     euclidean,
     euclidean_details,
-    fscore,
-    fusion_quality,
     p2s,
     p2s_bidirectional,
     p2s_details,
@@ -52,6 +45,15 @@ from dressmeup.metrics.penetration import (
     interpenetration_ratio,
     penetrating_vertex_fraction,
     signed_distance,
+)
+from dressmeup.metrics.reconstruction import (
+    DEFAULT_FSCORE_THRESHOLDS,
+    FusionQuality,
+    accuracy,
+    chamfer_l1,
+    completeness,
+    fscore,
+    fusion_quality,
 )
 from dressmeup.metrics.report import MetricValue, compare_meshes, uv_report
 from dressmeup.metrics.richness import RichnessResult, richness, richness_details

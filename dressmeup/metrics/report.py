@@ -22,9 +22,10 @@ from dressmeup.metrics._common import (
     check_samples,
     mesh_arrays,
 )
-from dressmeup.metrics.distance import DEFAULT_FSCORE_THRESHOLDS, chamfer_details, euclidean
+from dressmeup.metrics.distance import chamfer_details, euclidean
 from dressmeup.metrics.normals import normal_consistency_details
 from dressmeup.metrics.penetration import interpenetration_ratio, penetrating_vertex_fraction
+from dressmeup.metrics.reconstruction import DEFAULT_FSCORE_THRESHOLDS
 from dressmeup.metrics.uv import ase_details, qce_details
 from dressmeup.metrics.uv_layout import uv_validity
 
@@ -99,6 +100,37 @@ def compare_meshes(
     n = check_samples(n_samples)
     Vp, Fp = mesh_arrays(pred, "pred")
     Vg, Fg = mesh_arrays(gt, "gt")
+    out = _distance_figures(Vp, Fp, Vg, Fg, n, seed, thresholds)
+    try:
+        out.append(MetricValue("ED", euclidean((Vp, Fp), (Vg, Fg)), "m", "lower"))
+    except TopologyMismatchError as exc:
+        out.append(MetricValue("ED", None, "m", "lower", f"not applicable: {exc}"))
+    nc = normal_consistency_details((Vp, Fp), (Vg, Fg), n_samples=n, seed=seed)
+    out.append(MetricValue("NC", nc.value, "", "higher", f"{nc.mode} normals"))
+    if body is not None:
+        out.append(
+            MetricValue(
+                "IR",
+                interpenetration_ratio((Vp, Fp), body),
+                "fraction",
+                "lower",
+                "garment area inside the body",
+            )
+        )
+        out.append(
+            MetricValue(
+                "Penetrating vertices", penetrating_vertex_fraction(Vp, body), "fraction", "lower"
+            )
+        )
+    if pred_uv is not None:
+        out.extend(uv_report(Vp, Fp, pred_uv[0], pred_uv[1]))
+    return out
+
+
+def _distance_figures(Vp: np.ndarray, Fp: np.ndarray, Vg: np.ndarray, Fg: np.ndarray, n: int,
+                      seed: int, thresholds: tuple[float, ...]) -> list[MetricValue]:
+    """P2S (one way and both), Chamfer, Chamfer-L1 and the F-scores from one draw of ``n``
+    surface samples per mesh (pred: ``seed``, gt: ``seed + 1``)."""
     pp = sample_surface(Vp, Fp, n, seed=seed)[0]
     pg = sample_surface(Vg, Fg, n, seed=seed + 1)[0]
     d_pg = closest_points(Vg, Fg, pp)[0]
@@ -132,29 +164,6 @@ def compare_meshes(
         p, r = float(np.mean(d_pg < t)), float(np.mean(d_gp < t))
         f = 0.0 if p + r == 0 else 2 * p * r / (p + r)
         out.append(MetricValue(f"F-score@{t * 1000:g}mm", f, "fraction", "higher"))
-    try:
-        out.append(MetricValue("ED", euclidean((Vp, Fp), (Vg, Fg)), "m", "lower"))
-    except TopologyMismatchError as exc:
-        out.append(MetricValue("ED", None, "m", "lower", f"not applicable: {exc}"))
-    nc = normal_consistency_details((Vp, Fp), (Vg, Fg), n_samples=n, seed=seed)
-    out.append(MetricValue("NC", nc.value, "", "higher", f"{nc.mode} normals"))
-    if body is not None:
-        out.append(
-            MetricValue(
-                "IR",
-                interpenetration_ratio((Vp, Fp), body),
-                "fraction",
-                "lower",
-                "garment area inside the body",
-            )
-        )
-        out.append(
-            MetricValue(
-                "Penetrating vertices", penetrating_vertex_fraction(Vp, body), "fraction", "lower"
-            )
-        )
-    if pred_uv is not None:
-        out.extend(uv_report(Vp, Fp, pred_uv[0], pred_uv[1]))
     return out
 
 

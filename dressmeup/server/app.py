@@ -98,8 +98,16 @@ def create_app(server: EvaluationServer) -> FastAPI:
                               "are scored against withheld answers (docs/server.md).",
                   version="1", docs_url=None, redoc_url=None)
     app.state.server = server
-    cfg = server.config
+    _add_error_answers(app)
+    _add_api(app, server)
+    _add_pages(app, server.config)
+    return app
 
+
+def _add_error_answers(app: FastAPI) -> None:
+    """What a failure answers: a user's mistake 400 (404 unknown, 413 too large, 429 over the
+    daily limit, 422 with every problem of an invalid submission), the database 503, a full
+    or read-only disk 507, another i/o error 500; nothing recorded in the last three."""
     @app.exception_handler(InputError)
     async def _input_error(_request: Request, exc: InputError) -> JSONResponse:
         if isinstance(exc, Rejected):
@@ -124,6 +132,11 @@ def create_app(server: EvaluationServer) -> FastAPI:
         log.error("i/o error: %s", exc)
         return JSONResponse({"detail": "the server could not read or write a file; nothing "
                                        "was recorded"}, status_code=500)
+
+
+def _add_api(app: FastAPI, server: EvaluationServer) -> None:
+    """The JSON API of the module docstring."""
+    cfg = server.config
 
     @app.get("/api/editions")
     def editions() -> list[dict[str, str]]:
@@ -162,6 +175,10 @@ def create_app(server: EvaluationServer) -> FastAPI:
     def withdraw(sub_id: str, t: TeamDep) -> dict:
         return _view(server.withdraw(t, sub_id))
 
+
+def _add_pages(app: FastAPI, cfg: ServerConfig) -> None:
+    """``/`` (to the leaderboards), ``/team`` and ``/leaderboard/...`` (the published report
+    site, files served only from inside it)."""
     @app.get("/", include_in_schema=False)
     def root() -> RedirectResponse:
         return RedirectResponse("/leaderboard/")
@@ -186,8 +203,6 @@ def create_app(server: EvaluationServer) -> FastAPI:
         return FileResponse(target, media_type=media,
                             headers={"Cache-Control": "no-cache",
                                      "X-Content-Type-Options": "nosniff"})
-
-    return app
 
 
 def app_for(root: str | Path) -> FastAPI:

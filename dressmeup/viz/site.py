@@ -21,16 +21,14 @@ checkerboard render of the submitted UV map; fusion -- the reconstruction colour
 distance to the scan. They need the submission folder (recorded in the result, or found in
 ``submissions``) and the dataset (``data_roots`` or the recorded root, matched by manifest
 sha256); when either is missing the page shows the numbers and says why there are no
-pictures. Finding them: :mod:`dressmeup.viz.site_inputs`; drawing items:
-:mod:`dressmeup.viz.site_items`.
+pictures. A method's page: :mod:`dressmeup.viz.site_method`; finding what its pictures need:
+:mod:`dressmeup.viz.site_inputs`; drawing items: :mod:`dressmeup.viz.site_items`.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import datetime as _dt
 import html
-import math
 import os
 import re
 import time
@@ -39,21 +37,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
-from dressmeup.viz.result_images import render_category_bars, render_grouped_bars
-from dressmeup.viz.site_inputs import find_data_root, find_submission
-from dressmeup.viz.site_items import draw_items
+from dressmeup.viz.result_images import render_grouped_bars
+from dressmeup.viz.site_method import MAX_IMAGES, PICTURE_TASKS, method_page
+
+__all__ = ["IMAGES_PER_SIDE", "MAX_IMAGES", "PICTURE_TASKS", "SiteReport", "write_site"]
 
 #: Best and worst items drawn per method (each side).
 IMAGES_PER_SIDE = 5
-#: Upper bound on the item pictures of one site (keeps ``dressmeup demo`` in its time
-#: budget); each method gets at most a fair share of what is left.
-MAX_IMAGES = 120
-#: Tasks with item pictures.
-PICTURE_TASKS = ("retarget", "uvparam", "fusion")
 
 _EXTRA_CSS = """
   nav { font-size: .85rem; margin-bottom: .8rem; }
@@ -131,208 +123,6 @@ def _page(title: str, body: str, nav: str = "") -> str:
 """
 
 
-# ---------------------------------------------------------------------------- the pages
-def _fmt(spec: Any, value: Any) -> str:
-    if value is None or not isinstance(value, (int, float)) or not math.isfinite(value):
-        return "–"
-    return f"{spec.display(value):.{spec.digits}f}"
-
-
-def _extra_specs(specs: list, extra: Sequence[str]) -> list:
-    """Specs for task extra columns named ``<metric>_<what>`` (``ir_gt`` -> ``IR (gt)``,
-    the same unit as IR); other extras are left out."""
-
-    out = []
-    for col in extra:
-        base = next((sp for sp in specs if col.startswith(sp.name + "_")), None)
-        if base is not None:
-            what = col[len(base.name) + 1:]
-            out.append(dataclasses.replace(base, name=col, label=f"{base.label} ({what})",
-                                           description=f"{base.description} ({what})"))
-    return out
-
-
-def _item_table(table: Any, specs: list, unit: str | None, extra: Sequence[str] = ()) -> str:
-    e = html.escape
-    ids = [c for c in ("sample_id", "category", "track", unit) if c and c in table]
-    ids = list(dict.fromkeys(ids))
-    metric_specs = [s for s in [*specs, *_extra_specs(specs, extra)] if s.name in table]
-    head = "".join(f'<th data-type="text">{e(c)}</th>' for c in ids)
-    head += "".join(f'<th data-type="num" title="{e(s.description)}">{e(s.header())}</th>'
-                    for s in metric_specs)
-    head += '<th data-type="text">status</th><th data-type="text">note / error</th>'
-    body = []
-    for row in table.to_dict("records"):
-        cells = [f'<td class="method" data-v="{e(str(row[c]))}">{e(str(row[c]))}</td>'
-                 for c in ids]
-        for s in metric_specs:
-            v = row.get(s.name)
-            ok = isinstance(v, (int, float)) and math.isfinite(v)
-            cells.append(f'<td data-v="{v:.9g}">{_fmt(s, v)}</td>' if ok
-                         else '<td data-v="">–</td>')
-        status = str(row.get("status", ""))
-        msg = str(row.get("error") or row.get("note") or "")
-        cells.append(f"<td>{e(status)}</td>")
-        cells.append(f'<td class="err">{e(msg[:300])}</td>')
-        body.append("<tr>" + "".join(cells) + "</tr>")
-    return (f'<div class="wrap"><table class="items sortable"><thead><tr>{head}</tr></thead>'
-            "<tbody>\n" + "\n".join(body) + "\n</tbody></table></div>")
-
-
-def _overall_table(row: Any, board: Any) -> str:
-    """The method's overall figures: mean, median, the recomputed interval, item count and
-    the levels of each factor the interval rests on (every value escaped)."""
-    e = html.escape
-    rows = []
-    for c in board.columns:
-        if c.group is not None:
-            continue
-        s_ = c.spec
-        mean, _std, n = row.values.get(c.key, (None, None, 0))
-        ci = row.ci.get(c.key)
-        ci_txt = f"[{_fmt(s_, min(ci))}, {_fmt(s_, max(ci))}]" if ci else "–"
-        levels = row.levels.get(c.key) or {}
-        lv = " x ".join(f"{int(k)} {name}" for name, k in levels.items()) or "–"
-        rows.append(f"<tr><td class=\"method\">{e(s_.header())}</td>"
-                    f"<td>{e(_fmt(s_, mean))}</td><td>{e(_fmt(s_, row.medians.get(c.key)))}</td>"
-                    f"<td>{e(ci_txt)}</td><td>{int(n or 0)}</td><td>{e(lv)}</td></tr>")
-    return ('<div class="wrap"><table><thead><tr><th class="method">metric</th><th>mean</th>'
-            "<th>median</th><th>95 % interval</th><th>items</th><th>levels</th></tr></thead>"
-            "<tbody>" + "".join(rows) + "</tbody></table></div>")
-
-
-def _category_chart(row: Any, board: Any, spec: Any, path: Path, kind: str) -> Path | None:
-    """Bars of the primary metric per category (``kind="category"``) or per track, with
-    the row's recomputed intervals."""
-    cols = [c for c in board.columns if c.spec.name == spec.name
-            and (c.category if kind == "category" else c.track) is not None]
-    names, means, ivs = [], [], []
-    for c in cols:
-        mean = row.mean(c.key)
-        if mean is None:
-            continue
-        names.append(c.category if kind == "category" else c.track)
-        means.append(spec.display(mean))
-        ci = row.ci.get(c.key)
-        ivs.append(tuple(sorted(spec.display(x) for x in ci)) if ci else None)
-    if not names:
-        return None
-    return render_category_bars(names, means, ivs, path,
-                                ylabel=f"{spec.label} [{spec.unit}]" if spec.unit
-                                else spec.label,
-                                title=f"{spec.label} per {kind}")
-
-
-def _method_page(result: Any, row: Any, board: Any, task: Any, ed_dir: Path, slug: str,
-                 data_roots: Sequence, submissions: Sequence, budget: list[int],
-                 per_side: int, report: SiteReport) -> Path:
-    e = html.escape
-    s = result.summary
-    specs = task.metric_specs(board.edition)
-    primary_name = board.primary.split("#")[0]
-    pspec = next(x for x in specs if x.name == primary_name)
-    img_dir = ed_dir / "img"
-    parts = [f"<h1>{e(row.method)}</h1>"]
-    meta = s.get("method", {})
-    bits = [f"edition <b>{e(board.edition.name)}</b> v{board.edition.version}",
-            f"{s.get('counts', {}).get('ok', 0)}/{s.get('counts', {}).get('items', 0)} items "
-            "scored"]
-    if meta.get("authors"):
-        a = meta["authors"]
-        bits.append("by " + e(", ".join(map(str, a)) if isinstance(a, list) else str(a)))
-    url = str(meta.get("url") or "")
-    if url.startswith(("http://", "https://")):
-        bits.append(f'<a href="{e(url)}">{e(url)}</a>')
-    bits.append(f"result schema {result.schema_version}")
-    if not result.comparable:
-        bits.append('<span class="nc">not comparable</span> '
-                    + e(str(s.get("not_comparable_reason") or "")))
-    parts.append(f'<div class="meta">{" · ".join(bits)}</div>')
-    parts.append("<h2>Numbers</h2>" + _overall_table(row, board))
-    if board.factors:
-        parts.append('<p class="meta">Intervals: recomputed from the per-item results, '
-                     f"resampling together {e(', '.join(board.factors))} (docs/benchmark.md, "
-                     '"Confidence intervals"); "levels": how many of each the items '
-                     "span.</p>")
-    if result.schema_version < 2:
-        parts.append('<p class="why">This result was scored by an older toolkit (schema 1): '
-                     "it has no tracks.</p>")
-    charts = []
-    for kind in ("category", "track"):
-        png = _category_chart(row, board, pspec, img_dir / f"{slug}-per_{kind}.png", kind)
-        if png is not None:
-            report.images += 1
-            charts.append(f'<img class="chart" src="img/{e(png.name)}" alt="{e(pspec.label)} '
-                          f'per {kind}">')
-    if charts:
-        parts.append("<h2>Per category" + (" and track" if len(charts) > 1 else "")
-                     + "</h2>" + "".join(charts)
-                     + '<p class="meta">Error bars: 95 % interval of the mean over the '
-                     "factors the items share (none when a group has one level of every "
-                     "factor).</p>")
-    # ---- pictures
-    parts.append("<h2>Best and worst items</h2>")
-    table = result.table
-    why = ""
-    if task.name not in PICTURE_TASKS:
-        why = f"Pictures are drawn for {', '.join(PICTURE_TASKS)} results, not {task.name}."
-    elif table is None:
-        why = "The result folder has no per-item table, so there are no pictures."
-    sub = root = None
-    if not why:
-        sub, why = find_submission(result, submissions)
-    if not why:
-        root, why = find_data_root(result, data_roots)
-    if not why and budget[0] <= 0:
-        why = (f"The site's picture budget ({MAX_IMAGES}) is used up by earlier methods; "
-               "run 'dressmeup report' on fewer results to see this one's.")
-    if not why:
-        ok = table[(table["status"] == "ok")].copy()
-        ok = ok[np.isfinite(ok[primary_name].astype(float))]
-        lower = pspec.better == "lower"
-        ok = ok.sort_values(primary_name, ascending=lower, kind="stable")
-        # a fair share of what is left, so that later methods get pictures too
-        k = min(per_side, max(budget[0] // (2 * max(budget[1], 1)), 1))
-        best = ok.head(k)
-        worst = ok.iloc[::-1].head(k)
-        worst = worst[~worst["sample_id"].isin(best["sample_id"])]
-        for label, sel in (("best", best), ("worst", worst)):
-            rows = []
-            for r in sel.to_dict("records"):
-                track = r.get("track")
-                group = r["category"] + (f", track {track}" if isinstance(track, str) else "")
-                r["_caption"] = (f"{r['sample_id']} ({group}): {pspec.label} "
-                                 f"{_fmt(pspec, r[primary_name])} {pspec.unit}")
-                rows.append(r)
-            try:
-                pics = draw_items(task.name, rows, sub, root, img_dir, f"{slug}-{label}",
-                                   pspec.label)
-            except (OSError, ValueError, KeyError) as exc:
-                why = f"Pictures could not be drawn: {exc}"
-                break
-            budget[0] -= len(pics)
-            report.images += len(pics)
-            if not pics:
-                continue
-            figs = "".join(f'<figure><img src="img/{e(p.name)}" alt="{e(c)}">'
-                           f"<figcaption>{e(c)}</figcaption></figure>" for p, c in pics)
-            parts.append(f"<h3>{label.capitalize()} {len(pics)} by {e(pspec.label)}</h3>"
-                         f'<div class="gallery">{figs}</div>')
-    if why:
-        parts.append(f'<p class="why">{e(why)}</p>')
-        report.notes.append(f"{board.edition.name} / {row.method}: {why}")
-    if table is not None:
-        parts.append(f"<h2>Every item ({len(table)})</h2>"
-                     '<p class="meta">Click a column header to sort.</p>'
-                     + _item_table(table, specs, getattr(task, "unit_column", None),
-                                   getattr(task, "extra_columns", ())))
-    nav = '<nav><a href="index.html">&larr; leaderboard</a> · <a href="../index.html">all ' \
-          "editions</a></nav>"
-    path = ed_dir / f"{slug}.html"
-    _write(path, _page(f"{row.method} on {board.edition.name}", "\n".join(parts), nav))
-    return path
-
-
 def _edition_charts(board: Any, ed_dir: Path, report: SiteReport, max_methods: int = 8
                     ) -> str:
     """HTML of the edition's grouped bar charts: the primary metric per category and per
@@ -394,13 +184,10 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
         No results, unreadable results, or results of one edition on different datasets.
     """
     # heavy: pandas (~0.4 s to import)
-    from dressmeup.bench.board_html import html_meta, html_notes, html_table
     from dressmeup.bench.leaderboard import build_leaderboard
     from dressmeup.bench.results import load_result
-    from dressmeup.bench.tasks import get_task
 
     t0 = time.perf_counter()
-    log = log or (lambda line: None)
     loaded = [load_result(r) for r in results]
     if not loaded:
         raise InputError("no results given: pass result folders written by 'dressmeup score'")
@@ -409,44 +196,77 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
     groups: dict[str, list] = {}
     for r in loaded:
         groups.setdefault(r.edition_hash, []).append(r)
-    report = SiteReport(index=out / "index.html")
-    budget = [max_images, len(loaded)]   # item pictures left, method pages left
+    site = _Site(SiteReport(index=out / "index.html"), data_roots, submissions,
+                 budget=[max_images, len(loaded)], per_side=images_per_side,
+                 log=log or (lambda line: None))
     taken_ed: set[str] = set()
     sections = []
     for group in groups.values():
         board = build_leaderboard(group)
-        task = get_task(board.edition.task)
         ed_slug = _slug(board.edition.name, taken_ed)
-        ed_dir = out / ed_slug
-        by_path = {str(r.path): r for r in group}
-        taken: set[str] = {"index"}
-        links: dict[str, str] = {}
-        for row in board.rows:
-            slug = _slug(row.method, taken)
-            log(f"report: {board.edition.name} / {row.method}")
-            page = _method_page(by_path[row.result], row, board, task, ed_dir, slug,
-                                data_roots, submissions, budget, images_per_side, report)
-            budget[1] -= 1
-            report.method_pages.append(page)
-            links[row.method] = f"{slug}.html"
-        e = html.escape
-        head = (f"<h1>{e(board.edition.name)} <small>v{board.edition.version}</small></h1>\n"
-                f"{html_meta(board)}")
-        charts = _edition_charts(board, ed_dir, report)
-        page_body = (f"{head}\n{html_table(board, links)}\n{html_notes(board)}\n"
-                     + charts)
-        ed_index = ed_dir / "index.html"
-        _write(ed_index, _page(f"{board.edition.name} leaderboard", page_body,
-                               '<nav><a href="../index.html">&larr; all editions</a></nav>'))
-        report.edition_pages.append(ed_index)
-        root_links = {m: f"{ed_slug}/{u}" for m, u in links.items()}
-        sections.append(f'<h2><a href="{e(ed_slug)}/index.html">{e(board.edition.name)}</a> '
-                        f"<small>v{board.edition.version}</small></h2>\n{html_meta(board)}\n"
-                        f"{html_table(board, root_links)}\n{html_notes(board)}\n"
-                        + charts.replace('src="img/', f'src="{e(ed_slug)}/img/'))
+        sections.append(_write_edition(site, board, group, out / ed_slug, ed_slug))
     body = ("<h1>Benchmark results</h1>\n<p class=\"meta\">One leaderboard per edition; "
             "click a method for its per-item numbers and pictures, a column header to "
             "sort.</p>\n" + "\n".join(sections))
+    report = site.report
     _write(report.index, _page("dressmeup benchmark results", body))
     report.seconds = time.perf_counter() - t0
     return report
+
+
+@dataclass
+class _Site:
+    """What every page of one site shares: the report being filled, where pictures' inputs
+    are looked for, the picture budget ``[item pictures left, method pages left]``, the
+    pictures per side, the log."""
+
+    report: SiteReport
+    data_roots: Sequence
+    submissions: Sequence
+    budget: list[int]
+    per_side: int
+    log: Callable[[str], Any]
+
+
+def _write_edition(site: _Site, board: Any, group: list, ed_dir: Path, ed_slug: str) -> str:
+    """Write the method pages and the leaderboard page of one edition into ``ed_dir``;
+    return its section of the site's index."""
+    # heavy: pandas (~0.4 s to import)
+    from dressmeup.bench.board_html import html_meta, html_notes, html_table
+    from dressmeup.bench.tasks import get_task
+
+    e = html.escape
+    report = site.report
+    task = get_task(board.edition.task)
+    by_path = {str(r.path): r for r in group}
+    taken: set[str] = {"index"}
+    links: dict[str, str] = {}
+    nav = '<nav><a href="index.html">&larr; leaderboard</a> · <a href="../index.html">all ' \
+          "editions</a></nav>"
+    for row in board.rows:
+        slug = _slug(row.method, taken)
+        site.log(f"report: {board.edition.name} / {row.method}")
+        mp = method_page(by_path[row.result], row, board, task, ed_dir / "img", slug,
+                         site.data_roots, site.submissions, site.budget, site.per_side)
+        report.images += mp.images
+        if mp.why:
+            report.notes.append(f"{board.edition.name} / {row.method}: {mp.why}")
+        page = ed_dir / f"{slug}.html"
+        _write(page, _page(f"{row.method} on {board.edition.name}", mp.body, nav))
+        site.budget[1] -= 1
+        report.method_pages.append(page)
+        links[row.method] = f"{slug}.html"
+    head = (f"<h1>{e(board.edition.name)} <small>v{board.edition.version}</small></h1>\n"
+            f"{html_meta(board)}")
+    charts = _edition_charts(board, ed_dir, report)
+    page_body = (f"{head}\n{html_table(board, links)}\n{html_notes(board)}\n"
+                 + charts)
+    ed_index = ed_dir / "index.html"
+    _write(ed_index, _page(f"{board.edition.name} leaderboard", page_body,
+                           '<nav><a href="../index.html">&larr; all editions</a></nav>'))
+    report.edition_pages.append(ed_index)
+    root_links = {m: f"{ed_slug}/{u}" for m, u in links.items()}
+    return (f'<h2><a href="{e(ed_slug)}/index.html">{e(board.edition.name)}</a> '
+            f"<small>v{board.edition.version}</small></h2>\n{html_meta(board)}\n"
+            f"{html_table(board, root_links)}\n{html_notes(board)}\n"
+            + charts.replace('src="img/', f'src="{e(ed_slug)}/img/'))

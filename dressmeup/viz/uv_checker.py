@@ -10,6 +10,7 @@ its UV centroid, times a simple Lambert term.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -82,10 +83,8 @@ def render_uv_checker(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np
     import matplotlib
 
     matplotlib.use("Agg")
-    # heavy: matplotlib (~0.3 s to import), mpl_toolkits
+    # heavy: matplotlib (~0.3 s to import)
     import matplotlib.pyplot as plt
-    from matplotlib.collections import PolyCollection
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
@@ -100,10 +99,28 @@ def render_uv_checker(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np
     levels = 2 if len(sel) <= 6000 else (1 if len(sel) <= 20000 else 0)
     P, T = _subdivide(V[F[sel]], uvn[uv_faces[sel]], levels)
     col = checker_colors(T.mean(axis=1), squares)
-    nrm = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
-    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True) + 1e-20
 
     fig = plt.figure(figsize=(4.2 * (len(views) + 1), 4.4))
+    _draw_views(fig, V, P, col, views)
+    ax = fig.add_subplot(1, len(views) + 1, len(views) + 1)
+    _draw_layout(ax, uvn[uv_faces[sel]],
+                 None if chart_ids is None else np.asarray(chart_ids)[sel])
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return save_png(fig, path, dpi=dpi)
+
+
+def _draw_views(fig: Any, V: np.ndarray, P: np.ndarray, col: np.ndarray,
+                views: tuple) -> None:
+    """One 3-D axis per ``(elevation, azimuth)`` of ``views`` (the first of ``fig``'s
+    ``len(views) + 1`` columns): triangles ``P (f, 3, 3)`` in checker colours ``col (f, 3)``
+    shaded by how squarely they face the eye, framed on the bounds of ``V (n, 3)``."""
+    # heavy: mpl_toolkits (part of matplotlib, ~0.3 s to import)
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    nrm = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True) + 1e-20
     lo3, hi3 = V.min(axis=0), V.max(axis=0)
     c = 0.5 * (lo3 + hi3)
     half = np.maximum(0.5 * (hi3 - lo3), 1e-3 * float(np.max(hi3 - lo3) or 1.0))
@@ -120,13 +137,16 @@ def render_uv_checker(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np
         ax.view_init(elev=elev, azim=azim)
         ax.set_box_aspect(tuple(half / half.max()), zoom=1.35)
         ax.set_axis_off()
-    ax = fig.add_subplot(1, len(views) + 1, len(views) + 1)
-    tri = uvn[uv_faces[sel]]
-    if chart_ids is not None:
-        cmap = plt.get_cmap("tab20")
-        fc = cmap(np.asarray(chart_ids)[sel] % 20)
-    else:
-        fc = "0.7"
+
+
+def _draw_layout(ax: Any, tri: np.ndarray, chart_ids: np.ndarray | None) -> None:
+    """The UV layout on ``ax``: triangles ``tri (f, 3, 2)`` in the unit square, grey or
+    coloured by ``chart_ids (f,)``."""
+    # heavy: matplotlib (~0.3 s to import)
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    fc = "0.7" if chart_ids is None else plt.get_cmap("tab20")(chart_ids % 20)
     ax.add_collection(PolyCollection(tri, facecolors=fc, edgecolors="k", linewidths=0.05))
     ax.set_xlim(0, 1)
     ax.set_ylim(0, 1)
@@ -134,7 +154,3 @@ def render_uv_checker(V: np.ndarray, F: np.ndarray, uv: np.ndarray, uv_faces: np
     ax.set_title("UV layout", fontsize=9)
     ax.set_xticks([])
     ax.set_yticks([])
-    if title:
-        fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    return save_png(fig, path, dpi=dpi)

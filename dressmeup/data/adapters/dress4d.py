@@ -233,55 +233,64 @@ def read_4ddress(root: str | os.PathLike, frames: list[str] | None = None,
     keep_frames = None if frames is None else {_frame_name(f) for f in frames}
     samples = []
     for take in takes:
-        subject, outfit = take.parents[1].name, take.parent.name
-        tag = f"{subject}/{outfit}/{take.name}"
-        info = load_pickle(take / "basic_info.pkl")
-        if not isinstance(info, dict):
-            raise InputError(f"{take / 'basic_info.pkl'}: expected a dict (scan_frames, "
-                             f"rotation, offset), got {type(info).__name__}")
-        g = gender or (info.get("gender") if isinstance(info, dict) else None) or \
-            meta["gender"].get(subject)
-        if g is None:
-            g = "neutral"
-            report.note(f"subject {subject}: gender unknown (not in the official list): "
-                        "neutral SMPL assumed; pass gender= to choose")
-        for f in _scan_frames(take, info, report):
-            if keep_frames is not None and f not in keep_frames:
-                continue
-            if not (take / "Meshes_pkl" / f"mesh-f{f}.pkl").is_file():
-                report.skip(f"{tag}/f{f}", "scan mesh-f*.pkl missing")
-                continue
-            present, _src = _labels_in_frame(take, f)
-            if present is None:
-                report.skip(f"{tag}/f{f}", "no Semantic/clothes nor Semantic/labels file")
-                continue
-            for label in GARMENT_LABELS:
-                if label not in present:
-                    continue
-                if outfit == "Outer" and label == "upper":
-                    report.skip(f"{tag}/f{f}/upper", "inner layer of an Outer outfit (covered "
-                                "by the outer garment; the official viewer skips it)")
-                    continue
-                is_dress = label == "upper" and (subject, outfit) in dresses
-                gid = clean_id(f"{subject}_{outfit}_{label}")
-                pose_id = clean_id(f"{take.name}-F{f}")
-                smpl = take / "SMPL" / f"mesh-f{f}_smpl.pkl"
-                mesh = take / "Meshes_pkl" / f"mesh-f{f}.pkl"
-                row = make_row(sample_id=f"{gid}-{pose_id}", subject_id=clean_id(subject),
-                               garment_id=gid, pose_id=pose_id,
-                               category="dress" if is_dress else CATEGORY[label],
-                               garment_type="dress" if is_dress else label, split=split,
-                               scan_path=str(mesh), body_path=str(smpl), take=take.name,
-                               frame=f, outfit=outfit, topology_shared=False)
-
-                def b_loader(smpl=smpl, g=g):
-                    return dress4d_body(load_pickle(smpl), g, str(smpl)) if smpl.is_file() \
-                        else None
-
-                def s_loader(mesh=mesh):
-                    return mesh_fields(load_pickle(mesh), str(mesh))
-
-                samples.append(Sample(row, None, {
-                    "garment": functools.partial(_load_garment, take, f, label),
-                    "scan": s_loader, "body": b_loader}))
+        samples += _take_samples(take, gender, meta, dresses, keep_frames, split, report)
     return SampleCollection(samples, str(root), report)
+
+
+def _take_samples(take: Path, gender: str | None, meta: dict, dresses: set,
+                  keep_frames: set | None, split: str, report: ReadReport) -> list[Sample]:
+    """The samples of one take: one per garment label present in each kept frame (the inner
+    ``upper`` of an Outer outfit skipped), files loaded lazily; skips go to ``report``."""
+    samples = []
+    subject, outfit = take.parents[1].name, take.parent.name
+    tag = f"{subject}/{outfit}/{take.name}"
+    info = load_pickle(take / "basic_info.pkl")
+    if not isinstance(info, dict):
+        raise InputError(f"{take / 'basic_info.pkl'}: expected a dict (scan_frames, "
+                         f"rotation, offset), got {type(info).__name__}")
+    g = gender or (info.get("gender") if isinstance(info, dict) else None) or \
+        meta["gender"].get(subject)
+    if g is None:
+        g = "neutral"
+        report.note(f"subject {subject}: gender unknown (not in the official list): "
+                    "neutral SMPL assumed; pass gender= to choose")
+    for f in _scan_frames(take, info, report):
+        if keep_frames is not None and f not in keep_frames:
+            continue
+        if not (take / "Meshes_pkl" / f"mesh-f{f}.pkl").is_file():
+            report.skip(f"{tag}/f{f}", "scan mesh-f*.pkl missing")
+            continue
+        present, _src = _labels_in_frame(take, f)
+        if present is None:
+            report.skip(f"{tag}/f{f}", "no Semantic/clothes nor Semantic/labels file")
+            continue
+        for label in GARMENT_LABELS:
+            if label not in present:
+                continue
+            if outfit == "Outer" and label == "upper":
+                report.skip(f"{tag}/f{f}/upper", "inner layer of an Outer outfit (covered "
+                            "by the outer garment; the official viewer skips it)")
+                continue
+            is_dress = label == "upper" and (subject, outfit) in dresses
+            gid = clean_id(f"{subject}_{outfit}_{label}")
+            pose_id = clean_id(f"{take.name}-F{f}")
+            smpl = take / "SMPL" / f"mesh-f{f}_smpl.pkl"
+            mesh = take / "Meshes_pkl" / f"mesh-f{f}.pkl"
+            row = make_row(sample_id=f"{gid}-{pose_id}", subject_id=clean_id(subject),
+                           garment_id=gid, pose_id=pose_id,
+                           category="dress" if is_dress else CATEGORY[label],
+                           garment_type="dress" if is_dress else label, split=split,
+                           scan_path=str(mesh), body_path=str(smpl), take=take.name,
+                           frame=f, outfit=outfit, topology_shared=False)
+
+            def b_loader(smpl=smpl, g=g):
+                return dress4d_body(load_pickle(smpl), g, str(smpl)) if smpl.is_file() \
+                    else None
+
+            def s_loader(mesh=mesh):
+                return mesh_fields(load_pickle(mesh), str(mesh))
+
+            samples.append(Sample(row, None, {
+                "garment": functools.partial(_load_garment, take, f, label),
+                "scan": s_loader, "body": b_loader}))
+    return samples

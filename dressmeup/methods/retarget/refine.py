@@ -21,7 +21,8 @@ Self-supervised losses on the refined garment ``v'_i = x_i + dx_i``:
 - penetration (not in the thesis; added here): mean of ``relu(margin - (v'_i - p_i) . n_i)``
   with ``p_i`` the nearest target skin vertex and ``n_i`` its normal.
 
-The sample and the losses live in :mod:`dressmeup.methods.retarget.refine_losses`.
+The sample and the losses live in :mod:`dressmeup.methods.retarget.refine_losses`; the
+precomputed inference path in :mod:`dressmeup.methods.retarget.refine_infer`.
 
 Training is self-supervised on (garment, source body, target body) triplets (no ground
 truth), on CPU; inference is one forward pass.
@@ -44,9 +45,9 @@ from dressmeup.errors import InputError, MissingModelError
 from dressmeup.geometry.mesh import edges as mesh_edges
 from dressmeup.io.atomic import atomic_write_bytes
 from dressmeup.methods.nn.checkpoint import load_checkpoint
-from dressmeup.methods.retarget.base import body_context, check_garment
 from dressmeup.methods.retarget.isomap import IsomapRetarget
 from dressmeup.methods.retarget.refine_config import PRESETS, RefineConfig, get_config
+from dressmeup.methods.retarget.refine_infer import retarget_prepared
 from dressmeup.methods.retarget.refine_losses import (  # noqa: F401  (re-exported)
     MASK_JOINTS,
     RefineSample,
@@ -358,68 +359,7 @@ class IsomapRefine(IsomapRetarget):
             self.last_timing_ = {"correspondence": sample.seconds_correspondence,
                                  "network": time.perf_counter() - t0}
             return out
-        return self._retarget_prepared(garment_V, garment_F, source, target, body_model)
-
-    def _retarget_prepared(self, garment_V, garment_F, source, target, body_model) -> np.ndarray:
-        # heavy: torch (~1.1 s to import)
-        import torch
-
-        from dressmeup.methods.retarget.refine_net import decode_with_partial
-
-        V, F = check_garment(garment_V, garment_F)
-        t0 = time.perf_counter()
-        s = body_context(body_model, source)
-        t1 = time.perf_counter()
-        emb = self.embedding(body_model)
-        prep = self.prepared(V, F, s, emb)
-        part = self._garment_partial(prep, V, s)
-        t2 = time.perf_counter()
-        t = body_context(body_model, target)
-        t3 = time.perf_counter()
-        center = t.joints[0]
-        TV = t.skin_vertices - center
-        x = (prep.with_offset(t.skin_vertices, t.skin_normals()) if self.carry_offset
-             else prep.coarse(t.skin_vertices)) - center
-        if self.correspondence_noise:
-            x = x + np.random.default_rng(self.seed).normal(0.0, float(self.correspondence_noise), size=x.shape)
-        x = x.astype(np.float32)
-        k = int(min(self.k_neighbors, len(TV)))
-        _, nb = cKDTree(TV).query(x, k=k)
-        nb = np.asarray(nb).reshape(len(x), k)
-        neighbors = (TV[nb].astype(np.float32) - x[:, None, :]).reshape(len(x), 3 * k)
-        t4 = time.perf_counter()
-        dev = torch.device(self.device)
-        net = self.network_
-        with torch.no_grad():
-            body_pts = torch.as_tensor(subsample(TV, self.n_points, self.seed + 1).astype(np.float32), device=dev)
-            code = torch.cat([part["garment_code"], net.encoder_body(body_pts)])
-            dx = decode_with_partial(net.decoder, torch.as_tensor(x, device=dev),
-                                      torch.as_tensor(neighbors, device=dev), part["phi_term"], code)
-        t5 = time.perf_counter()
-        self.last_timing_ = {"source_posing": t1 - t0, "preparation": t2 - t1, "target_posing": t3 - t2,
-                             "correspondence": t4 - t3, "network": t5 - t4}
-        return x.astype(np.float64) + dx.cpu().numpy().astype(np.float64) + center
-
-    def _garment_partial(self, prep, V: np.ndarray, s) -> dict:
-        """Per-garment network inputs: the garment's PointNet code and ``phi W_phi^T`` (memoised)."""
-        # heavy: torch (~1.1 s to import)
-        import torch
-
-        key = (prep.key, id(self.network_), int(self.n_points), int(self.seed))
-        memo = self.__dict__.setdefault("_partial_memo", {})
-        if key not in memo:
-            if len(memo) >= 8:
-                memo.pop(next(iter(memo)))
-            dev = torch.device(self.device)
-            net = self.network_
-            d = int(self.dim)
-            with torch.no_grad():
-                gp = torch.as_tensor(subsample(V - s.joints[0], self.n_points, self.seed).astype(np.float32),
-                                     device=dev)
-                W = net.decoder.layers[0].weight
-                phi_term = torch.as_tensor(prep.phi.astype(np.float32), device=dev) @ W[:, 3:3 + d].T
-                memo[key] = {"garment_code": net.encoder_garment(gp), "phi_term": phi_term}
-        return memo[key]
+        return retarget_prepared(self, garment_V, garment_F, source, target, body_model)
 
     def predict_sample(self, sample: RefineSample) -> np.ndarray:
         """One forward pass on a prepared sample: (n, 3) float64 world positions."""

@@ -137,72 +137,36 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
     if until_converged and not val_samples:
         raise ValueError("until_converged: give validation samples (the rule watches them)")
     net = method.new_network()
-    opt = torch.optim.Adam(net.parameters(), lr=float(method.lr))
-    history = TrainHistory()
-    start = 0
-    best_state, best_score = None, np.inf
-    ckpt_path = Path(checkpoint) if checkpoint else None
-    if ckpt_path is not None and ckpt_path.is_file():
-        ck = load_checkpoint(ckpt_path, "training checkpoint", _CKPT_FORMAT,
-                             ("network", "optimizer", "step", "history"))
-        try:
-            net.load_state_dict(ck["network"])
-            opt.load_state_dict(ck["optimizer"])
-            start = int(ck["step"])
-            history = TrainHistory.from_dict(ck["history"])
-        except (RuntimeError, ValueError, TypeError, KeyError) as exc:
-            raise InputError(f"training checkpoint {ckpt_path}: it does not fit this run's "
-                             f"network ({str(exc).splitlines()[0][:200]}); delete it to start "
-                             "over") from exc
-        best_state, best_score = ck["best_state"], float(ck["best_score"])
-        log.info("resumed %s at step %d", ckpt_path, start)
+    run = _Run(method, net, torch.optim.Adam(net.parameters(), lr=float(method.lr)),
+               Path(checkpoint) if checkpoint else None, val_samples)
+    start = run.resume()
+    history = run.history
     rng = np.random.default_rng(int(method.seed))
     n_epochs = int(steps) // len(samples) + 1
     order = np.concatenate([rng.permutation(len(samples)) for _ in range(n_epochs)])
-
-    def save_checkpoint(step: int) -> None:
-        if ckpt_path is None:
-            return
-        ckpt_path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_bytes(ckpt_path, _state_bytes({
-            "format": _CKPT_FORMAT, "network": net.state_dict(), "optimizer": opt.state_dict(), "step": step,
-            "history": history.as_dict(), "best_state": best_state, "best_score": best_score}))
-
-    def run_validation(step: int) -> None:
-        nonlocal best_state, best_score
-        loss, ed = validate(method, net, val_samples)
-        history.val.append((step, loss, ed))
-        score = ed if np.isfinite(ed) else loss
-        if np.isfinite(score) and score < best_score:
-            best_score = score
-            best_state = {k: v.detach().clone() for k, v in net.state_dict().items()}
-            history.best_step = step
-
-    t_wall, t_cpu = time.perf_counter(), time.process_time()
-    wall0, cpu0 = history.wall_seconds, history.cpu_seconds
+    run.start_clock()
     net.train()
     step = start
     history.stopped_by = "steps"
     for step in progress(range(start, int(steps)), desc=f"training {method.name}", total=int(steps) - start):
         if val_samples and step % int(val_every) == 0 and not any(v[0] == step for v in history.val):
-            run_validation(step)
+            run.validate(step)
         total, terms = method.loss(net, samples[order[step]])
-        opt.zero_grad()
+        run.opt.zero_grad()
         total.backward()
-        opt.step()
+        run.opt.step()
         history.train.append((step, float(total.detach()), terms))
         if callback is not None:
             callback(step, float(total.detach()), terms)
-        history.wall_seconds = wall0 + time.perf_counter() - t_wall
-        history.cpu_seconds = cpu0 + time.process_time() - t_cpu
+        run.tick()
         if (step + 1) % int(checkpoint_every) == 0:
-            save_checkpoint(step + 1)
-        if wall_seconds is not None and time.perf_counter() - t_wall > float(wall_seconds):
+            run.save(step + 1)
+        if wall_seconds is not None and time.perf_counter() - run.t_wall > float(wall_seconds):
             history.stopped_by = "wall budget"
             step += 1
             break
         if until_converged and val_samples and (step + 1) % int(val_every) == 0:
-            run_validation(step + 1)
+            run.validate(step + 1)
             figure = [(s_, e if np.isfinite(e) else lo) for s_, lo, e in history.val]
             if converged(figure, tol):
                 history.stopped_by = "converged"
@@ -210,17 +174,89 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
                 break
     else:
         step = int(steps)
-    if val_samples and not any(v[0] == step for v in history.val):
-        run_validation(step)
-    history.wall_seconds = wall0 + time.perf_counter() - t_wall
-    history.cpu_seconds = cpu0 + time.process_time() - t_cpu
-    save_checkpoint(step)
-    if best_state is not None:
-        net.load_state_dict(best_state)
-    else:
-        history.best_step = step
-    net.eval()
+    run.finish(step)
     return net, history
+
+
+@dataclass
+class _Run:
+    """The state of one training run: the network and its optimiser, the history, the best
+    weights on the validation samples so far, the checkpoint they go to, the clocks."""
+
+    method: Any
+    net: Any
+    opt: Any
+    ckpt_path: Path | None
+    val_samples: list
+    history: TrainHistory = field(default_factory=TrainHistory)
+    best_state: dict | None = None
+    best_score: float = np.inf
+    t_wall: float = 0.0
+    t_cpu: float = 0.0
+    wall0: float = 0.0
+    cpu0: float = 0.0
+
+    def resume(self) -> int:
+        """Load the checkpoint when it exists; the step to go on from (0 without one)."""
+        if self.ckpt_path is None or not self.ckpt_path.is_file():
+            return 0
+        ck = load_checkpoint(self.ckpt_path, "training checkpoint", _CKPT_FORMAT,
+                             ("network", "optimizer", "step", "history"))
+        try:
+            self.net.load_state_dict(ck["network"])
+            self.opt.load_state_dict(ck["optimizer"])
+            start = int(ck["step"])
+            self.history = TrainHistory.from_dict(ck["history"])
+        except (RuntimeError, ValueError, TypeError, KeyError) as exc:
+            raise InputError(f"training checkpoint {self.ckpt_path}: it does not fit this run's "
+                             f"network ({str(exc).splitlines()[0][:200]}); delete it to start "
+                             "over") from exc
+        self.best_state, self.best_score = ck["best_state"], float(ck["best_score"])
+        log.info("resumed %s at step %d", self.ckpt_path, start)
+        return start
+
+    def start_clock(self) -> None:
+        """Start timing this invocation (a resumed run adds to its history's seconds)."""
+        self.t_wall, self.t_cpu = time.perf_counter(), time.process_time()
+        self.wall0, self.cpu0 = self.history.wall_seconds, self.history.cpu_seconds
+
+    def tick(self) -> None:
+        """Wall and CPU seconds so far into the history."""
+        self.history.wall_seconds = self.wall0 + time.perf_counter() - self.t_wall
+        self.history.cpu_seconds = self.cpu0 + time.process_time() - self.t_cpu
+
+    def save(self, step: int) -> None:
+        """Write the whole state at ``step`` to the checkpoint (atomically), if there is one."""
+        if self.ckpt_path is None:
+            return
+        self.ckpt_path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(self.ckpt_path, _state_bytes({
+            "format": _CKPT_FORMAT, "network": self.net.state_dict(),
+            "optimizer": self.opt.state_dict(), "step": step, "history": self.history.as_dict(),
+            "best_state": self.best_state, "best_score": self.best_score}))
+
+    def validate(self, step: int) -> None:
+        """Score the network on the validation samples; keep its weights when best so far
+        (ED with ground truth, else the loss)."""
+        loss, ed = validate(self.method, self.net, self.val_samples)
+        self.history.val.append((step, loss, ed))
+        score = ed if np.isfinite(ed) else loss
+        if np.isfinite(score) and score < self.best_score:
+            self.best_score = score
+            self.best_state = {k: v.detach().clone() for k, v in self.net.state_dict().items()}
+            self.history.best_step = step
+
+    def finish(self, step: int) -> None:
+        """Last validation, times and checkpoint; the best weights kept (eval mode)."""
+        if self.val_samples and not any(v[0] == step for v in self.history.val):
+            self.validate(step)
+        self.tick()
+        self.save(step)
+        if self.best_state is not None:
+            self.net.load_state_dict(self.best_state)
+        else:
+            self.history.best_step = step
+        self.net.eval()
 
 
 def plot_history(history: TrainHistory, path: str | Path, title: str = "") -> Path:

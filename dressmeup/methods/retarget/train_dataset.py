@@ -90,6 +90,17 @@ def train_from_dataset(data, out, method: str = "isomap-refine", params: dict | 
         "val_curve": [[s, lo, ed] for s, lo, ed in h.val],
         "hyperparameters": {k: v for k, v in m.get_params().items() if k not in ("weights", "device")},
     }
+    _write_outputs(m, out, info, half, curves, f"{method}: {info['steps_done']} steps on "
+                   f"{len(triplets)} train pairs")
+    return info
+
+
+def _write_outputs(m: Any, out: Path, info: dict[str, Any], half: bool, curves: Any,
+                   caption: str) -> None:
+    """The trained network with its ``training`` record (``info`` gains ``file_mb``), the
+    history beside it (``<out>.history.json``) and, when ``curves`` names a PNG, the learning
+    curves captioned ``caption`` plus times and the kept step."""
+    h = m.history_
     m.save(out, half=half, info=info)
     info["file_mb"] = round(out.stat().st_size / 1e6, 2)
     hist_path = out.with_suffix(".history.json")
@@ -97,8 +108,7 @@ def train_from_dataset(data, out, method: str = "isomap-refine", params: dict | 
                                              default=float).encode())
     if curves:
         vals = [r for r in h.val if np.isfinite(r[2])]
-        plot_history(h, curves, title=f"{method}: {info['steps_done']} steps on {len(triplets)} train pairs, "
+        plot_history(h, curves, title=f"{caption}, "
                                       f"{h.wall_seconds / 60:.0f} min wall / {h.cpu_seconds / 60:.0f} min CPU; "
                                       f"kept step {h.best_step}" + (f" (val ED {1000 * min(r[2] for r in vals):.1f} mm)"
                                                                    if vals else ""))
-    return info

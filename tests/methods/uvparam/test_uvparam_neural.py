@@ -82,9 +82,9 @@ def test_inference_on_another_resolution_and_checkpoint(tiny_model, tmp_path):
     assert np.all(np.isfinite(res.uv)) and res.uv_faces.shape == F.shape
     assert res.n_charts >= 2 and res.uv.min() >= -1e-9 and res.uv.max() <= 1 + 1e-9
     # training helped: an untrained pair of MLPs on the same charts distorts far more
-    from dressmeup.methods.uvparam.neural.train import NeuralUVModel, _build_modules
+    from dressmeup.methods.uvparam.neural.model import NeuralUVModel, build_modules
 
-    _, f0, b0 = _build_modules(tiny_model.config)
+    _, f0, b0 = build_modules(tiny_model.config)
     untrained = NeuralUVModel(tiny_model.config, tiny_model.patchnet, f0.eval(), b0.eval())
     raw = infer(untrained, V, F)
     # (the tiny run's outcome depends on the CPU's float rounding: the ratio was below 0.75

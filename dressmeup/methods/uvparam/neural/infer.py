@@ -15,7 +15,7 @@ import numpy as np
 from dressmeup.geometry.mesh import as_arrays, face_areas
 from dressmeup.geometry.uv_atlas import orient_chart_uv, signed_uv_areas
 from dressmeup.geometry.uv_packing import pack_charts
-from dressmeup.methods.nn.diffusion_net import compute_operators
+from dressmeup.methods.nn.diffusion_ops import compute_operators
 from dressmeup.methods.uvparam.base import UVResult
 from dressmeup.methods.uvparam.neural.patchnet import (
     assign_charts,
@@ -108,6 +108,14 @@ def _patchnet_on(model: NeuralUVModel, Vn: np.ndarray, F: np.ndarray, use_operat
     return probs, h.numpy(), ops
 
 
+def _proxy(V: np.ndarray, F: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A proxy of about ``n`` vertices (:func:`cluster_decimate`), normalised as the full
+    mesh is (its bounding box's centre and diagonal), so that both share one frame."""
+    Vp, Fp = cluster_decimate(V, F, n)
+    lo, hi = V.min(axis=0), V.max(axis=0)
+    return (Vp - 0.5 * (lo + hi)) / (float(np.linalg.norm(hi - lo)) or 1.0), Fp
+
+
 def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: bool = True,
           threads: int | None = None, proxy_vertices: int | None = 5000) -> UVResult:
     """Parameterise a mesh with a trained model (no training).
@@ -152,9 +160,7 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
             # optional dependency (ImportError handled)
             from scipy.spatial import cKDTree
 
-            Vp, Fp = cluster_decimate(V, F, int(proxy_vertices))
-            lo, hi = V.min(axis=0), V.max(axis=0)  # the full mesh's normalisation
-            Vpn = (Vp - 0.5 * (lo + hi)) / (float(np.linalg.norm(hi - lo)) or 1.0)
+            Vpn, Fp = _proxy(V, F, int(proxy_vertices))
             t1, c1 = time.perf_counter(), time.process_time()
             probs_p, feats_p, ops = _patchnet_on(model, Vpn, Fp, use_operator_cache,
                                                  exact_limit=1000, n_coarse=400)
@@ -183,7 +189,7 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
     finally:
         torch.set_num_threads(old_threads)
     return UVResult(uv, uv_faces, chart_ids, t5 - t0, {
-        "n_charts": int(chart_ids.max()) + 1, "cpu_seconds": c5 - c0, "proxy_vertices": int(len(Vp)) if proxy else 0,
+        "n_charts": int(chart_ids.max()) + 1, "cpu_seconds": c5 - c0, "proxy_vertices": int(len(Vpn)) if proxy else 0,
         "seconds_decimate": t1 - t0, "seconds_operators": ops.seconds,
         "seconds_patchnet": t2 - t1 - ops.seconds, "seconds_charts": t3 - t2, "seconds_mlp": t4 - t3,
         "seconds_pack": t5 - t4, "operators_cached": ops.seconds == 0.0,

@@ -52,7 +52,7 @@ class NeuralMethod:
     Parameters
     ----------
     config : {"fast", "reference"}
-        Network sizes and training lengths (see ``neural.train.CONFIGS``).
+        Network sizes and training lengths (see ``neural.model.CONFIGS``).
     checkpoint : str or Path, optional
         A trained model: infer only (the discretisation-agnostic use). Without it (and
         without ``pretrained``), :meth:`parameterize` trains on a decimated copy of the mesh
@@ -65,7 +65,7 @@ class NeuralMethod:
         Where to save the model trained by :meth:`parameterize`.
     progress : bool
     **overrides
-        Fields of :class:`~dressmeup.methods.uvparam.neural.train.NeuralConfig`
+        Fields of :class:`~dressmeup.methods.uvparam.neural.model.NeuralConfig`
         (``n_patches``, ``uv_iters``, ``weights``, ``seed``, ...).
     """
 

@@ -1,155 +1,47 @@
 """Per-object training of the neural UV parameterisation: PatchNet first, then the UV MLPs.
 
 :func:`train` takes one mesh (usually a low-resolution version, ~2-3k vertices) and returns a
-:class:`NeuralUVModel` that :func:`dressmeup.methods.uvparam.neural.infer.infer` applies to
-any discretisation of the same shape. Checkpoints are plain ``torch.save`` dictionaries of
-tensors and numbers (loaded with ``weights_only=True``).
+:class:`~dressmeup.methods.uvparam.neural.model.NeuralUVModel` that
+:func:`dressmeup.methods.uvparam.neural.infer.infer` applies to any discretisation of the same
+shape. The model, its configuration and its checkpoints live in
+:mod:`dressmeup.methods.uvparam.neural.model`; their names are importable from here too.
 """
 
 from __future__ import annotations
 
-import io
 import logging
 import time
-from dataclasses import asdict, dataclass, field, fields, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
-from dressmeup.errors import InputError
 from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
 from dressmeup.geometry.uv_atlas import split_charts
-from dressmeup.io.atomic import atomic_write_bytes
-from dressmeup.methods.nn.checkpoint import load_checkpoint
-from dressmeup.methods.nn.diffusion_net import compute_operators
+from dressmeup.methods.nn.diffusion_ops import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
+from dressmeup.methods.uvparam.neural.model import (
+    CONFIGS,
+    NeuralConfig,
+    NeuralUVModel,
+    build_modules,
+    get_config,
+    load_model,
+    plain_values,
+    save_model,
+)
 from dressmeup.methods.uvparam.neural.patchnet import (
     assign_charts,
-    build_patchnet,
     normalize_vertices,
     patchnet_inputs,
 )
-from dressmeup.methods.uvparam.neural.uv_mlp import build_mlp, count_parameters
 from dressmeup.progress import progress as bar
 
 __all__ = ["NeuralConfig", "CONFIGS", "NeuralUVModel", "train", "get_config", "plain_values",
            "chart_codes", "chart_rows", "save_model", "load_model"]
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class NeuralConfig:
-    """Hyperparameters of the neural method (defaults: the thesis' reference configuration).
-
-    Attributes
-    ----------
-    n_patches : int
-        K, PatchNet's number of patches.
-    patch_width, patch_blocks, k_eig : int
-        DiffusionNet width (128), blocks (4) and eigenvectors (64).
-    patch_iters, patch_lr : int, float
-        PatchNet optimisation steps and Adam learning rate (1e-3).
-    lambda_cos, lambda_geo : float
-        PatchNet loss weights (1, 1).
-    geo_landmarks : int
-        Vertices used for the geodesic loss' distance matrix.
-    mlp_width, mlp_depth : int
-        UV MLP width and number of linear layers; 320 x 8 gives ~0.66M parameters per MLP,
-        ~1.3M for the pair (the thesis' size).
-    uv_iters, uv_lr : int, float
-        UV MLP optimisation steps and learning rate (1e-3).
-    weights : tuple of 4 floats
-        (cycle, isometric, angle, area) = (1, 1, 0.001, 0.001) as in the thesis.
-    sigma : float
-        Geodesic threshold of the isometric loss (0.2, in units of the bounding-box diagonal).
-    pairs_per_iter : int
-        Random subset of the isometric pairs used per step.
-    consolidation_steps, min_chart_fraction : int, float
-        Face assignment: neighbour averaging steps, island merge threshold.
-    train_vertices : int
-        Meshes with more vertices are decimated to about this many for training.
-    seed : int
-    """
-
-    n_patches: int = 8
-    patch_width: int = 128
-    patch_blocks: int = 4
-    k_eig: int = 64
-    patch_iters: int = 300
-    patch_lr: float = 1e-3
-    lambda_cos: float = 1.0
-    lambda_geo: float = 1.0
-    geo_landmarks: int = 1200
-    mlp_width: int = 320
-    mlp_depth: int = 8
-    uv_iters: int = 1500
-    uv_lr: float = 1e-3
-    weights: tuple = (1.0, 1.0, 0.001, 0.001)
-    sigma: float = 0.2
-    pairs_per_iter: int = 40000
-    consolidation_steps: int = 2
-    min_chart_fraction: float = 0.01
-    train_vertices: int = 2500
-    seed: int = 0
-
-
-#: named configurations: the thesis' sizes and a smaller, faster one
-CONFIGS = {
-    "reference": NeuralConfig(),
-    "fast": NeuralConfig(patch_width=64, patch_blocks=4, mlp_width=128, mlp_depth=6,
-                         patch_iters=200, uv_iters=800),
-}
-
-
-def get_config(config: str | NeuralConfig = "fast", **overrides: Any) -> NeuralConfig:
-    """Resolve a configuration name (``"reference"``, ``"fast"``) and keyword overrides.
-
-    Raises
-    ------
-    ValueError
-        Unknown name or unknown override.
-    """
-    if isinstance(config, NeuralConfig):
-        base = config
-    elif config in CONFIGS:
-        base = CONFIGS[config]
-    else:
-        raise ValueError(f"config: expected one of {', '.join(CONFIGS)} or a NeuralConfig, got {config!r}")
-    names = {f.name for f in fields(NeuralConfig)}
-    bad = sorted(set(overrides) - names)
-    if bad:
-        raise ValueError(f"unknown neural hyperparameter(s) {bad}; valid: {sorted(names)}")
-    if "weights" in overrides:
-        overrides["weights"] = tuple(float(w) for w in overrides["weights"])
-    return replace(base, **overrides)
-
-
-@dataclass
-class NeuralUVModel:
-    """A trained neural UV parameterisation (torch modules + configuration + training log)."""
-
-    config: NeuralConfig
-    patchnet: Any
-    forward_mlp: Any
-    backward_mlp: Any
-    history: dict = field(default_factory=dict)
-
-    @property
-    def n_parameters(self) -> dict:
-        return {"patchnet": count_parameters(self.patchnet),
-                "forward_mlp": count_parameters(self.forward_mlp),
-                "backward_mlp": count_parameters(self.backward_mlp)}
-
-
-def _build_modules(cfg: NeuralConfig):
-    patchnet = build_patchnet(cfg.n_patches, cfg.patch_width, cfg.patch_blocks, seed=cfg.seed)
-    fwd = build_mlp(3 + cfg.patch_width, 2, cfg.mlp_width, cfg.mlp_depth, out_scale=1.0, seed=cfg.seed + 1)
-    bwd = build_mlp(2 + cfg.patch_width, 3, cfg.mlp_width, cfg.mlp_depth, out_scale=1.0, seed=cfg.seed + 2)
-    return patchnet, fwd, bwd
 
 
 def _edge_graph(V: np.ndarray, F: np.ndarray) -> sp.csr_matrix:
@@ -276,30 +168,51 @@ def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool,
 
     V, F = as_arrays(V, F)
     t0 = time.perf_counter()
-    rng = np.random.default_rng(cfg.seed)
     Vn = normalize_vertices(V)
     ops = compute_operators(Vn, F, k_eig=cfg.k_eig)
     tops = ops.to_torch()
     x = torch.from_numpy(patchnet_inputs(Vn, F))
-    patchnet, fwd, bwd = _build_modules(cfg)
+    patchnet, fwd, bwd = build_modules(cfg)
     if init_patchnet is not None:
         patchnet.load_state_dict(init_patchnet.state_dict())
     hist: dict = {k: [] for k in ("patch_total", "cos", "geo", "uv_total", "cycle", "iso", "angle", "area")}
+    n_patch_iters = 0 if init_patchnet is not None else cfg.patch_iters
+    _fit_patchnet(patchnet, x, tops, Vn, F, ops.mass, cfg, n_patch_iters, hist, progress)
+    t1 = time.perf_counter()
+    model = NeuralUVModel(cfg, patchnet.eval(), fwd, bwd, hist)
+    hist["seconds_patchnet"] = t1 - t0
+    if patchnet_only:
+        return model
+    _fit_uv_mlps(patchnet, fwd, bwd, x, tops, Vn, F, ops.mass, cfg, hist, progress)
+    hist["seconds_uv"] = time.perf_counter() - t1
+    hist["seconds_total"] = time.perf_counter() - t0
+    model.forward_mlp = fwd.eval()
+    model.backward_mlp = bwd.eval()
+    return model
 
-    # --- PatchNet -------------------------------------------------------------------------
+
+def _fit_patchnet(patchnet: Any, x: Any, tops: dict, Vn: np.ndarray, F: np.ndarray,
+                  mass: np.ndarray, cfg: NeuralConfig, n_iters: int, hist: dict,
+                  progress: bool) -> None:
+    """``n_iters`` Adam steps of PatchNet on the cosine and geodesic losses (the geodesic one
+    on ``cfg.geo_landmarks`` landmark vertices drawn with ``cfg.seed``); appends the loss
+    curves to ``hist``."""
+    # heavy: torch (~1.1 s to import)
+    import torch
+
+    rng = np.random.default_rng(cfg.seed)
     n = len(Vn)
     lm = np.sort(rng.choice(n, size=min(n, cfg.geo_landmarks), replace=False))
     G = dijkstra(_edge_graph(Vn, F), directed=False, indices=lm)[:, lm]
     G = np.where(np.isfinite(G), G, 2.0 * np.nanmax(np.where(np.isfinite(G), G, 0.0)))
     Gt = torch.from_numpy(G.astype(np.float32))
-    mass_lm = torch.from_numpy(ops.mass[lm].astype(np.float32))
+    mass_lm = torch.from_numpy(mass[lm].astype(np.float32))
     fn = torch.from_numpy(face_normals(Vn, F).astype(np.float32))
     fa = torch.from_numpy(face_areas(Vn, F).astype(np.float32))
     Ft = torch.from_numpy(F)
     lm_t = torch.from_numpy(lm)
     opt = torch.optim.Adam(patchnet.parameters(), lr=cfg.patch_lr)
-    n_patch_iters = 0 if init_patchnet is not None else cfg.patch_iters
-    for _ in bar(range(n_patch_iters), desc="PatchNet", disable=not progress or None):
+    for _ in bar(range(n_iters), desc="PatchNet", disable=not progress or None):
         probs = patchnet(x, tops)
         fprobs = probs[Ft].mean(dim=1)
         lc = L.cosine_loss(fprobs, fn, fa)
@@ -311,18 +224,22 @@ def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool,
         hist["patch_total"].append(float(loss.detach()))
         hist["cos"].append(float(lc.detach()))
         hist["geo"].append(float(lg.detach()))
-    t1 = time.perf_counter()
-    model = NeuralUVModel(cfg, patchnet.eval(), fwd, bwd, hist)
-    hist["seconds_patchnet"] = t1 - t0
-    if patchnet_only:
-        return model
 
-    # --- charts and codes at the training resolution ------------------------------------
+
+def _fit_uv_mlps(patchnet: Any, fwd: Any, bwd: Any, x: Any, tops: dict, Vn: np.ndarray,
+                 F: np.ndarray, mass: np.ndarray, cfg: NeuralConfig, hist: dict,
+                 progress: bool) -> None:
+    """Charts and codes from the trained PatchNet at the training resolution, then
+    ``cfg.uv_iters`` Adam steps of the forward and backward MLPs on the cycle, isometric,
+    angle and area losses; appends the loss curves to ``hist``."""
+    # heavy: torch (~1.1 s to import)
+    import torch
+
     with torch.no_grad():
         probs = patchnet(x, tops).numpy()
         feats = patchnet.features(x, tops).numpy()
     chart_ids = assign_charts(Vn, F, probs, cfg.consolidation_steps, cfg.min_chart_fraction)
-    psi = chart_codes(feats, ops.mass, F, chart_ids)
+    psi = chart_codes(feats, mass, F, chart_ids)
     row_vertex, row_chart, row_faces = chart_rows(F, chart_ids)
     pairs, gdist = _iso_pairs(Vn, row_vertex, row_chart, row_faces, cfg.sigma)
     hist["n_charts_train"] = int(chart_ids.max()) + 1
@@ -359,79 +276,3 @@ def _train(V, F, cfg: NeuralConfig, progress: bool, patchnet_only: bool,
         opt.step()
         for k, v in (("uv_total", loss), ("cycle", lcyc), ("iso", liso), ("angle", lang), ("area", lar)):
             hist[k].append(float(v.detach()))
-    hist["seconds_uv"] = time.perf_counter() - t1
-    hist["seconds_total"] = time.perf_counter() - t0
-    model.forward_mlp = fwd.eval()
-    model.backward_mlp = bwd.eval()
-    return model
-
-
-def plain_values(value: Any) -> Any:
-    """Loss histories as plain Python numbers/strings/lists (loadable with weights_only)."""
-    if isinstance(value, dict):
-        return {str(k): plain_values(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [plain_values(v) for v in value]
-    if isinstance(value, (str, bool, int)) or value is None:
-        return value
-    return float(value)
-
-
-def save_model(model: NeuralUVModel, path: str | Path, half: bool = False) -> None:
-    """Write a checkpoint (configuration, state dicts, loss history) atomically.
-
-    Parameters
-    ----------
-    model : NeuralUVModel
-    path : str or Path
-    half : bool
-        Store the weights as float16 (half the size; :func:`load_model` restores float32).
-        Used for the checkpoints shipped in the package.
-    """
-
-    # heavy: torch (~1.1 s to import)
-    import torch
-
-    def weights(module):
-        sd = module.state_dict()
-        return {k: (v.half() if half and v.is_floating_point() else v) for k, v in sd.items()}
-
-    state = {"format": "dressmeup-neural-uv-v1", "config": asdict(model.config),
-             "patchnet": weights(model.patchnet), "forward_mlp": weights(model.forward_mlp),
-             "backward_mlp": weights(model.backward_mlp), "history": plain_values(model.history)}
-    buf = io.BytesIO()
-    torch.save(state, buf)
-    atomic_write_bytes(path, buf.getvalue())
-
-
-def load_model(path: str | Path) -> NeuralUVModel:
-    """Read a checkpoint written by :func:`save_model`.
-
-    Raises
-    ------
-    FileNotFoundError
-        Missing file.
-    InputError
-        Not a neural-UV checkpoint (or over the limits of :mod:`dressmeup.limits`).
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"neural UV checkpoint {path} does not exist (train one with "
-                                "'dressmeup baseline train-uvparam')")
-    state = load_checkpoint(path, "neural UV checkpoint", "dressmeup-neural-uv-v1",
-                            ("config", "patchnet", "forward_mlp", "backward_mlp"))
-    def weights(sd):  # float16 checkpoints (shipped ones) back to float32
-        return {k: (v.float() if v.is_floating_point() else v) for k, v in sd.items()}
-
-    try:
-        c = dict(state["config"])
-        c["weights"] = tuple(c["weights"])
-        cfg = NeuralConfig(**c)
-        patchnet, fwd, bwd = _build_modules(cfg)
-        patchnet.load_state_dict(weights(state["patchnet"]))
-        fwd.load_state_dict(weights(state["forward_mlp"]))
-        bwd.load_state_dict(weights(state["backward_mlp"]))
-    except (RuntimeError, ValueError, TypeError, KeyError, AttributeError) as exc:
-        raise InputError(f"neural UV checkpoint {path}: damaged or of another version "
-                         f"({str(exc).splitlines()[0][:200]})") from exc
-    return NeuralUVModel(cfg, patchnet.eval(), fwd.eval(), bwd.eval(), state.get("history", {}))

@@ -26,22 +26,24 @@ from scipy.sparse.csgraph import dijkstra
 from dressmeup.cache import hash_arrays
 from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
 from dressmeup.methods.nn.convergence import converged
-from dressmeup.methods.nn.diffusion_net import compute_operators
+from dressmeup.methods.nn.diffusion_ops import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
+from dressmeup.methods.uvparam.neural.model import (
+    NeuralConfig,
+    NeuralUVModel,
+    build_modules,
+    get_config,
+)
 from dressmeup.methods.uvparam.neural.patchnet import (
     assign_charts,
     normalize_vertices,
     patchnet_inputs,
 )
 from dressmeup.methods.uvparam.neural.train import (
-    NeuralConfig,
-    NeuralUVModel,
-    _build_modules,
     _edge_graph,
     _iso_pairs,
     chart_codes,
     chart_rows,
-    get_config,
 )
 from dressmeup.progress import progress as bar
 
@@ -195,9 +197,6 @@ def train_on_set(train_meshes: Sequence[tuple[np.ndarray, np.ndarray]],
 
 def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every, tol,
                   progress, on_eval) -> NeuralUVModel:
-    # heavy: torch (~1.1 s to import)
-    import torch
-
     t0 = time.perf_counter()
     rng = np.random.default_rng(cfg.seed)
     shas = [mesh_sha(V, F) for V, F in train_meshes]
@@ -206,7 +205,7 @@ def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every
     val = [_prepare(V, F, cfg, rng) for V, F in val_meshes]
     t_prep = time.perf_counter()
     left = budget - (t_prep - t0)
-    patchnet, fwd, bwd = _build_modules(cfg)
+    patchnet, fwd, bwd = build_modules(cfg)
     hist: dict = {k: [] for k in ("patch_total", "cos", "geo", "uv_total", "cycle", "iso",
                                   "angle", "area")}
     hist.update(val_patch=[], val_uv=[], stopped={}, train_mesh_sha=shas,
@@ -221,9 +220,34 @@ def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every
 
     order.perm = rng.permutation(len(train))
 
-    # --- PatchNet over the set ------------------------------------------------------------
+    patch_stop = _fit_patchnet_on_set(patchnet, train, val, cfg, order, t_prep + patch_share * left,
+                                      eval_every, tol, hist, progress, on_eval)
+    hist["stopped"]["patchnet"] = patch_stop
+    hist["patch_steps"] = len(hist["patch_total"])
+    t1 = time.perf_counter()
+    hist["seconds_patchnet"] = t1 - t_prep
+    train_uv = [_uv_data(d, patchnet, cfg) for d in train]
+    val_uv = [_uv_data(d, patchnet, cfg) for d in val]
+    hist["n_charts_train"] = [u["n_charts"] for u in train_uv]
+    hist["stopped"]["uv"] = _fit_uv_on_set(fwd, bwd, train_uv, val_uv, cfg, order, t0 + budget,
+                                           eval_every, tol, hist, progress, on_eval)
+    hist["uv_steps"] = len(hist["uv_total"])
+    hist["seconds_uv"] = time.perf_counter() - t1
+    hist["seconds_total"] = time.perf_counter() - t0
+    return NeuralUVModel(cfg, patchnet, fwd.eval(), bwd.eval(), hist)
+
+
+def _fit_patchnet_on_set(patchnet: Any, train: list[dict], val: list[dict], cfg: NeuralConfig,
+                         order: Callable[[int], int], deadline: float, eval_every: int,
+                         tol: float, hist: dict, progress: bool,
+                         on_eval: Callable[[str, int, float], None] | None) -> str:
+    """PatchNet over the set, one training mesh per step (in ``order``), evaluated on ``val``
+    every ``eval_every`` steps; keeps the best state on ``val`` (left in eval mode). Returns
+    why it stopped: ``converged``, ``budget`` (past ``deadline``) or ``max_iters``."""
+    # heavy: torch (~1.1 s to import)
+    import torch
+
     opt = torch.optim.Adam(patchnet.parameters(), lr=cfg.patch_lr)
-    deadline = t_prep + patch_share * left
     stop = "max_iters"
     best_state, best_val = None, np.inf
     for step in bar(range(1, cfg.patch_iters + 1), desc="PatchNet", disable=not progress or None):
@@ -251,20 +275,22 @@ def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every
     if best_state is not None:
         patchnet.load_state_dict(best_state)
     patchnet.eval()
-    hist["stopped"]["patchnet"] = stop
-    hist["patch_steps"] = len(hist["patch_total"])
-    t1 = time.perf_counter()
-    hist["seconds_patchnet"] = t1 - t_prep
+    return stop
 
-    # --- UV MLPs over the set -------------------------------------------------------------
-    train_uv = [_uv_data(d, patchnet, cfg) for d in train]
-    val_uv = [_uv_data(d, patchnet, cfg) for d in val]
-    hist["n_charts_train"] = [u["n_charts"] for u in train_uv]
+
+def _fit_uv_on_set(fwd: Any, bwd: Any, train_uv: list[dict], val_uv: list[dict],
+                   cfg: NeuralConfig, order: Callable[[int], int], deadline: float,
+                   eval_every: int, tol: float, hist: dict, progress: bool,
+                   on_eval: Callable[[str, int, float], None] | None) -> str:
+    """The UV MLPs over the set, as :func:`_fit_patchnet_on_set` (validation pairs drawn
+    the same at every evaluation); keeps the best pair of states. Returns why it stopped."""
+    # heavy: torch (~1.1 s to import)
+    import torch
+
     params = list(fwd.parameters()) + list(bwd.parameters())
     opt = torch.optim.Adam(params, lr=cfg.uv_lr)
     gen = torch.Generator().manual_seed(cfg.seed)
     val_gen_seed = cfg.seed + 12345
-    deadline = t0 + budget
     stop = "max_iters"
     best_state, best_val = None, np.inf
     for step in bar(range(1, cfg.uv_iters + 1), desc="UV MLPs", disable=not progress or None):
@@ -295,8 +321,4 @@ def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every
     if best_state is not None:
         fwd.load_state_dict(best_state[0])
         bwd.load_state_dict(best_state[1])
-    hist["stopped"]["uv"] = stop
-    hist["uv_steps"] = len(hist["uv_total"])
-    hist["seconds_uv"] = time.perf_counter() - t1
-    hist["seconds_total"] = time.perf_counter() - t0
-    return NeuralUVModel(cfg, patchnet, fwd.eval(), bwd.eval(), hist)
+    return stop
