@@ -92,7 +92,8 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
             log(f"no submissions for {ed.name}; tables left unchanged")
             continue
         results = runs.score_many(subs, ed, parts.private, run / "results" / ed.name,
-                                  executor=executor, log=log)
+                                  executor=executor, log=log,
+                                  allow_other_data=args.allow_other_data)
         results += _kept_results(args.keep_results, ed.name, {r.name for r in results}, log)
         out = Path(args.results)
         out.mkdir(parents=True, exist_ok=True)
