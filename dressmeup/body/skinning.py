@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from dressmeup.geometry.mesh import vertex_normals
+from dressmeup.geometry.proximity import barycentric
 
 
 def _check(arr, name: str, shape: tuple) -> np.ndarray:
@@ -43,26 +44,8 @@ def closest_surface_points(V: np.ndarray, F: np.ndarray, points: np.ndarray):
     sqr, fid, C = igl.point_mesh_squared_distance(P, V, F)
     fid = np.asarray(fid, dtype=np.int64).ravel()
     C = np.asarray(C)
-    bary = barycentric(C, V[F[fid, 0]], V[F[fid, 1]], V[F[fid, 2]])
+    bary = barycentric(C, V[F[fid]])
     return np.sqrt(np.maximum(np.asarray(sqr).ravel(), 0)), C, fid, bary
-
-
-def barycentric(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates (k, 3) of points p (k, 3) in triangles (a, b, c), each (k, 3)."""
-    v0, v1, v2 = b - a, c - a, p - a
-    d00 = np.einsum("ij,ij->i", v0, v0)
-    d01 = np.einsum("ij,ij->i", v0, v1)
-    d11 = np.einsum("ij,ij->i", v1, v1)
-    d20 = np.einsum("ij,ij->i", v2, v0)
-    d21 = np.einsum("ij,ij->i", v2, v1)
-    den = d00 * d11 - d01 * d01
-    safe = np.where(np.abs(den) > 1e-30, den, 1.0)
-    v = (d11 * d20 - d01 * d21) / safe
-    w = (d00 * d21 - d01 * d20) / safe
-    out = np.stack([1 - v - w, v, w], 1)
-    out[np.abs(den) <= 1e-30] = 1.0 / 3.0
-    out = np.clip(out, 0.0, 1.0)
-    return out / out.sum(1, keepdims=True)
 
 
 def transfer_weights(

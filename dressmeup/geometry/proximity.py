@@ -197,6 +197,36 @@ class SurfaceIndex:
         return dist, pts, face_ids
 
 
+
+def barycentric(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates of points on triangles, clamped to the triangle.
+
+    Parameters
+    ----------
+    p : (k, 3) points; tri : (k, 3, 3) the triangle of each point (corners in rows).
+
+    Returns
+    -------
+    (k, 3) float64 weights in [0, 1] summing to 1 (clamped and renormalised, so a point
+    off the triangle gets the weights of a nearby point on it); a degenerate triangle
+    (squared double area <= 1e-30) gets 1/3 each.
+    """
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1, v2 = b - a, c - a, p - a
+    d00 = np.einsum("ij,ij->i", v0, v0)
+    d01 = np.einsum("ij,ij->i", v0, v1)
+    d11 = np.einsum("ij,ij->i", v1, v1)
+    d20 = np.einsum("ij,ij->i", v2, v0)
+    d21 = np.einsum("ij,ij->i", v2, v1)
+    den = d00 * d11 - d01 * d01
+    safe = np.where(np.abs(den) > 1e-30, den, 1.0)
+    v = (d11 * d20 - d01 * d21) / safe
+    w = (d00 * d21 - d01 * d20) / safe
+    out = np.stack([1 - v - w, v, w], 1)
+    out[np.abs(den) <= 1e-30] = 1.0 / 3.0
+    out = np.clip(out, 0.0, 1.0)
+    return out / out.sum(1, keepdims=True)
+
 def faces_around_faces(F: np.ndarray, n_vertices: int) -> np.ndarray:
     """(m, r) int64: for each face, the distinct faces incident to any of its 3 vertices,
     ascending, -1 padded (r: the largest such ring)."""

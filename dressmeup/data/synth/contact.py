@@ -22,7 +22,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from dressmeup.geometry.mesh import edges, face_normals
-from dressmeup.geometry.proximity import SurfaceIndex, closest_point_on_triangles
+from dressmeup.geometry.proximity import SurfaceIndex, barycentric, closest_point_on_triangles
 
 
 @dataclass
@@ -370,19 +370,3 @@ def _segment_params(p0, p1, q0, q1):
     t = np.clip((b * s + e) / np.maximum(c, 1e-30), 0.0, 1.0)
     s = np.clip((b * t - d) / np.maximum(a, 1e-30), 0.0, 1.0)
     return s, t, ok
-
-
-def barycentric(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates ``(q, 3)`` of points ``p`` on triangles ``tri (q, 3, 3)``."""
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    v0, v1, v2 = b - a, c - a, p - a
-    d00 = np.einsum("pd,pd->p", v0, v0)
-    d01 = np.einsum("pd,pd->p", v0, v1)
-    d11 = np.einsum("pd,pd->p", v1, v1)
-    d20 = np.einsum("pd,pd->p", v2, v0)
-    d21 = np.einsum("pd,pd->p", v2, v1)
-    den = np.maximum(d00 * d11 - d01 * d01, 1e-30)
-    bv = (d11 * d20 - d01 * d21) / den
-    bw = (d00 * d21 - d01 * d20) / den
-    out = np.clip(np.stack([1.0 - bv - bw, bv, bw], axis=1), 0.0, 1.0)
-    return out / out.sum(1, keepdims=True)

@@ -24,9 +24,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from dressmeup.data.synth.cloth import ClothModel, ClothSettings, Loads, solve
-from dressmeup.data.synth.contact import barycentric
 from dressmeup.geometry.mesh import face_normals
-from dressmeup.geometry.proximity import closest_points
+from dressmeup.geometry.proximity import barycentric, closest_points
 
 
 @dataclass(frozen=True)

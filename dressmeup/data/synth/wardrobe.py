@@ -68,7 +68,7 @@ from dressmeup.data.writer import DatasetWriter
 from dressmeup.executors import LocalExecutor, in_order
 from dressmeup.executors.local import die_with_parent
 from dressmeup.geometry.mesh import edges, face_areas
-from dressmeup.geometry.proximity import closest_points
+from dressmeup.geometry.proximity import barycentric, closest_points
 from dressmeup.geometry.winding import winding_number
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.mesh import save_mesh
@@ -292,24 +292,9 @@ def transfer_to_body(points: np.ndarray, from_V: np.ndarray, to_V: np.ndarray,
 
     F = np.asarray(faces, np.int64)
     _, p, fid = closest_points(from_V, F, points, exact_faces=True)
-    bary = _barycentric(p, from_V[F[fid]])
+    bary = barycentric(p, from_V[F[fid]])
     disp = np.einsum("pk,pkd->pd", bary, (to_V - from_V)[F[fid]])
     return np.asarray(points, np.float64) + disp
-
-
-def _barycentric(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    v0, v1, v2 = b - a, c - a, p - a
-    d00 = np.einsum("pd,pd->p", v0, v0)
-    d01 = np.einsum("pd,pd->p", v0, v1)
-    d11 = np.einsum("pd,pd->p", v1, v1)
-    d20 = np.einsum("pd,pd->p", v2, v0)
-    d21 = np.einsum("pd,pd->p", v2, v1)
-    den = np.maximum(d00 * d11 - d01 * d01, 1e-30)
-    v = (d11 * d20 - d01 * d21) / den
-    w = (d00 * d21 - d01 * d20) / den
-    out = np.stack([1.0 - v - w, v, w], axis=1)
-    return np.clip(out, 0.0, 1.0) / np.clip(out, 0.0, 1.0).sum(1, keepdims=True)
 
 
 def drape_stats(V: np.ndarray, F: np.ndarray, rest_V: np.ndarray, body_V: np.ndarray,
