@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from dressmeup.data.synth.stats import read_stats
+
 GOALS = {"inside_median": 0.3, "inside_max": 2.0, "self_int_median": 5, "sensitivity_mm": 1.0}
 
 
@@ -40,8 +42,7 @@ def load() -> str:
 
 def plausibility(root: Path) -> dict:
     """Figures over every sample's stats (module docstring, item 1)."""
-    rows = [json.loads(f.read_text()) for f in
-            sorted((root / "generator" / "stats").glob("[!.]*.json"))]
+    rows = read_stats(root)
     inside = np.array([r["inside_area_pct"] for r in rows])
     selfint = np.array([r["self_intersecting_faces"] for r in rows])
 

@@ -14,7 +14,6 @@ from dressmeup.bench.parts import export_parts
 from dressmeup.bench.tasks.common import manifest_sha256, other_data_reason
 from dressmeup.data.parts import part_of
 from dressmeup.data.synth import generate_dataset
-from dressmeup.data.synth.config import FIELDS as SYNTH_FIELDS
 from dressmeup.data.uvmeshes import build_mesh_set
 from dressmeup.errors import InputError
 from dressmeup.runs.common import Log, _quiet
@@ -43,12 +42,10 @@ def build_data(edition: str | Edition, root: str | os.PathLike, log: Log = _quie
         build_mesh_set(root, mesh_ids=pin.params.get("mesh_ids", ()),
                        garments=pin.params.get("garments"), seed=pin.seed)
     else:
-        accepted = set(SYNTH_FIELDS)
-        unknown = sorted(set(pin.params) - accepted)
-        if unknown:
-            raise InputError(f"edition {ed.name}: generator parameters {unknown} are not "
-                             f"settings of this toolkit's generator (SynthConfig)")
-        generate_dataset(root, seed=pin.seed, **pin.params)
+        try:
+            generate_dataset(root, seed=pin.seed, **pin.params)
+        except InputError as exc:  # e.g. a parameter this toolkit's generator does not know
+            raise InputError(f"edition {ed.name}: {exc}") from exc
     log(f"data for {ed.name}: {root} ({time.perf_counter() - t0:.0f} s)")
     other = data_differs(ed, root)
     if other:

@@ -45,16 +45,14 @@ from dressmeup.data.synth.wardrobe import (
     CATEGORY_TYPES,
     DEFAULT_EDGE_LENGTH,
     STORE_DECIMALS,
+    dataset_info,
     drape_stats,
     generator_params,
     plan_v3,
     quantize,
-    run_garment_jobs,
-    wearers,
+    write_plan,
 )
-from dressmeup.data.writer import DatasetWriter
 from dressmeup.geometry.mesh import weld_coincident
-from dressmeup.progress import progress
 
 VERSION = "3.0.0"
 #: the solver figures copied to the top of every sample's stats (from the pose path's end)
@@ -105,45 +103,15 @@ def generate_v4(out: str | os.PathLike, subjects: int = 4, poses: int = 3,
                               write_scan=write_scan, texture_size=texture_size,
                               dress=settings.to_dict(), scan_body=scan_body)
     params["version"] = VERSION
-    info = {
-        "name": "dressmeup-synthetic",
-        "version": VERSION,
-        "licence": "CC0-1.0 (generated data; anny body model data is CC0)",
-        "description": f"Synthetic DressMeUp-style dataset, generator {VERSION}: each parametric "
-                       "garment is dressed by simulation from its design body at rest onto "
-                       "bodies of different shape in identical poses (the body changes "
-                       "gradually, shape then pose; quasi-static cloth with body contact and "
-                       "self-contact, solved to a tolerance).",
-        "body_model": body_model,
-        "categories": sorted({g["category"] for g in plan["garments"].values()}),
-        "citation": "dressmeup toolkit, synthetic generator " + VERSION,
-        "generator": {"name": "dressmeup.data.synth", "version": VERSION, "seed": seed,
-                      "params": params},
-        "subjects": plan["subjects"],
-        "poses": plan["poses"],
-        "garments": plan["garments"],
-    }
-    t_start, cpu_start = time.perf_counter(), time.process_time()
-    out = Path(out)
-    writer = DatasetWriter(out, info)
-    total = sum(len(wearers(plan, gid)) for gid in plan["garments"])
-    bar = progress(range(total), desc="synth v4", total=total)
-    todo = []
-    rank = {"test": 0, "train": 1, "val": 2}  # the benchmark's garments first
-    for gid, g in sorted(plan["garments"].items(), key=lambda kv: (rank[kv[1]["split"]], kv[0])):
-        worn = wearers(plan, gid)
-        missing = [(s, p) for s, p in worn if not writer.has_sample(f"{s}-{gid}-{p}")]
-        for _ in range(len(worn) - len(missing)):
-            next(bar, None)
-        if missing:
-            todo.append((gid, g, missing))
+    info = dataset_info(VERSION, f"Synthetic DressMeUp-style dataset, generator {VERSION}: each "
+                        "parametric garment is dressed by simulation from its design body at "
+                        "rest onto bodies of different shape in identical poses (the body "
+                        "changes gradually, shape then pose; quasi-static cloth with body "
+                        "contact and self-contact, solved to a tolerance).", body_model, plan,
+                        seed, params)
     setup = (body_model, plan, edge, settings, 0, seed, texture_size, write_scan, scan_body)
-    run_garment_jobs(_dress_job, setup, todo, writer, out, bar, workers, executor)
-    for _ in bar:
-        pass
-    return writer.finalize(report=summarize_dress_stats(out), timings={
-        "last_run_s": round(time.perf_counter() - t_start, 2),
-        "last_run_main_cpu_s": round(time.process_time() - cpu_start, 2), "workers": workers})
+    return write_plan(out, info, plan, _dress_job, setup, workers, executor, "synth v4",
+                      summarize_dress_stats)
 
 
 def _rest_body(shape: np.ndarray) -> np.ndarray:

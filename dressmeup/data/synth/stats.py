@@ -10,6 +10,18 @@ from typing import Any
 import numpy as np
 
 
+def read_stats(root: str | os.PathLike,
+               sample_ids: list[str] | None = None) -> list[dict[str, Any]]:
+    """Every sample's statistics (``generator/stats/<sample>.json``) in sample order; hidden
+    files (temporary files of an interrupted atomic write) are ignored; with ``sample_ids``
+    only those samples'."""
+    files = sorted((Path(root) / "generator" / "stats").glob("[!.]*.json"))
+    if sample_ids is not None:
+        wanted = set(sample_ids)
+        files = [f for f in files if f.stem in wanted]
+    return [json.loads(f.read_text()) for f in files]
+
+
 def summarize_stats(root: str | os.PathLike,
                     sample_ids: list[str] | None = None) -> dict[str, Any]:
     """Aggregate the generator's per-sample statistics (``generator/stats/*.json``).
@@ -25,11 +37,7 @@ def summarize_stats(root: str | os.PathLike,
     ``stretch_mean`` (mean |l/L - 1| of edges after draping), ``skinned_stretch_mean`` and
     per garment type means of the skinning distance.
     """
-    files = sorted((Path(root) / "generator" / "stats").glob("[!.]*.json"))
-    if sample_ids is not None:
-        wanted = set(sample_ids)
-        files = [f for f in files if f.stem in wanted]
-    rows = [json.loads(f.read_text()) for f in files]
+    rows = read_stats(root, sample_ids)
     if not rows:
         return {}
     by_type: dict[str, list[float]] = {}
@@ -60,11 +68,7 @@ def summarize_dress_stats(root: str | os.PathLike,
     ``unconverged`` (samples whose last solve missed its tolerance), ``iterations_mean``;
     per garment type the median inside area and self-intersecting faces.
     """
-    files = sorted((Path(root) / "generator" / "stats").glob("[!.]*.json"))
-    if sample_ids is not None:
-        wanted = set(sample_ids)
-        files = [f for f in files if f.stem in wanted]
-    rows = [json.loads(f.read_text()) for f in files]
+    rows = read_stats(root, sample_ids)
     if not rows:
         return {}
 

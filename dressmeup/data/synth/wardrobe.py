@@ -305,8 +305,7 @@ def drape_stats(V: np.ndarray, F: np.ndarray, rest_V: np.ndarray, body_V: np.nda
     -------
     dict: ``deepest_mm`` (deepest vertex inside the body, >= 0), ``inside_area_pct`` (share of
     the garment's area whose face centroid is inside the body, by the winding number),
-    ``strain_mean`` / ``strain_p99`` (|l / L - 1| over edges of non-zero rest length
-    ``L``), ``self_intersecting_faces``
+    ``strain_mean`` / ``strain_p99`` (|l / L - 1| over edges), ``self_intersecting_faces``
     (pymeshlab).
     """
     # heavy: pymeshlab (~0.3 s to import)
@@ -319,8 +318,7 @@ def drape_stats(V: np.ndarray, F: np.ndarray, rest_V: np.ndarray, body_V: np.nda
     E = edges(F)
     L = np.linalg.norm(rest_V[E[:, 1]] - rest_V[E[:, 0]], axis=1)
     le = np.linalg.norm(V[E[:, 1]] - V[E[:, 0]], axis=1)
-    rest = L > 0  # an edge of zero rest length (coincident remeshed vertices) has no strain
-    strain = np.abs(le[rest] / L[rest] - 1.0)
+    strain = np.abs(le / L - 1.0)
     ms = pymeshlab.MeshSet()
     ms.add_mesh(pymeshlab.Mesh(np.asarray(V, np.float64), np.asarray(F, np.int32)))
     ms.compute_selection_by_self_intersections_per_face()
@@ -433,31 +431,52 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
                               write_scan=write_scan, texture_size=texture_size,
                               pose_steps=pose_steps, drape=settings.to_dict(),
                               pose_set=pose_set, wear=wear, scan_body=scan_body)
-    info = {
+    info = dataset_info(VERSION, f"Synthetic DressMeUp-style dataset, generator {VERSION}: each "
+                        "parametric garment is fitted to several bodies of different shape and "
+                        "draped in identical poses (quasi-static cloth relaxation with body and "
+                        "self collision along a pose path).", body_model, plan, seed, params)
+    setup = (body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan,
+             scan_body)
+    return write_plan(out, info, plan, _garment_job, setup, workers, executor, "synth v3",
+                      summarize_stats)
+
+
+def dataset_info(version: str, description: str, body_model: str, plan: dict[str, Any],
+                 seed: int, params: dict[str, Any]) -> dict[str, Any]:
+    """The ``dataset.json`` record of a generator-2.x or -3.x dataset (keys in written order)."""
+    return {
         "name": "dressmeup-synthetic",
-        "version": VERSION,
+        "version": version,
         "licence": "CC0-1.0 (generated data; anny body model data is CC0)",
-        "description": f"Synthetic DressMeUp-style dataset, generator {VERSION}: each parametric "
-                       "garment is fitted to several bodies of different shape and draped "
-                       "in identical poses (quasi-static cloth relaxation with body and self "
-                       "collision along a pose path).",
+        "description": description,
         "body_model": body_model,
         "categories": sorted({g["category"] for g in plan["garments"].values()}),
-        "citation": "dressmeup toolkit, synthetic generator " + VERSION,
-        "generator": {"name": "dressmeup.data.synth", "version": VERSION, "seed": seed,
+        "citation": "dressmeup toolkit, synthetic generator " + version,
+        "generator": {"name": "dressmeup.data.synth", "version": version, "seed": seed,
                       "params": params},
         "subjects": plan["subjects"],
         "poses": plan["poses"],
         "garments": plan["garments"],
     }
-    t_start = time.perf_counter()
-    cpu_start = time.process_time()
+
+
+def write_plan(out: str | os.PathLike, info: dict[str, Any], plan: dict[str, Any],
+               job_fn: Any, setup: tuple, workers: int, executor: Any, desc: str,
+               report_fn: Any) -> Path:
+    """Compute with ``job_fn`` and write every sample of ``plan`` not yet in ``out`` (test
+    garments first, so a long run gives the benchmark's data first; then train, then val),
+    then finalize the dataset with ``report_fn(out)`` as its report.
+
+    ``setup`` is the argument tuple of :func:`_setup` every worker runs once; ``workers`` /
+    ``executor`` as in :func:`generate_v3` (a ``LocalExecutor`` means a spawned pool of its
+    size). Returns the dataset root.
+    """
+    t_start, cpu_start = time.perf_counter(), time.process_time()
     out = Path(out)
     writer = DatasetWriter(out, info)
     total = sum(len(wearers(plan, gid)) for gid in plan["garments"])
-    bar = progress(range(total), desc="synth v3", total=total)
+    bar = progress(range(total), desc=desc, total=total)
     todo = []
-    # test garments first (a long run gives the benchmark's data first), then train, then val
     rank = {"test": 0, "train": 1, "val": 2}
     for gid, g in sorted(plan["garments"].items(), key=lambda kv: (rank[kv[1]["split"]], kv[0])):
         worn = wearers(plan, gid)
@@ -466,21 +485,20 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
             next(bar, None)
         if missing:
             todo.append((gid, g, missing))
-    setup = (body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan,
-             scan_body)
-    if isinstance(executor, LocalExecutor):  # recorded below as the pool's size
+    if isinstance(executor, LocalExecutor):
+        # its one-worker mode runs jobs in THIS process, whose libraries did not load with
+        # CANONICAL_ENV: the spawned pool (same size) always starts fresh workers
         workers, executor = executor.workers, None
-    run_garment_jobs(_garment_job, setup, todo, writer, out, bar, workers, executor)
+    _run_garment_jobs(job_fn, setup, todo, writer, out, bar, workers, executor)
     for _ in bar:
         pass
-    report = summarize_stats(out)
-    return writer.finalize(report=report, timings={
+    return writer.finalize(report=report_fn(out), timings={
         "last_run_s": round(time.perf_counter() - t_start, 2),
         "last_run_main_cpu_s": round(time.process_time() - cpu_start, 2), "workers": workers})
 
 
-def run_garment_jobs(job_fn: Any, setup: tuple, todo: list, writer: Any, out: Path, bar: Any,
-                     workers: int, executor: Any) -> None:
+def _run_garment_jobs(job_fn: Any, setup: tuple, todo: list, writer: Any, out: Path, bar: Any,
+                      workers: int, executor: Any) -> None:
     """Compute the garments of ``todo`` with ``job_fn`` (a module-level function of one
     garment's job, run after :func:`_setup` of ``setup``) and write them here, in plan order.
 
@@ -491,10 +509,6 @@ def run_garment_jobs(job_fn: Any, setup: tuple, todo: list, writer: Any, out: Pa
     """
     if not todo:
         return
-    if isinstance(executor, LocalExecutor):
-        # its one-worker mode runs jobs in THIS process, whose libraries did not load with
-        # CANONICAL_ENV: the spawned pool below (same size) always starts fresh workers
-        workers, executor = executor.workers, None
     if executor is not None:
         _run_on(executor, setup, todo, writer, out, bar, job_fn)
         return
