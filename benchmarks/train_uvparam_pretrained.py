@@ -1,4 +1,4 @@
-"""Train the shipped pretrained neural UV models (issue #16) on the synth-uvparam-v2 mesh set.
+"""Train the shipped pretrained neural UV models on the synth-uvparam-v2 mesh set.
 
 Models: one per garment category (``topwear``, ``bottomwear``, ``dress``: the category's
 *train* garments, validated on its *val* garments) and one ``general`` model (the train

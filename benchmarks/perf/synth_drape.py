@@ -1,8 +1,8 @@
 """Cloth solver settings of the synthetic generator, compared on the same garments.
 
 For a few garments made on one body and fitted to another (the v3 shape change), draped in
-hard poses (sitting, arms raised), each variant reports the simulator-comparison criteria of
-issue #13 per sample: deepest vertex inside the body (mm), share of garment area inside the
+hard poses (sitting, arms raised), each variant reports the simulator-comparison criteria
+per sample: deepest vertex inside the body (mm), share of garment area inside the
 body (%), mean and 99th-percentile edge strain, self-intersecting faces (pymeshlab) and the
 CPU seconds per sample, with the load average beside every timing.
 

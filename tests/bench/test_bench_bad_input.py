@@ -1,4 +1,4 @@
-"""The bad-input campaign of issue #12 as regression tests: every case ends in a named error
+"""The bad-input campaign as regression tests: every case ends in a named error
 (no traceback), a refusal, or a validation problem — never silent acceptance."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Leaderboards escape submission metadata in every format (issue #12, item 9)."""
+"""Leaderboards escape submission metadata in every format."""
 
 from __future__ import annotations
 

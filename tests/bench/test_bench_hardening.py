@@ -1,4 +1,4 @@
-"""Hardening of the bench side (issue #12): modes, killed runs, overwrite wording."""
+"""Hardening of the bench side: modes, killed runs, overwrite wording."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Sanity ladder of the retargeting benchmark v3 (issue #13, item 7), on ``synth-retarget-tiny-v3``.
+"""Sanity ladder of the retargeting benchmark v3, on ``synth-retarget-tiny-v3``.
 
 1. the ground truth as a submission scores P2S = ED = 0 (P2S to round-off, 1e-17 m) and
    NC = 1, with a track per row;

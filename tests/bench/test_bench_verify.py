@@ -1,4 +1,4 @@
-"""`leaderboard` trusts no hand-edited result (issue #12, item 1): means are recomputed from
+"""`leaderboard` trusts no hand-edited result: means are recomputed from
 per_sample.parquet, edition.json must hash to the recorded hash, and shipped edition names
 must carry the shipped hash; custom editions are allowed and marked."""
 

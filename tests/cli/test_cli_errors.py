@@ -1,4 +1,4 @@
-"""The CLI error boundary (issue #12, item 15): only the toolkit's own errors and missing
+"""The CLI error boundary: only the toolkit's own errors and missing
 files are one-line user errors; anything else is a bug shown with its traceback."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Batching garments of different vertex counts (issue #12, item 14)."""
+"""Batching garments of different vertex counts."""
 
 from __future__ import annotations
 

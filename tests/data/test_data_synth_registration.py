@@ -1,5 +1,5 @@
 """Generator 2.1.0 drawing from the registration pose set, one garment per sample, scans
-without the skin under the garment (the synth-registration-v3 edition, issue #14): plans and
+without the skin under the garment (the synth-registration-v3 edition): plans and
 scan geometry only, plus one slow small regeneration."""
 
 from __future__ import annotations

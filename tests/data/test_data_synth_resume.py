@@ -1,5 +1,5 @@
 """A `synth` run killed after any single write resumes into exactly the dataset of an
-uninterrupted run (issue #12, item 2): same files, same manifest, same summary report."""
+uninterrupted run: same files, same manifest, same summary report."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Generator 2.1.0 (issue #13): one garment on several bodies, identical poses, splits,
+"""Generator 2.1.0: one garment on several bodies, identical poses, splits,
 pinned manifests that a fresh run (other thread settings, kernels, float32 rounding)
 regenerates exactly."""
 

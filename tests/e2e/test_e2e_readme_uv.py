@@ -1,4 +1,4 @@
-"""The README's UV journey runs as shown: its submission is scored (issue #12, item 14)."""
+"""The README's UV journey runs as shown: its submission is scored."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""LocalExecutor: workers die with their parent (issue #12 item 3) and the switch's rules."""
+"""LocalExecutor: workers die with their parent and the switch's rules."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Bounded, named-error readers for .npz and JSON (issue #12, items 5, 7, 8)."""
+"""Bounded, named-error readers for .npz and JSON."""
 
 from __future__ import annotations
 

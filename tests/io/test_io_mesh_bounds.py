@@ -1,4 +1,4 @@
-"""Mesh readers check headers and sizes before reading (issue #12, items 5 and 10)."""
+"""Mesh readers check headers and sizes before reading."""
 
 from __future__ import annotations
 
