@@ -151,15 +151,26 @@ def _copy(src_root: Path, dst_root: Path, rels: Iterable[str]) -> tuple[int, int
 
 
 def _copy_stats(src: Path, dst: Path) -> None:
-    """Copy a statistics JSON without its timing entries (:data:`VOLATILE_SUFFIXES`)."""
+    """Copy a statistics JSON without its timing entries (:data:`VOLATILE_SUFFIXES`, at any
+    depth)."""
     try:
         data = json.loads(src.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         shutil.copyfile(src, dst)
         return
+    dst.write_text(json.dumps(_without_timings(data), indent=1, sort_keys=True) + "\n",
+                   encoding="utf-8")
+
+
+def _without_timings(data: Any) -> Any:
+    """``data`` without the entries whose keys end in :data:`VOLATILE_SUFFIXES`, at any depth
+    (generator 3.x records CPU seconds per stage)."""
     if isinstance(data, dict):
-        data = {k: v for k, v in data.items() if not k.endswith(VOLATILE_SUFFIXES)}
-    dst.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+        return {k: _without_timings(v) for k, v in data.items()
+                if not k.endswith(VOLATILE_SUFFIXES)}
+    if isinstance(data, list):
+        return [_without_timings(v) for v in data]
+    return data
 
 
 def _left_out(rows: list[dict[str, Any]], withheld: Withheld) -> set[str]:

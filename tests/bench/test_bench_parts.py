@@ -197,3 +197,20 @@ def test_fusion_rule_gives_captures_instead_of_scans(fixture_data):
     assert pd.read_parquet(pub / "manifest.parquet")["scan_path"].isna().all()
     assert leaks(pub, base / "fus-private") == []
     assert res.parts.public_files > 3
+
+
+def test_stats_copies_leave_out_timings_at_any_depth(tmp_path):
+    """Two builds differ in the CPU seconds they record (generator 3.x per stage): the parts
+    copy their statistics without them, so the archives are the same bytes."""
+    from dressmeup.data.parts import _copy_stats
+
+    a = {"energy": 1.5, "cpu_s": 3.0, "dress": {"steps": 4, "cpu_s": 22.9},
+         "runs": [{"wall_s": 1.0, "iterations": 7}]}
+    b = {"energy": 1.5, "cpu_s": 4.0, "dress": {"steps": 4, "cpu_s": 23.4},
+         "runs": [{"wall_s": 2.0, "iterations": 7}]}
+    for name, data in (("a", a), ("b", b)):
+        (tmp_path / f"{name}.json").write_text(json.dumps(data))
+        _copy_stats(tmp_path / f"{name}.json", tmp_path / f"{name}-copy.json")
+    assert (tmp_path / "a-copy.json").read_bytes() == (tmp_path / "b-copy.json").read_bytes()
+    assert json.loads((tmp_path / "a-copy.json").read_text()) == {
+        "energy": 1.5, "dress": {"steps": 4}, "runs": [{"iterations": 7}]}
