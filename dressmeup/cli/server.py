@@ -133,12 +133,8 @@ def _revoke_team(args: argparse.Namespace) -> int:
 
 
 def _add_edition(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
-    from dressmeup.server.editions import add_edition
-
     server = _server(args)
-    with server.sessions() as s:
-        row = add_edition(s, args.name, args.private)
+    row = server.add_edition(args.name, args.private)
     sys.stdout.write(f"edition {row.name} scored from {row.private_root}\n")
     return 0
 

@@ -13,8 +13,9 @@ API (JSON; a team authenticates with ``Authorization: Bearer <token>``):
 - ``POST /api/submissions/{id}/publish`` (JSON ``{"method", "paper_url", "description"}``)
   and ``POST /api/submissions/{id}/withdraw``.
 
-Pages: ``/leaderboard/...`` (the public report site of the published results), ``/team``
-(a team's submissions, the token typed into a form and kept in the page only).
+Pages: ``/leaderboard/...`` (the public report site of the published results, served from
+memory between rebuilds with an ``ETag``; ``If-None-Match`` answers ``304``), ``/team`` (a
+team's submissions, the token typed into a form and kept in the page only).
 """
 
 from __future__ import annotations
@@ -22,13 +23,12 @@ from __future__ import annotations
 import contextlib
 import errno
 import logging
-import mimetypes
 import secrets
 from pathlib import Path
 from typing import Annotated, Any
 
 from fastapi import Depends, FastAPI, Header, HTTPException, Request
-from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, RedirectResponse
+from fastapi.responses import HTMLResponse, JSONResponse, RedirectResponse, Response
 from pydantic import BaseModel
 from sqlalchemy.exc import SQLAlchemyError
 
@@ -37,6 +37,7 @@ from dressmeup.server.accounts import team_for_token
 from dressmeup.server.config import ServerConfig
 from dressmeup.server.db import Submission, Team
 from dressmeup.server.editions import registered
+from dressmeup.server.pages import PageCache, etag_matches
 from dressmeup.server.service import EvaluationServer, LimitReached, NotFound, Rejected
 from dressmeup.server.teampage import TEAM_PAGE
 from dressmeup.server.uploads import TooLarge, receive
@@ -100,7 +101,7 @@ def create_app(server: EvaluationServer) -> FastAPI:
     app.state.server = server
     _add_error_answers(app)
     _add_api(app, server)
-    _add_pages(app, server.config)
+    _add_pages(app, server.pages)
     return app
 
 
@@ -176,9 +177,9 @@ def _add_api(app: FastAPI, server: EvaluationServer) -> None:
         return _view(server.withdraw(t, sub_id))
 
 
-def _add_pages(app: FastAPI, cfg: ServerConfig) -> None:
+def _add_pages(app: FastAPI, cache: PageCache) -> None:
     """``/`` (to the leaderboards), ``/team`` and ``/leaderboard/...`` (the published report
-    site, files served only from inside it)."""
+    site, files served only from inside it, from memory between rebuilds)."""
     @app.get("/", include_in_schema=False)
     def root() -> RedirectResponse:
         return RedirectResponse("/leaderboard/")
@@ -187,22 +188,17 @@ def _add_pages(app: FastAPI, cfg: ServerConfig) -> None:
     def team_page() -> str:
         return TEAM_PAGE
 
+    # async: a cached page is answered on the event loop, without a worker thread's hand-off
     @app.get("/leaderboard/{path:path}", include_in_schema=False)
-    def leaderboard(path: str) -> Any:
-        site = cfg.root / "site"
-        if not site.exists():
-            return HTMLResponse("<!DOCTYPE html><title>Leaderboards</title><h1>Leaderboards"
-                                "</h1><p>No result has been published yet.</p>")
-        base = site.resolve()
-        target = (base / (path or "index.html")).resolve()
-        if target.is_dir():
-            target = target / "index.html"
-        if base not in target.parents or not target.is_file():
+    async def leaderboard(path: str, request: Request) -> Response:
+        page = cache.get(path)
+        if page is None:
             raise HTTPException(404, "no such page")
-        media = mimetypes.guess_type(target.name)[0] or "application/octet-stream"
-        return FileResponse(target, media_type=media,
-                            headers={"Cache-Control": "no-cache",
-                                     "X-Content-Type-Options": "nosniff"})
+        headers = {"ETag": page.etag, "Cache-Control": "no-cache",
+                   "X-Content-Type-Options": "nosniff"}
+        if etag_matches(request.headers.get("if-none-match"), page.etag):
+            return Response(status_code=304, headers=headers)
+        return Response(page.body, media_type=page.media_type, headers=headers)
 
 
 def app_for(root: str | Path) -> FastAPI:

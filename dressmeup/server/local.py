@@ -17,7 +17,6 @@ from dressmeup.server.accounts import add_team, team_for_token
 from dressmeup.server.app import create_app
 from dressmeup.server.client import submit, wait_for
 from dressmeup.server.config import ServerConfig
-from dressmeup.server.editions import add_edition
 from dressmeup.server.service import EvaluationServer
 
 
@@ -63,7 +62,7 @@ def submit_all(local: LocalServer, edition: str, private: Path,
     publish it under its method name; the final states."""
     with local.server.sessions() as s:
         token = add_team(s, "demo")[1]
-        add_edition(s, edition, private)
+    local.server.add_edition(edition, private)
     states = []
     for sub in submissions:
         ans = submit(Path(sub), edition, local.url, token)

@@ -17,6 +17,7 @@ from dressmeup.errors import InputError
 from dressmeup.server import pages
 from dressmeup.server.config import ServerConfig
 from dressmeup.server.db import EditionRow, Submission, Team, make_engine, migrate, sessions
+from dressmeup.server.editions import add_edition
 from dressmeup.server.scoring import Scorer, result_folder, submission_folder
 from dressmeup.server.uploads import Upload, unpack
 
@@ -40,7 +41,8 @@ class Rejected(InputError):
 
 
 class EvaluationServer:
-    """A server's state: its database (migrated on start), folders and scorer thread."""
+    """A server's state: its database (migrated on start), folders, scorer thread and the
+    public pages held in memory (:class:`~dressmeup.server.pages.PageCache`)."""
 
     def __init__(self, config: ServerConfig) -> None:
         self.config = config
@@ -49,6 +51,7 @@ class EvaluationServer:
         self.engine = make_engine(config.database_url)
         self.sessions = sessions(self.engine)
         self.scorer: Scorer | None = None
+        self.pages = pages.PageCache(config)
 
     # ------------------------------------------------------------------ scorer
     def start(self) -> None:
@@ -69,7 +72,22 @@ class EvaluationServer:
         with self.sessions() as s:
             published = s.get(Submission, sub_id).published
         if published:
-            pages.rebuild(self.config, self.sessions)
+            self.rebuild_pages()
+
+    def rebuild_pages(self) -> int:
+        """Rebuild the public pages and drop the cached ones; returns the results shown."""
+        try:
+            return pages.rebuild(self.config, self.sessions)
+        finally:
+            self.pages.invalidate()
+
+    def add_edition(self, name: str, private: str | Path) -> EditionRow:
+        """Score edition ``name`` from its private part (see
+        :func:`~dressmeup.server.editions.add_edition`); the public pages are rebuilt."""
+        with self.sessions() as s:
+            row = add_edition(s, name, private)
+        self.rebuild_pages()
+        return row
 
     # -------------------------------------------------------------- submissions
     def accept(self, team: Team, edition: str, upload: Upload) -> Submission:
@@ -186,7 +204,7 @@ class EvaluationServer:
             row.published, row.public_method = True, method
             row.paper_url, row.description = paper_url or "", description or ""
             s.commit()
-        pages.rebuild(self.config, self.sessions)
+        self.rebuild_pages()
         return self.get(team, sub_id)
 
     def withdraw(self, team: Team, sub_id: str) -> Submission:
@@ -195,7 +213,7 @@ class EvaluationServer:
         with self.sessions() as s:
             s.get(Submission, sub_id).published = False
             s.commit()
-        pages.rebuild(self.config, self.sessions)
+        self.rebuild_pages()
         return self.get(team, sub_id)
 
 
