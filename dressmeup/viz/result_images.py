@@ -29,6 +29,26 @@ TRUTH_RGB = (0.72, 0.74, 0.78)
 ERROR_CMAP = "viridis"
 
 
+def vertex_distances_mm(V: np.ndarray, ref_V: np.ndarray, ref_F: np.ndarray) -> np.ndarray:
+    """Distance of every vertex of a mesh to a reference surface, in millimetres.
+
+    Parameters
+    ----------
+    V : (n, 3) float64 vertices of the mesh (e.g. a prediction), metres.
+    ref_V, ref_F : (k, 3) float64 / (l, 3) int64, the reference surface (e.g. the ground
+        truth).
+
+    Returns
+    -------
+    (n,) float64: the point-to-surface distance of each vertex (the per-vertex form of
+    P2S), mm.
+    """
+
+    dist, _, _ = closest_points(np.asarray(ref_V, np.float64), np.asarray(ref_F, np.int64),
+                                np.asarray(V, np.float64))
+    return 1000.0 * np.asarray(dist, np.float64)
+
+
 def face_distances_mm(V: np.ndarray, F: np.ndarray, ref_V: np.ndarray,
                       ref_F: np.ndarray) -> np.ndarray:
     """Per-face distance of a mesh to a reference surface, in millimetres.
@@ -40,13 +60,10 @@ def face_distances_mm(V: np.ndarray, F: np.ndarray, ref_V: np.ndarray,
 
     Returns
     -------
-    (m,) float64: mean over the face's three corners of the point-to-surface distance (the
-    per-vertex form of P2S), mm.
+    (m,) float64: mean over the face's three corners of :func:`vertex_distances_mm`, mm.
     """
 
-    dist, _, _ = closest_points(np.asarray(ref_V, np.float64), np.asarray(ref_F, np.int64),
-                                np.asarray(V, np.float64))
-    return 1000.0 * dist[np.asarray(F, np.int64)].mean(axis=1)
+    return vertex_distances_mm(V, ref_V, ref_F)[np.asarray(F, np.int64)].mean(axis=1)
 
 
 def penetrating_faces(V: np.ndarray, F: np.ndarray, body_V: np.ndarray,

@@ -11,9 +11,13 @@
                                  chart, its best and worst items as pictures, and the
                                  per-item table (sortable)
       <edition>/img/*.png        the pictures
+      <edition>/img/*-3d.js      the meshes of a method page's 3D view
+      _static/                   three.js (vendored, as one classic script) and the 3D
+                                 view's script, shared by every page
 
 Nothing is fetched from the network: CSS and the sorting script are inline, pictures are PNG
-files beside the pages, so the folder works from ``file://`` and from any static server.
+files beside the pages and the 3D views load with classic ``<script>`` tags (no module, no
+``fetch``), so the folder works from ``file://`` and from any static server.
 
 Pictures per task: retarget -- the prediction coloured by its per-vertex P2S (mm, colour bar)
 front and back beside the ground truth, faces inside the target body in red; uvparam -- the
@@ -60,6 +64,16 @@ _EXTRA_CSS = """
   table.items td { font-size: .85rem; }
   td.err { color: #a11; text-align: left; white-space: normal; max-width: 28rem; }
   img.chart { border: none; }
+  .viewer3d { max-width: 760px; }
+  .v3d-controls { display: flex; flex-wrap: wrap; gap: .4rem 1.2rem; font-size: .85rem;
+                  margin-bottom: .4rem; }
+  .v3d-canvas { width: 100%; height: auto; border: 1px solid #e3e6ec; cursor: grab;
+                display: block; }
+  .v3d-bar { display: flex; align-items: center; gap: .6rem; font-size: .8rem;
+             color: #5b6475; margin-top: .3rem; }
+  .v3d-cbar { width: 256px; height: 14px; border: 1px solid #c9ced8; }
+  .v3d-scale { display: flex; flex-direction: column; width: 256px; }
+  .v3d-ticks { display: flex; justify-content: space-between; }
 """
 
 

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from dressmeup.io.mesh import load_mesh
-from dressmeup.viz.result_images import face_distances_mm, penetrating_faces, render_error_pair
+from dressmeup.viz.result_images import penetrating_faces, render_error_pair, vertex_distances_mm
+from dressmeup.viz.site_viewer import ItemView
 from dressmeup.viz.uv_checker import render_uv_checker
 
 
@@ -39,13 +40,15 @@ def _retarget_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
     F = np.asarray(ds[row["source_id"]].garment().faces, np.int64)
     tgt = ds[row["target_id"]]
     g = tgt.garment()
-    pen = None
+    pen = body_V = body_F = None
     params = tgt.body()
     if params is not None:
         with np.load(posed_body_file(params, models), allow_pickle=False) as z:
-            pen = penetrating_faces(V, F, z["vertices"], z["faces"])
-    return {"V": V, "F": F, "gt_V": g.vertices, "gt_F": g.faces,
-            "err": face_distances_mm(V, F, g.vertices, g.faces), "pen": pen}
+            body_V, body_F = np.asarray(z["vertices"], np.float64), np.asarray(z["faces"])
+        pen = penetrating_faces(V, F, body_V, body_F)
+    verr = vertex_distances_mm(V, g.vertices, g.faces)
+    return {"V": V, "F": F, "gt_V": g.vertices, "gt_F": g.faces, "verr": verr,
+            "err": verr[F].mean(axis=1), "pen": pen, "body_V": body_V, "body_F": body_F}
 
 
 def _fusion_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
@@ -60,12 +63,15 @@ def _fusion_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
     scan = open_dataset(str(root.resolve()))[row["sample_id"]].scan()
     if scan is None:
         raise FileNotFoundError(f"sample {row['sample_id']} has no scan")
-    return {"V": V, "F": F, "gt_V": scan[0], "gt_F": scan[1],
-            "err": face_distances_mm(V, F, scan[0], scan[1]), "pen": None}
+    F = np.asarray(F, np.int64)
+    verr = vertex_distances_mm(V, scan[0], scan[1])
+    return {"V": V, "F": F, "gt_V": scan[0], "gt_F": scan[1], "verr": verr,
+            "err": verr[F].mean(axis=1), "pen": None, "body_V": None, "body_F": None}
 
 
 def draw_items(task: str, rows: list[dict], sub: Path, root: Path, img_dir: Path,
-                prefix: str, metric_label: str) -> list[tuple[Path, str]]:
+                prefix: str, metric_label: str, views: list[ItemView] | None = None
+                ) -> list[tuple[Path, str]]:
     """Draw the items ``rows`` of one method.
 
     Parameters
@@ -76,6 +82,8 @@ def draw_items(task: str, rows: list[dict], sub: Path, root: Path, img_dir: Path
     sub : the submission folder; root : the dataset root; img_dir : where PNGs go.
     prefix : file-name prefix (method slug and best/worst).
     metric_label : label of the ranked metric (for captions).
+    views : when given, one :class:`~dressmeup.viz.site_viewer.ItemView` per drawn
+        retarget or fusion item is appended (the 3D view's meshes, full resolution).
 
     Returns
     -------
@@ -115,4 +123,16 @@ def draw_items(task: str, rows: list[dict], sub: Path, root: Path, img_dir: Path
                           vmax_mm=vmax, penetrating=a["pen"], title=row["sample_id"],
                           error_label=label)
         out.append((png, row["_caption"]))
+        if views is not None:
+            views.append(ItemView(row["_caption"], a["V"], a["F"], a["verr"], a["gt_V"],
+                                  a["gt_F"], a["body_V"], a["body_F"]))
     return out
+
+
+def vmax_of(views: list[ItemView]) -> float:
+    """The top of a colour scale shared by ``views``: the 98th percentile of their per-vertex
+    errors (mm), 1 when there are none."""
+    allerr = np.concatenate([np.asarray(v.vertex_error_mm, float) for v in views]) \
+        if views else np.zeros(0)
+    allerr = allerr[np.isfinite(allerr)]
+    return float(np.percentile(allerr, 98)) if allerr.size else 1.0

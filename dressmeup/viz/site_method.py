@@ -2,7 +2,8 @@
 
 Its numbers with recomputed intervals and the levels they rest on, bar charts per category
 and per track, the best and worst items as pictures (within the site's picture budget;
-otherwise the sentence that says why there are none), and the sortable per-item table.
+otherwise the sentence that says why there are none) and, for retargeting and fusion, the
+same items in a 3D view (:mod:`dressmeup.viz.site_viewer`), and the sortable per-item table.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ import numpy as np
 
 from dressmeup.viz.result_images import render_category_bars
 from dressmeup.viz.site_inputs import find_data_root, find_submission
-from dressmeup.viz.site_items import draw_items
+from dressmeup.viz.site_items import draw_items, vmax_of
+from dressmeup.viz.site_viewer import write_view
 
 #: Upper bound on the item pictures of one site (keeps ``dressmeup demo`` in its time
 #: budget); each method gets at most a fair share of what is left.
@@ -144,6 +146,7 @@ def _best_and_worst(result: Any, task: Any, pspec: Any, img_dir: Path, slug: str
     if why:
         return parts, drawn, why
     primary_name = pspec.name
+    views: list = []
     table = result.table
     ok = table[(table["status"] == "ok")].copy()
     ok = ok[np.isfinite(ok[primary_name].astype(float))]
@@ -164,7 +167,7 @@ def _best_and_worst(result: Any, task: Any, pspec: Any, img_dir: Path, slug: str
             rows.append(r)
         try:
             pics = draw_items(task.name, rows, sub, root, img_dir, f"{slug}-{label}",
-                               pspec.label)
+                               pspec.label, views)
         except (OSError, ValueError, KeyError) as exc:
             why = f"Pictures could not be drawn: {exc}"
             break
@@ -176,6 +179,11 @@ def _best_and_worst(result: Any, task: Any, pspec: Any, img_dir: Path, slug: str
                        f"<figcaption>{e(c)}</figcaption></figure>" for p, c in pics)
         parts.append(f"<h3>{label.capitalize()} {len(pics)} by {e(pspec.label)}</h3>"
                      f'<div class="gallery">{figs}</div>')
+    if views and not why:
+        fusion = task.name == "fusion"
+        parts.append(write_view(views, vmax_of(views),
+                                "distance to scan" if fusion else "P2S",
+                                "scan" if fusion else "ground truth", img_dir, slug))
     return parts, drawn, why
 
 

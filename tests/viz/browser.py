@@ -43,7 +43,9 @@ def chromium(width: int = 1280, height: int = 900) -> Iterator:
     opts.binary_location = binary
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
                 f"--window-size={width},{height}", "--disable-extensions",
-                "--no-first-run", "--disable-background-networking"):
+                "--no-first-run", "--disable-background-networking",
+                # WebGL on the CPU (SwiftShader) for the 3D views: no GPU in headless runs
+                "--enable-unsafe-swiftshader"):
         opts.add_argument(arg)
     opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     drv = webdriver.Chrome(service=Service(executable_path=driver_path), options=opts)

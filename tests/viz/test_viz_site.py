@@ -29,7 +29,11 @@ def test_pictures_exist_and_nothing_is_fetched(site):
         for src in re.findall(r'src="([^"]+)"', text):
             assert not src.startswith(("http:", "https:", "//")), src
             assert (page.parent / src).is_file(), f"{page}: {src} missing"
-        assert 'rel="stylesheet"' not in text and "<script src" not in text
+        assert 'rel="stylesheet"' not in text
+        # scripts are classic scripts from files inside the site (file:// loads no module)
+        assert 'type="module"' not in text and "import(" not in text
+        for src in re.findall(r'<script src="([^"]+)"', text):
+            assert site.index.parent.resolve() in (page.parent / src).resolve().parents, src
 
 
 def test_missing_submission_says_why(site):
@@ -123,6 +127,9 @@ def test_fusion_results_get_error_maps(site_inputs, tmp_path):
     pics = sorted((tmp_path / "site").glob("*/img/shifted-*.png"))
     assert len([p for p in pics if "per_" not in p.name]) == 2, pics   # best + worst
     assert "is gone" not in page and "could not be drawn" not in page
+    # the 3D view: the reconstruction against the scan, no body
+    assert 'id="viewer3d"' in page and "distance to scan" in page
+    assert 'data-layer="body"' not in page
 
 
 def test_changed_submission_gets_no_pictures(site_inputs, tmp_path):

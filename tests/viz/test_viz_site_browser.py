@@ -1,6 +1,7 @@
 """The report site in a real browser (headless Chromium over file:// and a local
 http.server on 127.0.0.1): no console errors, one row per method, sorting by a click on a
-header, every picture loaded, an HTML-injection method name shown as text.
+header, every picture loaded, an HTML-injection method name shown as text, and a method
+page's 3D view drawn and answering its checkboxes, item list and mouse.
 
 Skipped with the reason when chromium, chromium-driver or selenium is absent (CI installs
 them in .ci/setup.sh)."""
@@ -8,8 +9,11 @@ them in .ci/setup.sh)."""
 from __future__ import annotations
 
 import importlib.util
+import io
+import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 _spec = importlib.util.spec_from_file_location("site_browser",
@@ -107,3 +111,104 @@ def test_method_pages(drv, base_url, site):
         assert drv.execute_script("return window.__pwned === undefined;")
         items = drv.find_element(By.CSS_SELECTOR, "table.items")
         assert len(items.find_elements(By.CSS_SELECTOR, "tbody tr")) == 18
+
+
+def _pixels(drv, css: str) -> np.ndarray:
+    from PIL import Image
+
+    png = drv.find_element("css selector", css).screenshot_as_png
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
+
+
+def _open(drv, url: str):
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    drv.get(url)
+    WebDriverWait(drv, 30).until(lambda d: d.execute_script(
+        "const r = document.getElementById('viewer3d'); return r && r.dataset.ready === '1';"))
+    drv.execute_script("document.getElementById('viewer3d').scrollIntoView();")
+
+
+def _differs(a: np.ndarray, b: np.ndarray) -> float:
+    """Share of pixels that changed."""
+    return float(np.mean(np.any(a != b, axis=-1)))
+
+
+def _noisy_page(base_url: str, site) -> str:
+    page = next(p for p in site.method_pages if p.stem == "noisy")
+    return f"{base_url}/{page.relative_to(site.index.parent).as_posix()}"
+
+
+def test_3d_view_renders_and_responds(drv, base_url, site, tmp_path):
+    """The method page's 3D view: three.js loads as classic scripts, the canvas shows a
+    varied picture, each checkbox, the item list, a drag and the wheel change what is
+    drawn, the colour bar shows the scale, and the console stays free of errors."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import Select
+
+    _open(drv, _noisy_page(base_url, site))
+    assert browser.console_errors(drv) == []
+    assert drv.execute_script("return typeof THREE.OrbitControls") == "function"
+    canvas = "#viewer3d .v3d-canvas"
+    first = _pixels(drv, canvas)
+    background = np.array([0xf6, 0xf7, 0xf9])
+    drawn = np.any(np.abs(first - background) > 8, axis=-1)
+    assert 0.05 < drawn.mean() < 0.95                   # something drawn, not a blank fill
+    assert len(np.unique(first.reshape(-1, 3), axis=0)) > 200      # shaded, coloured
+    (tmp_path / "view.png").write_bytes(
+        drv.find_element(By.CSS_SELECTOR, "#viewer3d").screenshot_as_png)
+
+    box = {b.get_attribute("data-layer"): b for b in
+           drv.find_elements(By.CSS_SELECTOR, "#viewer3d input[data-layer]")}
+    assert set(box) == {"pred", "gt", "body"}
+    assert box["pred"].is_selected() and box["body"].is_selected()
+    assert not box["gt"].is_selected()
+    seen = [first]
+    for layer in ("gt", "pred", "body"):         # truth on, prediction off, body off
+        box[layer].click()
+        now = _pixels(drv, canvas)
+        assert _differs(now, seen[-1]) > 0.005, layer
+        seen.append(now)
+    # only the see-through truth is left: no error colours from the prediction
+    box["pred"].click()
+    with_pred = _pixels(drv, canvas)
+    assert _differs(with_pred, seen[-1]) > 0.005
+    box["body"].click()
+    box["gt"].click()                            # back to the first state
+    assert _differs(_pixels(drv, canvas), first) < 0.002
+
+    # another item
+    select = Select(drv.find_element(By.CSS_SELECTOR, "#viewer3d select.v3d-item"))
+    assert len(select.options) >= 2
+    select.select_by_index(len(select.options) - 1)
+    other = _pixels(drv, canvas)
+    assert _differs(other, first) > 0.005
+    # drag turns, the wheel zooms
+    el = drv.find_element(By.CSS_SELECTOR, canvas)
+    ActionChains(drv).move_to_element(el).click_and_hold().move_by_offset(120, 30) \
+        .release().perform()
+    turned = _pixels(drv, canvas)
+    assert _differs(turned, other) > 0.01
+    ActionChains(drv).scroll_from_origin(ScrollOrigin.from_element(el), 0, -400).perform()
+    assert _differs(_pixels(drv, canvas), turned) > 0.01
+
+    # the colour bar: the scale's top matches the page's data, colours drawn
+    vmax = drv.execute_script("return window.DRESSMEUP_VIEWS.vmax")
+    ticks = drv.find_element(By.CSS_SELECTOR, "#viewer3d .v3d-ticks").text
+    assert f"{vmax:.1f}" in ticks and ticks.startswith("0")
+    bar = _pixels(drv, "#viewer3d .v3d-cbar")
+    assert len(np.unique(bar.reshape(-1, 3), axis=0)) > 50
+    assert browser.console_errors(drv) == []
+
+
+def test_3d_view_items_are_the_pictured_items(drv, base_url, site):
+    """The view's items are the page's pictured items, in the same order."""
+    from selenium.webdriver.common.by import By
+
+    _open(drv, _noisy_page(base_url, site))
+    captions = [f.text for f in drv.find_elements(By.CSS_SELECTOR, "figure figcaption")]
+    items = json.loads(drv.execute_script(
+        "return JSON.stringify(window.DRESSMEUP_VIEWS.items.map(i => i.caption))"))
+    assert items == captions and len(items) >= 2
