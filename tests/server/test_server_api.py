@@ -156,6 +156,7 @@ def test_published_results_reach_the_public_pages_escaped(scored_server):
     assert not list((scored_server["root"] / "site").rglob("*.png")) or all(
         "per_" in p.name or "_edition" in p.name
         for p in (scored_server["root"] / "site").rglob("*.png"))   # no item pictures
+    assert not list((scored_server["root"] / "site").rglob("*-3d.js"))   # nor 3D views
     bad = c.post(f"/api/submissions/{sub_id}/publish", headers=auth(tokens["lab-a"]),
                  json={"method": "x", "paper_url": "javascript:alert(1)"})
     assert bad.status_code == 400 and "http" in bad.json()["detail"]
@@ -164,6 +165,24 @@ def test_published_results_reach_the_public_pages_escaped(scored_server):
     assert "Rigid" not in c.get("/leaderboard/").text
     assert c.get("/leaderboard/../server.db").status_code == 404
     assert c.get("/leaderboard/%2e%2e/server.db").status_code == 404
+
+
+def test_publishing_changes_the_pages_etag(scored_server):
+    """A cached page answers 304 to its ETag until a publish or withdrawal changes it."""
+    c, tokens, sub_id = scored_server["client"], scored_server["tokens"], scored_server["id"]
+    before = c.get("/leaderboard/").headers["etag"]
+    assert c.get("/leaderboard/", headers={"If-None-Match": before}).status_code == 304
+    r = c.post(f"/api/submissions/{sub_id}/publish", headers=auth(tokens["lab-a"]),
+               json={"method": "Cached rigid"})
+    assert r.status_code == 200
+    new = c.get("/leaderboard/", headers={"If-None-Match": before})
+    assert new.status_code == 200 and "Cached rigid" in new.text
+    assert new.headers["etag"] != before
+    assert c.get("/leaderboard/", headers={"If-None-Match": new.headers["etag"]}
+                 ).status_code == 304
+    c.post(f"/api/submissions/{sub_id}/withdraw", headers=auth(tokens["lab-a"]))
+    gone = c.get("/leaderboard/", headers={"If-None-Match": new.headers["etag"]})
+    assert gone.status_code == 200 and "Cached rigid" not in gone.text
 
 
 def _tar(members: list[tuple[tarfile.TarInfo, bytes | None]]) -> bytes:
