@@ -114,7 +114,8 @@ MESH_BYTES = Limit("mesh_bytes", 1 << 30, "bytes", "mesh file size",
 ARRAY_BYTES = Limit("array_bytes", 1 << 30, "bytes", "declared array size (uncompressed)",
                     "the arrays of one .npy/.npz (scans, body parameters, keypoints), a "
                     "Parquet table's row groups, a checkpoint's members and a sparse matrix's "
-                    "dense form, as their headers declare them, before anything is inflated")
+                    "dense form, as their headers declare them, before anything is inflated; "
+                    "the geodesic matrix an edition's options.max_vertices asks for")
 PREDICTION_BYTES = Limit("prediction_bytes", 512 << 20, "bytes",
                          "declared prediction size (uncompressed)",
                          "one prediction file of a submission, from its headers")
@@ -130,14 +131,15 @@ PICKLE_OBJECTS = Limit("pickle_objects", 2_000_000, "count", "objects the pickle
                        "before anything is unpickled")
 TABLE_ROWS = Limit("table_rows", 1_000_000, "count", "table rows",
                    "rows of a manifest or a per-item result table, from the Parquet footer "
-                   "before reading")
+                   "before reading; an edition's pairs.per_track (pairs per source garment)")
 IMAGE_PIXELS = Limit("image_pixels", 100_000_000, "pixels", "image size",
                      "pixels of an image read (texture, atlas, capture frame) from its header "
                      "before decoding (Pillow's MAX_IMAGE_PIXELS is set to it), and of the "
                      "images a command is asked to make (--texture-size, synth-capture "
-                     "--scale)")
+                     "--scale, an edition's options.overlap_resolution grid)")
 SURFACE_SAMPLES = Limit("surface_samples", 20_000_000, "count", "surface samples per mesh",
-                        "surface samples per mesh (metrics --samples)")
+                        "surface samples per mesh (metrics --samples, an edition's "
+                        "options.n_samples)")
 SAMPLES = Limit("samples", 1_000_000, "count", "samples",
                 "samples the synthetic generator is asked to write in one run "
                 "(--subjects x --garments x --poses)")

@@ -9,6 +9,11 @@ sample counts and seed, size limit of a submission file, ...). Reference edition
 The edition hash is the sha256 of the edition's canonical JSON (keys sorted, no spaces,
 defaults filled in, ``description`` left out so that rewording the text does not change the
 protocol). Every result records it, and leaderboards refuse to mix hashes.
+
+An edition is checked when it is loaded, before any work: every field, and what its options
+and pairs would make against the resource policy (:mod:`dressmeup.limits`: surface samples
+per mesh, a geodesic matrix, an overlap grid, the rows of the result table); what it asks of
+its data (pairs per garment) is checked when the data is opened (the task's ``items``).
 """
 
 from __future__ import annotations
@@ -28,11 +33,23 @@ from dressmeup.bench.tasks import Task, get_task
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonio import parse_json_file
+from dressmeup.limits import ARRAY_BYTES, IMAGE_PIXELS, SURFACE_SAMPLES, TABLE_ROWS, LimitError
 
 SCHEMA = "dressmeup-edition/1"
 TASKS = ("retarget", "uvparam", "fusion", "registration", "correspondence")
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 _REQUIRED = ("name", "version", "task", "dataset", "split", "metrics")
+
+#: Options that size what scoring makes: option -> (the limit, the amount an option value
+#: asks for, what that amount is). Each is also an integer >= 1.
+_OPTION_COSTS = {
+    "n_samples": (SURFACE_SAMPLES, lambda n: n, "surface samples per mesh"),
+    "max_vertices": (ARRAY_BYTES, lambda n: 8 * n * n,
+                     "geodesic distance matrix (max_vertices^2 float64)"),
+    "overlap_resolution": (IMAGE_PIXELS, lambda n: n * n,
+                           "overlap grid (overlap_resolution^2 cells)"),
+    "k": (None, None, "neighbours"),
+}
 
 
 @dataclass(frozen=True)
@@ -306,8 +323,26 @@ def _parse_metrics(data: dict[str, Any], task: Task | None,
                         or value < 0:
                     problems.append(f"option {key!r} must be a number >= 0, got {value!r}")
                     continue
+            if key in _OPTION_COSTS and not _option_cost_ok(key, value, problems):
+                continue
             options[key] = value
     return metrics, options
+
+
+def _option_cost_ok(key: str, value: Any, problems: list[str]) -> bool:
+    """Whether option ``key`` (one of :data:`_OPTION_COSTS`) is an integer >= 1 within its
+    resource limit; appends the problem when not."""
+    limit, amount, what = _OPTION_COSTS[key]
+    if not float(value).is_integer() or value < 1:
+        problems.append(f"options.{key} must be an integer >= 1, got {value!r}")
+        return False
+    if limit is not None:
+        try:
+            limit.check(amount(int(value)), f"options.{key}", what)
+        except LimitError as exc:
+            problems.append(str(exc))
+            return False
+    return True
 
 
 def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]
@@ -362,4 +397,9 @@ def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]
                     problems.append(f"pairs.per_track names track {t!r}, not in tracks {tracks}")
                 if not isinstance(n, int) or isinstance(n, bool) or n < 1:
                     problems.append(f"pairs.per_track[{t!r}] must be an integer >= 1, got {n!r}")
+                    continue
+                try:  # a result table row per pair: per garment, at least this many rows
+                    TABLE_ROWS.check(n, f"pairs.per_track[{t!r}]", "pairs per source garment")
+                except LimitError as exc:
+                    problems.append(str(exc))
     return tuple(tracks), primary, copy.deepcopy(pairs)

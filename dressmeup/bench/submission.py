@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from dressmeup.bench.edition import Edition, load_edition
+from dressmeup.bench.escape import one_line_problem
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_dir, atomic_path, atomic_write_text
 from dressmeup.io.hashing import sha256_file
@@ -85,6 +86,11 @@ def info_problems(data: Any) -> list[str]:
         if key in data and (not isinstance(data[key], str) or not data[key].strip()):
             problems.append(f"{SUBMISSION_JSON}: {key!r} must be a non-empty string, "
                             f"got {data[key]!r}")
+    method = data.get("method")
+    if isinstance(method, str) and method.strip():
+        problem = one_line_problem(method, f"{SUBMISSION_JSON}: 'method'")
+        if problem:
+            problems.append(problem)
     for key in ("authors", "url", "hardware"):
         if key in data and not isinstance(data[key], (str, list)):
             problems.append(f"{SUBMISSION_JSON}: {key!r} must be a string, got {data[key]!r}")
@@ -161,9 +167,12 @@ def write_submission(out: str | os.PathLike, predictions: Mapping[str, Any], *,
     Raises
     ------
     InputError
-        Invalid item id, a prediction that is not an array/dict of arrays, or a non-empty
-        folder without ``overwrite``.
+        Invalid item id, a prediction that is not an array/dict of arrays, a method name
+        that is not one line, or a non-empty folder without ``overwrite``.
     """
+    problem = one_line_problem(method, "method") if isinstance(method, str) else None
+    if problem:
+        raise InputError(problem)
 
     if isinstance(edition, Edition):
         ed_name, ed_task = edition.name, edition.task

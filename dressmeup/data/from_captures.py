@@ -206,6 +206,12 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     settings = {"refine": bool(fusion_config.refine), "voxel_size": fusion_config.voxel_size}
     report = BuildReport()
     todo = _sessions_to_build(folders, writer, report)
+    for sdir, _ in todo:  # built again now: recorded again when (and if) it succeeds
+        built.pop(Path(sdir).name, None)
+
+    def record() -> dict[str, Any]:
+        return {"fusion": settings, "body": body, "sessions": dict(sorted(built.items()))}
+
     executor = executor or LocalExecutor(1)
     require_shared(executor, *(s for s, _ in todo))
     jobs = [{"session": str(sdir), "fusion": fusion_config, "extraction": extraction_config,
@@ -217,17 +223,20 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
         try:
             if isinstance(res, BaseException):
                 raise res
-            _write_samples(writer, res, ids, split, report)
+            # the session's record is persisted before its samples: a build killed at any
+            # point resumes with the records of every session it had finished
             built[Path(sdir).name] = {"scan": res["fusion"], "body": res["body_source"],
                                       "labels": res["labels_from"], "fusion": settings}
+            writer.update_info(build=record())
+            _write_samples(writer, res, ids, split, report)
             log.info("%s: %d garment(s), %s, labels from %s, body from %s", sdir,
                      len(res["garments"]), res["fusion"], res["labels_from"],
                      res["body_source"])
         except Exception as exc:  # noqa: BLE001 - one bad session must not stop the build
+            built.pop(Path(sdir).name, None)
             report.failed.append((str(sdir), _failure(exc)))
             log.warning("build-dataset: skipped session %s: %s", sdir, _failure(exc))
-    writer.finalize(build={"fusion": settings, "body": body,
-                           "sessions": dict(sorted(built.items()))})
+    writer.finalize(build=record())
     rank = {str(s): k for k, s in enumerate(folders)}
     report.failed.sort(key=lambda f: rank.get(f[0], len(rank)))  # in the order given
     if report.failed:

@@ -3,7 +3,9 @@
 The adapters (:mod:`dressmeup.data.adapters`) read the published layouts lazily; this module
 writes their samples through :class:`~dressmeup.data.writer.DatasetWriter` (atomic, resumable,
 sha256 per file), assigns splits by garment, and reports what was found and skipped. A run
-that finds no sample is an error, never a silent success.
+that finds no sample is an error, never a silent success; so is a sample in other units than
+the rest (a scan in millimetres among scans in metres), found by the same extent rule as the
+metrics use (:func:`dressmeup.metrics.report.scale_mismatch`).
 """
 
 from __future__ import annotations
@@ -14,10 +16,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from dressmeup.data import adapters
 from dressmeup.data.splits import split_by_garment
 from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import InputError
+from dressmeup.metrics.report import scale_mismatch
 from dressmeup.progress import progress
 
 KINDS = ("cloth3d", "4ddress", "thuman")
@@ -86,7 +91,9 @@ def import_dataset(kind: str, root: str | os.PathLike, out: str | os.PathLike, *
 
     Raises
     ------
-    InputError : zero samples found (the message carries the adapter's report), a bad split.
+    InputError : zero samples found (the message carries the adapter's report), a bad split,
+        a sample in other units than the first one written or a garment in other units than
+        its scan (:func:`check_units`; the samples before it are written, a re-run resumes).
     MissingModelError : CLOTH3D bodies without the SMPL file (use ``with_body=False`` or give
         ``smpl_model_path``).
     """
@@ -110,6 +117,7 @@ def import_dataset(kind: str, root: str | os.PathLike, out: str | os.PathLike, *
             "import_notes": list(coll.report.notes)}
     writer = DatasetWriter(out, info)
     written = resumed = 0
+    reference: tuple[str, np.ndarray] | None = None  # the first sample written: its units
     for s in progress(samples, desc=f"import {kind}", disable=None if progress_bar else True):
         if writer.has_sample(s.sample_id):
             resumed += 1
@@ -118,10 +126,13 @@ def import_dataset(kind: str, root: str | os.PathLike, out: str | os.PathLike, *
         texture = g.texture_image if g.texture_image is not None else g.texture_path
         garment = (g.vertices, g.faces) if g.uv is None else (g.vertices, g.faces, g.uv,
                                                                g.uv_faces)
+        scan = s.scan()
+        this = check_units(s, g.vertices, scan, reference)
+        reference = reference or this
         writer.add_sample(subject_id=s.subject_id, garment_id=s.garment_id, pose_id=s.pose_id,
                           category=s.category, garment_type=s.garment_type,
                           split=assign[s.garment_id], garment=garment,
-                          body=s.body() if with_body else None, scan=s.scan(),
+                          body=s.body() if with_body else None, scan=scan,
                           texture=texture, sample_id=s.sample_id)
         written += 1
     root_out = writer.finalize()
@@ -129,3 +140,45 @@ def import_dataset(kind: str, root: str | os.PathLike, out: str | os.PathLike, *
         log(summary)
     return ImportResult(Path(root_out), written, resumed, summary,
                         [s.sample_id for s in samples])
+
+
+def _source(sample: Any) -> str:
+    """How messages name a sample: its id and the file it was read from."""
+    path = sample.row.get("scan_path") or sample.row.get("garment_path")
+    return f"sample {sample.sample_id}" + (f" ({path})" if path else "")
+
+
+def check_units(sample: Any, garment_vertices: np.ndarray, scan: Any,
+                reference: tuple[str, np.ndarray] | None) -> tuple[str, np.ndarray]:
+    """Check that one imported sample is in the same units as its scan and the import.
+
+    Parameters
+    ----------
+    sample : the adapter's sample (its id and source file name the messages).
+    garment_vertices : (n, 3) float garment vertices.
+    scan : ``(V (k, 3), F)`` of the sample's scan, or None.
+    reference : ``(name, (r, 3) vertices)`` of the sample every other one is compared with
+        (the first written), or None to compare nothing across samples.
+
+    Returns
+    -------
+    ``(name, vertices)`` of this sample (its scan, else its garment): the reference for the
+    next ones.
+
+    Raises
+    ------
+    InputError
+        The garment spans more than :data:`~dressmeup.metrics.report.UNIT_RATIO` times its
+        scan or the reference, or less than its inverse (e.g. millimetres against metres).
+    """
+    name = _source(sample)
+    own = np.asarray(garment_vertices if scan is None else scan[0], float)
+    problem = None
+    if scan is not None:
+        problem = scale_mismatch(garment_vertices, own, f"garment of {name}", "its scan")
+    if problem is None and reference is not None:
+        problem = scale_mismatch(own, reference[1], name, reference[0])
+    if problem is not None:
+        raise InputError(f"{problem[0].upper()}{problem[1:]}; convert it to metres and import "
+                         "again")
+    return name, own

@@ -302,6 +302,22 @@ class DatasetWriter:
             for r in grp:
                 r["topology_shared"] = bool(shared)
 
+    def update_info(self, **fields: Any) -> None:
+        """Write ``fields`` into ``dataset.json`` now (atomically), the dataset still
+        incomplete: what a build must not lose if it is killed before :meth:`finalize`
+        (a resumed build reads it back from :attr:`previous_info`).
+
+        Parameters
+        ----------
+        **fields : top-level ``dataset.json`` fields (JSON-able values); each replaces the
+            field of that name.
+        """
+        info_path = self.root / layout.DATASET_JSON
+        info = parse_json_file(info_path)
+        info.update(_jsonable(fields))
+        info["complete"] = False
+        atomic_write_text(info_path, json.dumps(info, indent=2, sort_keys=True) + "\n")
+
     def finalize(self, **extra_info: Any) -> Path:
         """Mark the dataset complete in ``dataset.json`` (with counts and splits).
 

@@ -22,6 +22,19 @@ __all__ = ["read_obj", "write_obj"]
 log = logging.getLogger(__name__)
 
 
+#: The statements of the OBJ format that :func:`read_obj` reads past without using (normals,
+#: lines, groups, smoothing, free-form geometry, render attributes, ...).
+_OBJ_IGNORED = frozenset((
+    "vn vp p l o g s mg lod usemap maplib bevel c_interp d_interp shadow_obj trace_obj "
+    "ctech stech cstype deg bmat step curv curv2 surf parm trim hole scrv sp end con call "
+    "csh").split())
+
+
+def _is_keyword(key: str) -> bool:
+    """True for a word that could be an OBJ statement (ASCII letters, digits, ``_``)."""
+    return key.isascii() and key.replace("_", "a").isalnum()
+
+
 def _obj_index(tok: str, count: int) -> int:
     i = int(tok)
     return i - 1 if i > 0 else count + i
@@ -50,10 +63,15 @@ def read_obj(path: Path) -> tuple:
     are per corner (seam vertices are not split); ``v x y z r g b`` lines give ``(n, 3) uint8``
     colours; the texture is the ``map_Kd`` of the first ``usemtl`` in a ``mtllib`` beside it.
 
+    Statements it does not use (normals, groups, ...) are skipped; an unknown statement that
+    is a plain word is skipped with a warning, and a line that starts with anything else
+    (control characters such as NUL, bytes that are not UTF-8) is an error: a damaged ``f``
+    or ``v`` line is never dropped silently.
+
     Raises
     ------
     InputError
-        A line that cannot be parsed (its number is in the message).
+        A line that cannot be parsed (the file and the line number are in the message).
     """
     # compact buffers (8 bytes per number) instead of lists of Python floats: a large OBJ
     # costs about its own size in memory, not several times it
@@ -63,7 +81,9 @@ def read_obj(path: Path) -> tuple:
     missing_vt = False
     mtllibs: list[str] = []
     first_mtl: str | None = None
-    with open(path, encoding="utf-8", errors="replace") as fh:
+    unknown: dict[str, int] = {}  # unknown statement -> the first line that has it
+    # utf-8-sig: a byte-order mark is not part of the first statement
+    with open(path, encoding="utf-8-sig", errors="replace") as fh:
         for lineno, line in enumerate(fh, 1):
             if not line or line[0] == "#":
                 continue
@@ -97,12 +117,20 @@ def read_obj(path: Path) -> tuple:
                             uv_faces.extend((ti[0], ti[k], ti[k + 1]))
                 elif key == "mtllib":
                     mtllibs.append(line.strip()[len("mtllib") :].strip())
-                elif key == "usemtl" and first_mtl is None:
-                    first_mtl = line.strip()[len("usemtl") :].strip()
+                elif key == "usemtl":
+                    if first_mtl is None:
+                        first_mtl = line.strip()[len("usemtl") :].strip()
+                elif key not in _OBJ_IGNORED:
+                    if not _is_keyword(key):
+                        raise ValueError(f"{key[:20]!r} is not an OBJ statement")
+                    unknown.setdefault(key, lineno)
             except (ValueError, IndexError, OverflowError) as exc:
                 raise InputError(
                     f"{path}: line {lineno}: cannot parse {line.strip()[:60]!r} ({exc})"
                 ) from exc
+    if unknown:
+        log.warning("%s: unknown OBJ statement(s) skipped: %s", path,
+                    ", ".join(f"{k!r} (first on line {n})" for k, n in unknown.items()))
     V = np.frombuffer(verts, dtype=np.float64).reshape(-1, 3).copy() if n_v else np.zeros((0, 3))
     F = np.frombuffer(faces, dtype=np.int64).reshape(-1, 3).copy()
     uv = uvf = None

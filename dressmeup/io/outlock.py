@@ -6,8 +6,9 @@ silently with a mixed result. :func:`output_lock` takes an exclusive ``flock`` o
 ``.<name>.lock`` beside the output before anything is written and releases it at the end;
 a second writer fails at once with an :class:`~dressmeup.errors.InputError` naming the
 output and the process that holds it. The lock is re-entrant within one process (a command
-and the library call it makes may both take it) and dies with its process (a killed run
-leaves no stale lock: the kernel drops it).
+and the library call it makes may both take it) and dies with its process: the kernel drops
+the ``flock`` of a killed run, so its left-over lock file obstructs nobody; the next writer
+of that output takes the file over (writing its own process id) and removes it at its end.
 """
 
 from __future__ import annotations

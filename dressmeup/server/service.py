@@ -11,7 +11,7 @@ from pathlib import Path
 
 from sqlalchemy import func, select
 
-from dressmeup.bench.escape import safe_url
+from dressmeup.bench.escape import one_line_problem, safe_url
 from dressmeup.bench.validate import validate_submission
 from dressmeup.errors import InputError
 from dressmeup.server import pages
@@ -185,8 +185,8 @@ class EvaluationServer:
         Raises
         ------
         InputError
-            Not scored, an empty or overlong name, a link that is not http(s), a description
-            over 2,000 characters.
+            Not scored, an empty, overlong or multi-line name, a link that is not http(s), a
+            description over 2,000 characters.
         """
         sub = self.get(team, sub_id)
         if sub.status != "scored":
@@ -195,6 +195,9 @@ class EvaluationServer:
         method = (method or "").strip()
         if not method or len(method) > 100:
             raise InputError("method: give a name of 1-100 characters")
+        problem = one_line_problem(method, "method")
+        if problem:
+            raise InputError(problem)
         if paper_url and not safe_url(paper_url):
             raise InputError("paper_url: give an http(s) link")
         if len(description or "") > 2000:

@@ -62,3 +62,53 @@ def test_unknown_name_lists_shipped(tmp_path):
         load_edition("no-such-edition")
     with pytest.raises(InputError, match="does not exist"):
         load_edition(tmp_path / "missing.json")
+
+
+def _shipped(name: str) -> dict:
+    from importlib import resources
+
+    return json.loads((resources.files("dressmeup.bench") / "editions" / f"{name}.json")
+                      .read_text(encoding="utf-8"))
+
+
+def test_an_edition_beyond_the_resource_policy_is_refused_naming_file_and_field(
+        tmp_path, monkeypatch, capsys):
+    """n_samples 2e9 (scored as 'every item failed') and pairs.per_track 10^7 (a submission
+    of six items validated against it) are refused when the edition is loaded."""
+    from dressmeup.cli import main
+
+    d = _shipped("synth-retarget-tiny-v4")
+    d["options"]["n_samples"] = 2e9
+    d["pairs"]["per_track"]["cross"] = 10 ** 7
+    path = tmp_path / "huge.json"
+    path.write_text(json.dumps(d))
+    with pytest.raises(InputError) as info:
+        load_edition(path)
+    msg = str(info.value)
+    assert msg.startswith(f"edition {path} is invalid")
+    assert "options.n_samples: surface samples per mesh 2,000,000,000, over the limit" in msg
+    assert "pairs.per_track['cross']: pairs per source garment 10,000,000, over the limit" in msg
+    # the command line refuses it as a user error, naming the file and the field
+    assert main(["editions", str(path)]) == 2
+    assert "options.n_samples" in capsys.readouterr().err
+    # the limits are the policy's: raising them admits the edition
+    monkeypatch.setenv("DRESSMEUP_MAX_SURFACE_SAMPLES", "4G")
+    monkeypatch.setenv("DRESSMEUP_MAX_TABLE_ROWS", "16M")
+    assert load_edition(path).options["n_samples"] == 2e9
+
+
+def test_edition_sizes_of_other_tasks_and_counts_are_checked():
+    corr = _shipped("synth-correspondence-v2")
+    corr.setdefault("options", {}).update(max_vertices=100_000, k=2.5)
+    with pytest.raises(InputError) as info:
+        edition_from_dict(corr, "c.json")
+    assert "options.max_vertices: geodesic distance matrix" in str(info.value)
+    assert "options.k must be an integer >= 1, got 2.5" in str(info.value)
+    uv = _shipped("synth-uvparam-v2")
+    uv.setdefault("options", {})["overlap_resolution"] = 1_000_000
+    with pytest.raises(InputError, match=r"options.overlap_resolution: overlap grid"):
+        edition_from_dict(uv, "u.json")
+    ret = _shipped("synth-retarget-tiny-v4")
+    ret["options"]["n_samples"] = 0
+    with pytest.raises(InputError, match=r"options.n_samples must be an integer >= 1"):
+        edition_from_dict(ret, "r.json")

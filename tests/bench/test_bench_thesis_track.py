@@ -10,6 +10,7 @@ import trimesh
 from dressmeup.bench import load_edition
 from dressmeup.bench.tasks.retarget.data import sample_pairs
 from dressmeup.bench.tasks.retarget.evaluate import evaluate_pair
+from dressmeup.errors import InputError
 
 
 def test_the_thesis_edition_scores_re_pose_of_topwear_and_bottomwear():
@@ -49,6 +50,15 @@ def test_pair_sampling_keeps_the_named_categories_only():
     assert {p.source.pose_id for p in held} == {"P1"} and {p.target.pose_id for p in held} \
         == {"P2"}
     assert not {p.source.sample_id for p in held} & {p.target.sample_id for p in held}
+
+
+def test_a_track_the_data_has_no_pair_in_is_an_error_not_an_empty_column():
+    samples = [_S(f"S1-G1-{p}", "G1", "S1", p, "topwear") for p in ("P1", "P2")]
+    pairs = [_P(a, b) for a in samples for b in samples if a is not b]  # re-pose only
+    assert len(sample_pairs(pairs, {"seed": 0, "per_track": {"re-pose": 5}})) == 2
+    with pytest.raises(InputError, match=r"per_track names track\(s\) 'cross', but this "
+                                         r"data has no pair in them"):
+        sample_pairs(pairs, {"seed": 0, "per_track": {"re-pose": 1, "cross": 1}})
 
 
 def test_p2s_body_is_the_distance_of_garment_vertices_to_the_body():

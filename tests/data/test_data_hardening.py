@@ -16,6 +16,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+import trimesh
 
 from dressmeup.cli import main
 from dressmeup.data.validate import validate_dataset
@@ -199,3 +200,22 @@ def test_a_second_dataset_writer_is_refused_while_the_first_writes(tmp_path):
         holder.wait()
     w = DatasetWriter(tmp_path / "d", {"name": "x"})  # the dead writer's lock is gone
     assert w.previous_info["name"] == "x"
+
+
+def test_thuman_scan_in_millimetres_among_metres_is_refused_naming_it(tmp_path):
+    from dressmeup.data.importing import import_dataset
+    from dressmeup.io.mesh import save_mesh
+
+    body = trimesh.creation.capsule(height=1.2, radius=0.25)  # a person-sized scan, metres
+    V, F = np.asarray(body.vertices), np.asarray(body.faces)
+    save_mesh(tmp_path / "scans" / "0000" / "0000.obj", V, F)
+    save_mesh(tmp_path / "scans" / "0001" / "0001.obj", V * 1000.0, F)  # millimetres
+    save_mesh(tmp_path / "scans" / "0002" / "0002.obj", V * 1.1, F)
+    with pytest.raises(InputError, match=r"The sample 0001 \(.*0001.obj\) spans 1841 units, "
+                                         r"the sample 0000 .* 1.841 \(1e\+03 times\)"):
+        import_dataset("thuman", tmp_path / "scans", tmp_path / "out", with_body=False)
+    # scans of one unit import (people of different sizes are not a unit mismatch)
+    (tmp_path / "scans" / "0001" / "0001.obj").unlink()
+    save_mesh(tmp_path / "scans" / "0001" / "0001.obj", V * 0.8, F)
+    assert import_dataset("thuman", tmp_path / "scans", tmp_path / "out",
+                          with_body=False).written == 2

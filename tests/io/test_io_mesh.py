@@ -106,6 +106,31 @@ def test_errors_name_the_file(tmp_path):
         load_mesh(tmp_path / "x.stl")
 
 
+@pytest.mark.parametrize("damage", [b"f\0", b"f\x01", b"\0f", b"f\xff"])
+def test_obj_face_lines_with_control_bytes_are_errors_not_dropped(tmp_path, damage):
+    """A damaged ``f`` line (``f\\0 1 2 3``) named by file and line, never skipped."""
+    m = trimesh.creation.icosphere(subdivisions=1)
+    save_mesh(tmp_path / "ok.obj", m.vertices, m.faces)
+    lines = (tmp_path / "ok.obj").read_bytes().split(b"\n")
+    faces = [i for i, line in enumerate(lines) if line.startswith(b"f ")]
+    for i in faces[3:]:
+        lines[i] = damage + lines[i][1:]
+    bad = tmp_path / "bad.obj"
+    bad.write_bytes(b"\n".join(lines))
+    with pytest.raises(InputError, match=rf"bad.obj: line {faces[3] + 1}: .*not an OBJ statement"):
+        load_mesh(bad)
+
+
+def test_obj_statements_not_used_are_skipped_and_unknown_words_warned(tmp_path, caplog):
+    obj = tmp_path / "n.obj"
+    obj.write_bytes(b"\xef\xbb\xbfo thing\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\ng grp\n"
+                    b"s off\nl 1 2\nweird 1 2\nf 1//1 2//1 3//1\n")
+    with caplog.at_level("WARNING"):
+        mesh = load_mesh(obj)
+    assert mesh.faces.tolist() == [[0, 1, 2]]
+    assert "'weird' (first on line 9)" in caplog.text
+
+
 def test_save_rejects_bad_arrays(tmp_path):
     V, F, uv, uvf = seam_mesh()
     with pytest.raises(ValueError, match="uv"):

@@ -65,6 +65,12 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     Returns
     -------
     list of pairs sorted by pair id.
+
+    Raises
+    ------
+    InputError
+        The data has no pair in a track of ``per_track`` (its column of every table would
+        be empty).
     """
 
     if not pairs_spec:
@@ -85,6 +91,12 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     for p in pairs:
         if p.track in per:
             groups.setdefault((p.source.garment_id, p.track), []).append(p)
+    empty = [t for t in order if not any(track == t for _, track in groups)]
+    if empty:
+        raise InputError(f"pairs.per_track names track(s) {', '.join(map(repr, empty))}, but "
+                         "this data has no pair in them (after the categories, source_poses "
+                         "and sources filters): remove them, or score the edition on the data "
+                         "it is pinned to")
     out = []
     for (g, track), group in sorted(groups.items()):
         group = sorted(group, key=lambda p: p.pair_id)
@@ -117,8 +129,12 @@ def disjoint_pairs(pairs: list, sources: dict[str, Any], seed: int) -> list:
 
 def edition_pairs(edition: Any, dataset: Any) -> list:
     """The retargeting pairs an edition scores on ``dataset`` (its split, sampled per track
-    when the edition has a ``pairs`` field; see :func:`sample_pairs`)."""
-    return sample_pairs(dataset.retarget_pairs(edition.split), getattr(edition, "pairs", {}))
+    when the edition has a ``pairs`` field; see :func:`sample_pairs`, whose errors are
+    prefixed with the edition's file)."""
+    try:
+        return sample_pairs(dataset.retarget_pairs(edition.split), getattr(edition, "pairs", {}))
+    except InputError as exc:
+        raise InputError(f"edition {getattr(edition, 'source', edition.name)}: {exc}") from None
 
 
 def items(edition: Any, data_root: Path) -> list[Item]:
