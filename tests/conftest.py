@@ -9,6 +9,7 @@ that the slow first build of the default body model is done once and reused by l
 from __future__ import annotations
 
 import atexit
+import functools
 import os
 import shutil
 import tempfile
@@ -46,6 +47,48 @@ KNOWN_OTHER_MANIFESTS: dict[str, dict[str, str]] = {
     "synth-registration-v3": {
         "fd69a601935295ea4513489f8092f5c3777df23d512369b28837ad877006fe72": _INTEL_XEON},
 }
+
+
+#: the test item whose set-up, call or tear-down runs now (for the generator-2.x guard)
+_RUNNING: list[pytest.Item] = []
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    _RUNNING.append(item)
+    try:
+        yield
+    finally:
+        _RUNNING.pop()
+
+
+def _guard_generator_2(generate_v3):
+    """``generate_v3`` failing the running test unless it is marked ``cpu_kernels``: generator
+    2.x's bytes depend on the CPU's float kernels (an Intel Xeon writes other v3 data than the
+    AMD EPYC that pinned them), so only a test of that dependence may build such data; any
+    other uses a v4 edition (generator 3.x: the same bytes on every x86 CPU)."""
+
+    @functools.wraps(generate_v3)
+    def guarded(*args, **kwargs):
+        item = _RUNNING[-1] if _RUNNING else None
+        if item is not None and item.get_closest_marker("cpu_kernels") is None:
+            pytest.fail(f"{item.nodeid} builds generator-2.x data, whose bytes depend on the "
+                        "CPU's float kernels (docs/synthetic-data.md, 'Reproducibility'): use "
+                        "a v4 edition (e.g. synth-retarget-tiny-v4, generator 3.x), or mark "
+                        "the test @pytest.mark.cpu_kernels if it tests that dependence",
+                        pytrace=False)
+        return generate_v3(*args, **kwargs)
+
+    guarded.unguarded = generate_v3
+    return guarded
+
+
+def pytest_configure(config):
+    # after the environment above is set: the package loads numpy and its settings
+    from dressmeup.data.synth import generate, wardrobe
+
+    # generate_dataset calls generate's own name; tests may import wardrobe's
+    wardrobe.generate_v3 = generate.generate_v3 = _guard_generator_2(wardrobe.generate_v3)
 
 
 @pytest.fixture(scope="session")

@@ -8,7 +8,8 @@ inaccessible files) are printed as one line and exit with status 2; any other ex
 bug: its traceback is printed with a hint to report it (status 70). A subcommand that writes
 names its output options in ``set_defaults(locks=(...))``: each is locked
 (:func:`dressmeup.io.outlock.output_lock`) for the whole run, so two runs writing one output
-cannot both succeed.
+cannot both succeed. An option removed or renamed answers for one release with what replaced
+it (:mod:`dressmeup.cli.replaced`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from collections.abc import Sequence
 
 from dressmeup import __version__
 from dressmeup.cli.checks import SetLimit
+from dressmeup.cli.replaced import add_replaced_options
 from dressmeup.errors import DressmeupError
 from dressmeup.io.outlock import output_lock
 
@@ -45,6 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(f"dressmeup.cli.{name}").register(sub)
+    add_replaced_options(parser)  # removed options name what replaced them (one release)
     return parser
 
 

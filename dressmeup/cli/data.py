@@ -46,7 +46,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--edition", default=None,
                    help="generate exactly the data this edition pins (e.g. synth-retarget-v3; "
                         "the options above are then taken from the edition) and check its "
-                        "manifest against the edition's expected sha256")
+                        "manifest against the edition's expected sha256; a v3 edition "
+                        "(generator 2.1.0, whose bytes depend on the CPU) is first probed: "
+                        "where this machine would write other data it stops and names the "
+                        "way to the pinned data")
+    p.add_argument("--allow-other-data", action="store_true",
+                   help="with --edition: generate even where this machine writes other data "
+                        "than the edition pins (its scores are then not comparable)")
     add_executor_args(p, default_workers=1,
                       what="garment of generators 2.x and 3.x (--edition ...-v3, ...-v4; the "
                            "data do not depend on where they run)")
@@ -114,6 +120,8 @@ def _synth_edition(args: argparse.Namespace) -> int:
     pin = ed.dataset
     if pin.kind != "generated":
         raise InputError(f"--edition {ed.name} is scored on a real dataset; it cannot be generated")
+    if not args.allow_other_data:
+        _probe_machine(ed)
     if ed.task == "uvparam":  # a mesh set, not a garment dataset
         # start-up time: the stage loads when the command runs
         from dressmeup.runs import build_data
@@ -135,10 +143,24 @@ def _synth_edition(args: argparse.Namespace) -> int:
         sys.stdout.write(f"WARNING: the edition expects {expected}: this machine generated other "
                          "data, whose scores are not comparable (score with --allow-other-data; "
                          "see docs/synthetic-data.md, Reproducibility)\n")
-        return 1
+        return 0 if args.allow_other_data else 1
     if expected:
         sys.stdout.write("matches the edition's expected manifest\n")
     return 0
+
+
+def _probe_machine(ed) -> None:
+    """Refuse (one line) to generate an edition whose pinned data this machine would not
+    reproduce (:func:`dressmeup.bench.machine.machine_differs`), before anything is written."""
+    # start-up time: the probe loads the generator only when the command runs
+    from dressmeup.bench.machine import machine_differs
+
+    why, probe = machine_differs(ed)
+    if why:
+        raise InputError(why)
+    if probe is not None:
+        sys.stdout.write(f"this machine computes the edition's probe sample {probe.sample} as "
+                         f"pinned ({probe.seconds:.0f} s): generating\n")
 
 
 def _synth(args: argparse.Namespace) -> int:
@@ -147,6 +169,8 @@ def _synth(args: argparse.Namespace) -> int:
 
     if args.edition:
         return _synth_edition(args)
+    if args.allow_other_data:
+        raise InputError("--allow-other-data goes with --edition (data the edition pins)")
     _generator_1_is_serial(args)
     SAMPLES.check(args.subjects * args.garments * args.poses,
                   "--subjects x --garments x --poses", "samples to generate")

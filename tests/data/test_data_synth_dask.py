@@ -21,6 +21,9 @@ from dressmeup.executors.dask_executor import DaskExecutor  # noqa: E402
 
 cloudpickle.register_pickle_by_value(sys.modules[__name__])
 
+#: generator 2.1.0 on Dask reaching the pinned manifest (a known other machine's is accepted)
+pytestmark = pytest.mark.cpu_kernels
+
 TINY = "synth-retarget-tiny-v3"
 
 
@@ -105,6 +108,10 @@ def test_synth_with_a_one_worker_local_executor_still_uses_a_canonical_worker(tm
     from dressmeup.cli import main
 
     out = tmp_path / "tiny"
-    assert main(["synth", str(out), "--edition", TINY, "--executor", "local", "-j", "1"]) == 0
-    assert "matches the edition's expected manifest" in capsys.readouterr().out
+    status = main(["synth", str(out), "--edition", TINY, "--executor", "local", "-j", "1"])
+    captured = capsys.readouterr()
+    if status == 2 and "computes generator 2.1.0's numbers differently" in captured.err:
+        pytest.xfail(f"this machine's probe differs: {captured.err.strip()}")
+    assert status == 0, captured.err
+    assert "matches the edition's expected manifest" in captured.out
     assert manifest_sha256(out) == load_edition(TINY).dataset.expected_manifest_sha256

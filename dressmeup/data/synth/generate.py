@@ -162,14 +162,19 @@ def _generate_2x(out: str | os.PathLike, c: SynthConfig, workers: int, executor:
                    "docs/synthetic-data.md, Reproducibility)" if c.version == "2.0.0" else "")
         raise InputError(f"version: this toolkit generates 2.x as {VERSION}, got "
                          f"{c.version!r}{retired}")
-    return generate_v3(out, subjects=c.subjects, poses=c.poses,
-                       garments_per_split=c.garments_per_split or (6, 2, 4), seed=c.seed,
-                       body_model=c.body_model, categories=c.categories,
-                       edge_length=c.edge_length, write_scan=c.write_scan,
-                       texture_size=c.texture_size, pose_steps=c.pose_steps,
-                       drape_settings=c.drape_settings, workers=workers,
-                       pose_set=c.pose_set, wear=c.wear, scan_body=c.scan_body,
+    return generate_v3(out, **v3_arguments(c), workers=workers,
                        **({"executor": executor} if executor is not None else {}))
+
+
+def v3_arguments(c: SynthConfig) -> dict[str, Any]:
+    """The keyword arguments of generator 2.x (:func:`~dressmeup.data.synth.wardrobe.generate_v3`
+    and :func:`~dressmeup.data.synth.wardrobe.prepare_v3`) that config ``c`` sets."""
+    return dict(subjects=c.subjects, poses=c.poses,
+                garments_per_split=c.garments_per_split or (6, 2, 4), seed=c.seed,
+                body_model=c.body_model, categories=c.categories, edge_length=c.edge_length,
+                write_scan=c.write_scan, texture_size=c.texture_size, pose_steps=c.pose_steps,
+                drape_settings=c.drape_settings, pose_set=c.pose_set, wear=c.wear,
+                scan_body=c.scan_body)
 
 
 def _generate_1x(out: str | os.PathLike, c: SynthConfig) -> Path:

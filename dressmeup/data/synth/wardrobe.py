@@ -417,6 +417,26 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
     Path of the dataset root.
     """
 
+    plan, info, setup = prepare_v3(
+        subjects=subjects, poses=poses, garments_per_split=garments_per_split, seed=seed,
+        body_model=body_model, categories=categories, edge_length=edge_length,
+        write_scan=write_scan, texture_size=texture_size, pose_steps=pose_steps,
+        drape_settings=drape_settings, pose_set=pose_set, wear=wear, scan_body=scan_body)
+    return write_plan(out, info, plan, _garment_job, setup, workers, executor, "synth v3",
+                      summarize_stats)
+
+
+def prepare_v3(subjects: int = 4, poses: int = 4,
+               garments_per_split: tuple[int, int, int] | list[int] = (6, 2, 4), seed: int = 0,
+               body_model: str = "anny", categories: list[str] | None = None,
+               edge_length: float | None = None, write_scan: bool = True,
+               texture_size: int = 256, pose_steps: int = 3,
+               drape_settings: DrapeSettings | None = None, pose_set: str = "generator",
+               wear: str = "all", scan_body: str = "whole"
+               ) -> tuple[dict[str, Any], dict[str, Any], tuple]:
+    """What :func:`generate_v3` computes before any garment (arguments as there): the plan,
+    the ``dataset.json`` record and the argument tuple of :func:`_setup` that every worker
+    runs once. Nothing is written; bad arguments raise ``ValueError``."""
     gps = tuple(int(x) for x in garments_per_split)
     if len(gps) != 3:
         raise ValueError(f"garments_per_split: expected (train, val, test), got {gps!r}")
@@ -437,8 +457,7 @@ def generate_v3(out: str | os.PathLike, subjects: int = 4, poses: int = 4,
                         "self collision along a pose path).", body_model, plan, seed, params)
     setup = (body_model, plan, edge, settings, pose_steps, seed, texture_size, write_scan,
              scan_body)
-    return write_plan(out, info, plan, _garment_job, setup, workers, executor, "synth v3",
-                      summarize_stats)
+    return plan, info, setup
 
 
 def dataset_info(version: str, description: str, body_model: str, plan: dict[str, Any],

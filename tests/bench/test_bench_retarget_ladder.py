@@ -1,4 +1,5 @@
-"""Sanity ladder of the retargeting benchmark v3, on ``synth-retarget-tiny-v3``.
+"""Sanity ladder of the retargeting benchmark (three tracks, v3 and v4 protocol), on the full
+data of ``synth-retarget-tiny-v4`` (generator 3.0.0: the same bytes on every x86 CPU).
 
 1. the ground truth as a submission scores P2S = ED = 0 (P2S to round-off, 1e-17 m) and
    NC = 1, with a track per row;
@@ -26,7 +27,7 @@ from dressmeup.bench import load_edition
 from dressmeup.bench.score import score_submission
 from dressmeup.bench.submission import write_submission
 
-EDITION = "synth-retarget-tiny-v3"
+EDITION = "synth-retarget-tiny-v4"
 SIGMA = 0.001
 
 
@@ -35,7 +36,8 @@ def tiny(other_data):
     from dressmeup.cache import cache_dir
 
     ed = load_edition(EDITION)
-    data = runs.build_data(ed, cache_dir("e2e") / f"{ed.name}-{ed.hash[:10]}")
+    # the full data, where runs.build_parts (the journey, the server tests) keeps them
+    data = runs.build_data(ed, cache_dir("e2e") / f"{ed.name}-{ed.hash[:10]}" / "full")
     other_data(ed, data)  # the pin or a known machine's data; any other manifest fails
     return ed, data
 
@@ -70,7 +72,7 @@ def test_ground_truth_scores_zero(tiny, tmp_path):
     assert table[["chamfer", "ed"]].abs().max().max() == 0.0
     # point-to-triangle distances of points on the triangle: float round-off (~1e-17 m),
     # except where open3d's float32 BVH picks a face other than the sample's (exact in
-    # float64 for the face picked): on an Intel Xeon's tiny data 1 sample of 20,000 was
+    # float64 for the face picked): on an Intel Xeon's tiny-v3 data 1 sample of 20,000 was
     # measured to a face 2.5e-8 m away, a mean of 1.3e-12 m (float32 rounding at 1 m: 6e-8)
     assert table["p2s"].abs().max() < 1e-9
     assert np.allclose(table["nc"], 1.0, atol=1e-12)
