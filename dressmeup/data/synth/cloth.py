@@ -194,7 +194,7 @@ class SolveResult:
     stats: dict
 
 
-def _spring_terms(model: ClothModel, x: np.ndarray):
+def spring_terms(model: ClothModel, x: np.ndarray):
     """Energy, gradient ``(n, 3)`` and Hessian blocks ``(s, 3, 3)`` of the springs."""
     P = model.springs
     d = x[P[:, 1]] - x[P[:, 0]]
@@ -260,7 +260,7 @@ class _Linearized:
         """(energy, gradient (n, 3), sparse Hessian (3n, 3n) csc), all scaled."""
         m, s = self.m, self.m.settings
         n = m.n
-        e, grad, K = _spring_terms(m, x)
+        e, grad, K = spring_terms(m, x)
         blocks = np.zeros((len(m._indices), 3, 3))
         for pos, sign in ((m._ab, -1.0), (m._ba, -1.0)):
             for a in range(3):
@@ -365,7 +365,7 @@ def solve(model: ClothModel, start: np.ndarray, loads: Loads, tolerance: float |
         fresh = lu is None or alpha < 1.0 or it - factored >= s.refactor_every
         while True:
             if fresh:
-                lu, factored = _factor(H), it
+                lu, factored = factor(H), it
             d, alpha, cut = _step(lin, x, e, g, H, lu, bound)
             if alpha > 0 or fresh:
                 break
@@ -395,7 +395,7 @@ def _line_search(lin: _Linearized, x: np.ndarray, e: float, g: np.ndarray,
     return None
 
 
-def _factor(H: sp.csc_matrix):
+def factor(H: sp.csc_matrix):
     """Sparse LU of ``H`` plus a tiny diagonal shift (free directions stay solvable)."""
     shift = 1e-8 * float(np.abs(H.diagonal()).max())
     return splu((H + sp.identity(H.shape[0], format="csc") * shift).tocsc(),
@@ -410,7 +410,7 @@ def _step(lin: _Linearized, x: np.ndarray, e: float, g: np.ndarray, H, lu,
     may be of an earlier Hessian), each vertex's move cut to its ``bound``, then a
     backtracking line search; when the cut makes it climb, the whole move is scaled to the
     tightest bound instead. ``alpha`` 0: no descent found."""
-    d = _pcg(H, -g.ravel(), lu.solve, 3).reshape(-1, 3)
+    d = pcg(H, -g.ravel(), lu.solve, 3).reshape(-1, 3)
     length = np.sqrt(np.einsum("ij,ij->i", d, d))
     cut = np.minimum(1.0, bound / np.maximum(length, 1e-15))
     alpha = _line_search(lin, x, e, g, d * cut[:, None])
@@ -420,7 +420,7 @@ def _step(lin: _Linearized, x: np.ndarray, e: float, g: np.ndarray, H, lu,
     return d, _line_search(lin, x, e, g, d) or 0.0, cut
 
 
-def _pcg(A, b: np.ndarray, precondition, iterations: int) -> np.ndarray:
+def pcg(A, b: np.ndarray, precondition, iterations: int) -> np.ndarray:
     """``iterations`` of preconditioned conjugate gradients on ``A x = b`` from the
     preconditioned right-hand side (dot products: elementwise products summed by numpy, no
     BLAS call)."""

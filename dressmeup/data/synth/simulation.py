@@ -96,10 +96,13 @@ class BodyAnchors:
     garment_V : (n, 3) float64 garment on the design body at rest.
     support : (n,) float64 in [0, 1], how firmly each vertex is held (0: free).
     body_V : (b, 3) float64 design body at rest; body_F : (c, 3) int64.
+    gap : None (the vertex's own offset, generator 3.x) or a distance in metres: every anchor
+        is its closest body point pushed out along the face normal by ``gap`` (the band
+        grips the body; generator 4).
     """
 
     def __init__(self, garment_V: np.ndarray, support: np.ndarray, body_V: np.ndarray,
-                 body_F: np.ndarray) -> None:
+                 body_F: np.ndarray, gap: float | None = None) -> None:
         self.F = np.asarray(body_F, np.int64)
         self.weight = np.asarray(support, np.float64)
         body_V = np.asarray(body_V, np.float64)
@@ -108,6 +111,9 @@ class BodyAnchors:
         # the offset in the face's own frame, so the anchor is the vertex on the design body
         self.offset = np.einsum("pij,pj->pi", self._frames(body_V),
                                 np.asarray(garment_V, np.float64) - p)
+        if gap is not None:
+            self.offset = np.zeros_like(self.offset)
+            self.offset[:, 2] = float(gap)
 
     def _frames(self, body_V: np.ndarray) -> np.ndarray:
         """Orthonormal frames ``(n, 3, 3)`` (rows: first edge, its normal in the face plane,
