@@ -184,6 +184,9 @@ class ClothDynamics:
         self._rows = np.concatenate([r.ravel(), diag])
         self._cols = np.concatenate([c.ravel(), diag])
         self._sign = np.concatenate([np.ones(2 * len(P)), -np.ones(2 * len(P))])
+        # body vertices this close to a cloth vertex can bulge into its triangles
+        self.reach = 1.5 * float(np.max(m.rest_len[: m.n_stretch]))
+        self._tree, self._tree_of = None, None
 
     def scene(self, x: np.ndarray, body_Vs: list[np.ndarray]) -> Scene:
         """The collision mesh of a frame moving between the bodies ``body_Vs``."""
@@ -293,19 +296,37 @@ class ClothDynamics:
     def carried(self, x: np.ndarray, body_from: np.ndarray, body_to: np.ndarray) -> np.ndarray:
         """Displacement ``(n, 3)`` of the cloth ``x`` carried by the body's move from
         ``body_from`` to ``body_to``: the body's displacement at each vertex's closest body
-        point, in full within ``carry_full`` of the body, fading linearly to nothing at
-        ``carry``."""
+        point, plus, along that face's normal, the largest further outward move of the body
+        vertices within ``reach`` of the vertex (so the body does not bulge into a cloth
+        triangle between its corners); in full within ``carry_full`` of the body, fading
+        linearly to nothing at ``carry``."""
         s = self.settings
         dist, p, face = closest_points(body_from, self.body_F, x, exact_faces=True)
         w = np.clip((s.carry - dist) / (s.carry - s.carry_full), 0.0, 1.0)
         near = np.flatnonzero(w > 0)
         out = np.zeros_like(x)
-        if len(near):
-            tri = self.body_F[face[near]]
-            bc = barycentric(p[near], body_from[tri])
-            u = np.einsum("pk,pkd->pd", bc, body_to[tri] - body_from[tri])
-            out[near] = w[near, None] * u
+        if not len(near):
+            return out
+        tri = self.body_F[face[near]]
+        bc = barycentric(p[near], body_from[tri])
+        move = body_to - body_from
+        u = np.einsum("pk,pkd->pd", bc, move[tri])
+        a, b, c = (body_from[tri[:, k]] for k in range(3))
+        nrm = np.cross(b - a, c - a)
+        nrm /= np.maximum(np.sqrt(np.sum(nrm * nrm, axis=1)), 1e-300)[:, None]
+        idx = self._body_tree(body_from).query_ball_point(x[near], self.reach)
+        lift = np.zeros(len(near))
+        for i, js in enumerate(idx):
+            if js:
+                lift[i] = max(0.0, float(np.max((move[js] - u[i]) @ nrm[i])))
+        out[near] = w[near, None] * (u + lift[:, None] * nrm)
         return out
+
+    def _body_tree(self, body_V: np.ndarray) -> cKDTree:
+        """k-d tree of ``body_V`` (kept for the last body asked)."""
+        if self._tree_of is not body_V:
+            self._tree, self._tree_of = cKDTree(body_V), body_V
+        return self._tree
 
     def advance(self, x: np.ndarray, v: np.ndarray, h: float, body_from: np.ndarray,
                 body_to: np.ndarray, anchors_at=None) -> tuple[np.ndarray, np.ndarray, dict]:
@@ -356,6 +377,9 @@ class ClothDynamics:
             v = (y - x) / (h * frac)
             x, body_now, done = y, target, reach
             stats["substeps"] += 1
+            if stats["substeps"] > 4.0 / s.min_substep:
+                raise RuntimeError(f"cloth dynamics: more than {4.0 / s.min_substep:.0f} "
+                                   "sub-steps in one frame")
             stats["iterations"] += st["iterations"]
             stats["converged"] &= st["converged"]
             stats["residual"] = max(stats["residual"], st["residual"])
