@@ -28,7 +28,7 @@ import dataclasses
 import json
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -201,8 +201,10 @@ def main() -> None:
     t0 = time.time()
     results = []
     with ProcessPoolExecutor(a.workers) as pool:
-        for r in pool.map(run_sample, jobs):
+        for fut in as_completed([pool.submit(run_sample, job) for job in jobs]):
+            r = fut.result()
             results.append(r)
+            (a.out / f"{r['id']}.json").write_text(json.dumps(r, indent=1, default=float))
             if "error" in r:
                 print(f"{r['id']} {r['type']:12s} {r['pose']:12s} FAILED: {r['error']}",
                       flush=True)
@@ -212,6 +214,7 @@ def main() -> None:
                   f"self-int {s['self_intersecting_faces']} unconverged "
                   f"{s['unconverged_frames']} CPU {r['cpu_s']:.0f} s (load {r['load']})",
                   flush=True)
+    results.sort(key=lambda r: r["id"])
     (a.out / "figures.json").write_text(json.dumps(
         {"results": results, "wall_s": time.time() - t0, "goals": GOALS}, indent=1,
         default=float))
