@@ -120,7 +120,7 @@ def main(argv=None) -> int:
 
     import torch
 
-    from dressmeup.methods.uvparam.neural.train import save_model
+    from dressmeup.methods.uvparam.neural.model import save_model
     from dressmeup.methods.uvparam.neural.train_set import train_on_set
 
     torch.set_num_threads(1)
@@ -145,7 +145,7 @@ def main(argv=None) -> int:
         save_model(m, ckpt, half=True)
         log = {k: v for k, v in m.history.items()}
         RESULTS.mkdir(parents=True, exist_ok=True)
-        from dressmeup.methods.uvparam.neural.train import plain_values
+        from dressmeup.methods.uvparam.neural.model import plain_values
 
         (RESULTS / f"uvparam_pretrained_{model}.json").write_text(json.dumps(
             {"config": args.config, "budget_minutes": args.budget_minutes,

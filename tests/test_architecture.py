@@ -295,3 +295,90 @@ def test_the_reason_check_sees_a_bare_import():
     runs = _import_runs(ast.parse(src))
     assert [[n.lineno for n in r] for r in runs] == [[2], [8, 9]]
     assert 7 in _comment_lines(src) and 2 not in _comment_lines(src)
+
+
+# ---- one door per concept -------------------------------------------------------------------
+# A name is imported from the module that defines it. A module never imports a name from
+# another dressmeup module only to expose it (unused inside, or listed in its ``__all__``).
+# The one exception is a package's ``__init__``: it is the documented door of the names its
+# own submodules define (``dressmeup.body.get_body_model``), never of another package's names.
+
+def _used_names(tree: ast.AST) -> set[str]:
+    """Names the module reads (string annotations included)."""
+    names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+    for n in ast.walk(tree):
+        annotations = []
+        if isinstance(n, (ast.arg, ast.AnnAssign)) and n.annotation is not None:
+            annotations.append(n.annotation)
+        if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)) and n.returns is not None:
+            annotations.append(n.returns)
+        for ann in annotations:
+            for c in ast.walk(ann):
+                if isinstance(c, ast.Constant) and isinstance(c.value, str):
+                    try:
+                        names |= {x.id for x in ast.walk(ast.parse(c.value, mode="eval"))
+                                  if isinstance(x, ast.Name)}
+                    except SyntaxError:
+                        pass
+    return names
+
+
+def _dunder_all(tree: ast.Module) -> set[str]:
+    out: set[str] = set()
+    for node in tree.body:
+        if (isinstance(node, ast.Assign) and len(node.targets) == 1
+                and isinstance(node.targets[0], ast.Name) and node.targets[0].id == "__all__"):
+            out |= set(ast.literal_eval(node.value))
+    return out
+
+
+def _reexports(source: str, module: str, is_package: bool) -> list[str]:
+    """Names a module imports from another dressmeup module only to expose them."""
+    tree = ast.parse(source)
+    used, exported = _used_names(tree), _dunder_all(tree)
+    out = []
+    for node in tree.body:  # module level: imports inside functions expose nothing
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        base = node.module or ""
+        if node.level:
+            parts = module.split(".") if is_package else module.split(".")[:-1]
+            parts = parts[:len(parts) - (node.level - 1)]
+            base = ".".join(parts + ([base] if base else []))
+        if base.split(".")[0] != "dressmeup":
+            continue
+        if is_package and (base == module or base.startswith(module + ".")):
+            continue  # a package's door to its own submodules
+        for a in node.names:
+            bound = a.asname or a.name
+            if bound in exported:
+                out.append(f"{node.lineno}: {bound} (from {base}) is in __all__")
+            elif bound not in used:
+                out.append(f"{node.lineno}: {bound} (from {base}) is imported, never used")
+    return out
+
+
+def test_every_name_has_one_door():
+    found = []
+    for module, path in MODULES.items():
+        found += [f"{path.relative_to(PACKAGE.parent)}:{line}" for line in
+                  _reexports(path.read_text(encoding="utf-8"), module, path.name == "__init__.py")]
+    assert not found, ("re-exported names (import each name from the module that defines it; "
+                       "list moved names in CHANGELOG.md):\n" + "\n".join(found))
+
+
+def test_the_door_check_sees_a_shim():
+    shim = ("from dressmeup.executors import Executor, make_executor\n"
+            "from dressmeup.errors import InputError\n\n"
+            "__all__ = ['make_executor', 'run']\n\n\n"
+            "def run(e: 'Executor'):\n    raise InputError(e)\n")
+    assert _reexports(shim, "dressmeup.bench.executor", False) == [
+        "1: make_executor (from dressmeup.executors) is in __all__"]
+    unused = "from dressmeup.io.ply import write_ply\n"
+    assert _reexports(unused, "dressmeup.io.mesh", False) == [
+        "1: write_ply (from dressmeup.io.ply) is imported, never used"]
+    door = "from .registration import register\n\n__all__ = ['register']\n"
+    assert _reexports(door, "dressmeup.body", True) == []
+    other = "from dressmeup.body.skeleton import NAMES\n\n__all__ = ['NAMES']\n"
+    assert _reexports(other, "dressmeup.body.registration", True) == [
+        "1: NAMES (from dressmeup.body.skeleton) is in __all__"]

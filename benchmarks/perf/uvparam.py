@@ -30,7 +30,7 @@ from dressmeup.io.atomic import atomic_write_text
 from dressmeup.methods.uvparam import get_method
 from dressmeup.methods.uvparam.evaluate import markdown_table, score_uv
 from dressmeup.methods.uvparam.neural.infer import infer
-from dressmeup.methods.uvparam.neural.train import load_model
+from dressmeup.methods.uvparam.neural.model import load_model
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 

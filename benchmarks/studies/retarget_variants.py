@@ -25,7 +25,7 @@ METRICS = ("p2s", "ed", "nc", "ir")
 
 
 def _parse(spec: str) -> tuple[str, dict]:
-    from dressmeup.methods.retarget.run import parse_value
+    from dressmeup.hyperparameters import parse_value
 
     name, _, rest = spec.partition(":")
     kw = {}

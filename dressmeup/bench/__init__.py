@@ -10,7 +10,6 @@ and leaderboards (docs/spec.md section 4; docs/benchmark.md).
 from __future__ import annotations
 
 from dressmeup.bench.edition import Edition, list_editions, load_edition
-from dressmeup.bench.executor import Executor, LocalExecutor
 from dressmeup.bench.leaderboard import build_leaderboard, write_leaderboard
 from dressmeup.bench.results import Result, load_result
 from dressmeup.bench.score import InvalidSubmissionError, ScoreResult, score_submission
@@ -19,9 +18,7 @@ from dressmeup.bench.validate import Problem, ValidationReport, validate_submiss
 
 __all__ = [
     "Edition",
-    "Executor",
     "InvalidSubmissionError",
-    "LocalExecutor",
     "Problem",
     "Result",
     "ScoreResult",

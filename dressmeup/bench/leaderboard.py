@@ -25,7 +25,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from dressmeup.bench.board import FORMATS, BoardRow, Column, Leaderboard, Separation
+from dressmeup.bench.board import BoardRow, Column, Leaderboard, Separation
 from dressmeup.bench.board_stats import cell_stats, compare
 from dressmeup.bench.edition import Edition, edition_from_dict, load_edition
 from dressmeup.bench.intervals import FEW_RESAMPLES, describe_levels, resample_count
@@ -36,8 +36,7 @@ from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonio import parse_json_file
 
-__all__ = ["FORMATS", "BoardRow", "Column", "Leaderboard", "build_leaderboard", "format_summary",
-           "write_leaderboard"]
+__all__ = ["build_leaderboard", "format_summary", "write_leaderboard"]
 
 
 def _edition_of(result: Result) -> Edition:

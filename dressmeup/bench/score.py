@@ -16,7 +16,6 @@ import pyarrow.parquet as pq
 
 from dressmeup import __version__
 from dressmeup.bench.edition import Edition, load_edition
-from dressmeup.bench.executor import Executor, LocalExecutor
 from dressmeup.bench.provenance import environment
 from dressmeup.bench.results import (
     RESULT_SCHEMA,
@@ -34,7 +33,7 @@ from dressmeup.data import layout
 from dressmeup.data.integrity import verify_checksums, verify_listed_files
 from dressmeup.data.parts import part_of, withheld_message
 from dressmeup.errors import InputError
-from dressmeup.executors import require_shared
+from dressmeup.executors import Executor, LocalExecutor, require_shared
 from dressmeup.io.tables import read_frame, table_size
 from dressmeup.progress import progress
 

@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.capture.rig import Camera, Rig
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.rig import Rig
 from dressmeup.errors import InputError
 
 __all__ = ["BoardSpec", "make_board", "render_board_view", "detect_board_pose", "solve_extrinsics",

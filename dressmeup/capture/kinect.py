@@ -21,8 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.capture.rig import Camera, Rig
-from dressmeup.capture.session import RGBDFrame, SessionInfo, write_frame, write_session
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.frame import RGBDFrame
+from dressmeup.capture.rig import Rig
+from dressmeup.capture.session import SessionInfo, write_frame, write_session
 from dressmeup.errors import DressmeupError, InputError
 
 __all__ = ["require_pyk4a", "read_intrinsics", "mkv_frames", "mkv_to_session"]

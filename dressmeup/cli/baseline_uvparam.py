@@ -203,7 +203,8 @@ def _run_on_mesh_set(args: argparse.Namespace, params: dict) -> int:
 def _run_train(args: argparse.Namespace) -> int:
     # start-up time: the stage loads when the command runs
     from dressmeup.geometry.simplify import decimate
-    from dressmeup.methods.uvparam.neural.train import get_config, save_model, train
+    from dressmeup.methods.uvparam.neural.model import get_config, save_model
+    from dressmeup.methods.uvparam.neural.train import train
 
     cfg = get_config(args.config, **_parse_params(args.param))
     mesh_id, V, F = load_mesh_arg(args.mesh)

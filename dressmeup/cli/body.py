@@ -97,7 +97,7 @@ def _load_scan(path: str):
             raise InputError(f"{p}: not a point list of x y z rows ({exc})") from exc
     if p.suffix.lower() == ".ply":  # a mesh or a point cloud: header checked before parsing
         # start-up time: the stage loads when the command runs
-        from dressmeup.io.mesh import check_ply_header
+        from dressmeup.io.ply import check_ply_header
 
         check_ply_header(p)
     # start-up time: the stage loads when the command runs

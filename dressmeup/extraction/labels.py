@@ -12,15 +12,17 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from dressmeup.capture.frame import RGBDFrame, frame_camera
 from dressmeup.capture.rig import Rig
-from dressmeup.capture.session import RGBDFrame, frame_camera
 from dressmeup.capture.visibility import raycasting_scene, visible_from
 from dressmeup.geometry.laplacian import adjacency
 from dressmeup.geometry.mesh import vertex_normals
 from dressmeup.geometry.topology import face_adjacency
 
-__all__ = ["LabelConfig", "visible_from", "vote_labels", "smooth_labels", "face_labels_from_vertices",
-           "remove_label_islands", "label_mesh", "cluster_colors", "ColorFallbackWarning"]
+__all__ = [
+    "LabelConfig", "vote_labels", "smooth_labels", "face_labels_from_vertices",
+    "remove_label_islands", "label_mesh", "cluster_colors", "ColorFallbackWarning"
+]
 
 log = logging.getLogger(__name__)
 

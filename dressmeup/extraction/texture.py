@@ -7,8 +7,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from dressmeup.capture.frame import RGBDFrame, frame_camera
 from dressmeup.capture.rig import Rig
-from dressmeup.capture.session import RGBDFrame, frame_camera
 from dressmeup.capture.visibility import raycasting_scene, visible_from
 
 __all__ = ["uv_atlas", "rasterize_uv", "bake_texture", "fill_gutters"]

@@ -10,8 +10,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from dressmeup.capture.rig import Camera
-from dressmeup.capture.session import RGBDFrame
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.frame import RGBDFrame
 
 __all__ = ["DepthFilterConfig", "undistort_frame", "remove_flying_pixels", "view_cosines", "filter_depth"]
 

@@ -44,9 +44,9 @@ from typing import Any
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.viz.result_images import render_grouped_bars
-from dressmeup.viz.site_method import MAX_IMAGES, PICTURE_TASKS, method_page
+from dressmeup.viz.site_method import MAX_IMAGES, method_page
 
-__all__ = ["IMAGES_PER_SIDE", "MAX_IMAGES", "PICTURE_TASKS", "SiteReport", "write_site"]
+__all__ = ["IMAGES_PER_SIDE", "SiteReport", "write_site"]
 
 #: Best and worst items drawn per method (each side).
 IMAGES_PER_SIDE = 5

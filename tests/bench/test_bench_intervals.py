@@ -357,8 +357,9 @@ def test_pareto_front_marked_for_uvparam():
     format (uv's request: is a low distortion bought by cutting the mesh)."""
     from types import SimpleNamespace
 
+    from dressmeup.bench.board import Column, Leaderboard
     from dressmeup.bench.edition import load_edition
-    from dressmeup.bench.leaderboard import Column, Leaderboard, _mark_pareto
+    from dressmeup.bench.leaderboard import _mark_pareto
     from dressmeup.bench.tasks import get_task
 
     ed = SimpleNamespace(task="uvparam", metrics=("qce", "seam_length", "flip"))

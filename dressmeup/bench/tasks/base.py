@@ -155,7 +155,8 @@ class Task:
             raise TypeError(f"task {self.name!r}: " + "; ".join(problems))
 
 
-def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any) -> Task:
+def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any,
+                  jobs: Any = None) -> Task:
     """Build a :class:`Task` from its four modules.
 
     Parameters
@@ -165,6 +166,8 @@ def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any)
         columns naming the factors bootstrap intervals resample), ``FILE_SUFFIXES``/
         ``dataset_problems``/``items``/``check_file``, ``jobs``/``score_job`` and
         ``metric_specs``.
+    jobs : the task's job builder when ``evaluate`` has none (tasks scored one item per job
+        pass :func:`~dressmeup.bench.tasks.sampletask.simple_jobs`).
 
     Raises
     ------
@@ -180,7 +183,7 @@ def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any)
         dataset_problems=data.dataset_problems,
         items=data.items,
         check_file=data.check_file,
-        jobs=evaluate.jobs,
+        jobs=jobs if jobs is not None else evaluate.jobs,
         score_job=evaluate.score_job,
         metric_specs=render.metric_specs,
         track_level=getattr(config, "TRACK_LEVEL", "item"),

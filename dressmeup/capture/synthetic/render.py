@@ -7,8 +7,9 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.capture.rig import Camera, Rig
-from dressmeup.capture.session import RGBDFrame
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.frame import RGBDFrame
+from dressmeup.capture.rig import Rig
 from dressmeup.capture.synthetic.noise import NoiseModel
 from dressmeup.capture.synthetic.subject import SyntheticSubject, _perp
 from dressmeup.capture.visibility import raycasting_scene

@@ -13,7 +13,8 @@ import math
 
 import numpy as np
 
-from dressmeup.capture.rig import Camera, Rig, look_at
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.rig import Rig, look_at
 from dressmeup.capture.synthetic.subject import SyntheticSubject, make_mannequin
 
 __all__ = ["make_room", "walk_rig"]

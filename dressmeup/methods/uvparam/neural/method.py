@@ -89,7 +89,7 @@ class NeuralMethod:
 
     def _load(self, path: Path):
         # heavy: scipy (~0.5 s to import)
-        from dressmeup.methods.uvparam.neural.train import load_model
+        from dressmeup.methods.uvparam.neural.model import load_model
 
         key = str(path)
         if key not in self._models:
@@ -115,7 +115,8 @@ class NeuralMethod:
         """
         # heavy: scipy (~0.5 s to import)
         from dressmeup.methods.uvparam.neural.infer import infer
-        from dressmeup.methods.uvparam.neural.train import get_config, save_model, train
+        from dressmeup.methods.uvparam.neural.model import get_config, save_model
+        from dressmeup.methods.uvparam.neural.train import train
         from dressmeup.methods.uvparam.neural.train_set import mesh_sha
 
         t0 = time.perf_counter()

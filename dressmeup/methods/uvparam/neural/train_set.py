@@ -47,7 +47,7 @@ from dressmeup.methods.uvparam.neural.train import (
 )
 from dressmeup.progress import progress as bar
 
-__all__ = ["train_on_set", "converged", "mesh_sha"]
+__all__ = ["train_on_set", "mesh_sha"]
 
 log = logging.getLogger(__name__)
 
