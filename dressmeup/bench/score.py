@@ -204,7 +204,6 @@ def _verify_data(data_root: Path, items: list[Any]) -> int:
     Items name their samples by id (the item id or a string in ``meta``); a data root
     without a manifest (a task not scored on a dataset) has nothing to verify.
     """
-    # heavy: pyarrow (~0.3 s to import)
     if not (data_root / layout.MANIFEST).is_file():
         return 0
     ids = set()

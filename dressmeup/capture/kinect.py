@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from dressmeup.capture.camera import Camera
@@ -35,7 +36,7 @@ log = logging.getLogger(__name__)
 def require_pyk4a() -> Any:
     """Import ``pyk4a`` or raise a clear error saying how to get it."""
     try:
-        # optional dependency (ImportError handled)
+        # optional: pyk4a (ImportError handled)
         import pyk4a
     except ImportError as exc:
         raise DressmeupError(
@@ -85,9 +86,6 @@ def mkv_frames(mkv: str | os.PathLike, n_frames: int = 1, skip_frames: int = 30)
     -------
     list of RGBDFrame with colour in the depth camera's geometry and depth in metres.
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     pyk4a = require_pyk4a()
     path = Path(mkv)
     pb = _open(path)

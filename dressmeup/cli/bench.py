@@ -119,7 +119,7 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _validate(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.bench.validate import validate_submission
 
     report = validate_submission(args.submission, args.edition, args.data)
@@ -130,7 +130,7 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _score(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.bench.leaderboard import format_summary
     from dressmeup.bench.score import InvalidSubmissionError, score_submission
 
@@ -149,7 +149,7 @@ def _score(args: argparse.Namespace) -> int:
 
 
 def _leaderboard(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.bench.leaderboard import write_leaderboard
 
     per_cat = None
@@ -166,7 +166,7 @@ def _leaderboard(args: argparse.Namespace) -> int:
 
 
 def _editions(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.bench.edition import list_editions, load_edition
 
     if args.name:
@@ -182,7 +182,7 @@ def _editions(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.demo import run_demo
 
     res = run_demo(out=args.out, workers=args.workers, quick=args.quick,

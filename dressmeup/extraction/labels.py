@@ -8,6 +8,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
@@ -75,9 +76,6 @@ def vote_labels(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFr
     -------
     (n, n_labels) float64 vote weights (column 0 stays 0).
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     cfg = config or LabelConfig()
     V = np.asarray(vertices, dtype=np.float64)
     F = np.asarray(faces, dtype=np.int64)
@@ -272,9 +270,6 @@ def cluster_colors(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray, 
     -------
     (m,) int64 face labels.
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     warnings.warn("no label masks: garments separated from skin by colour, which fails on "
                   "skin-coloured garments and garments of similar colour at similar heights; "
                   "check the result or provide label masks", ColorFallbackWarning, stacklevel=2)

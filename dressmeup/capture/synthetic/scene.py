@@ -32,7 +32,7 @@ def _box(lo: np.ndarray, hi: np.ndarray, inward: bool = False) -> tuple[np.ndarr
 
 
 def _subdivide(V: np.ndarray, F: np.ndarray, max_edge: float) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh  # reason: start-up time
+    import trimesh  # heavy: trimesh
 
     v, f = trimesh.remesh.subdivide_to_size(V, F, max_edge=max_edge)
     return np.asarray(v, float), np.asarray(f, np.int64)

@@ -158,7 +158,7 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
         Vn = normalize_vertices(V)
         proxy = bool(proxy_vertices) and len(V) > 2 * int(proxy_vertices)
         if proxy:
-            # optional dependency (ImportError handled)
+            # heavy: scipy.spatial
             from scipy.spatial import cKDTree
 
             Vpn, Fp = _proxy(V, F, int(proxy_vertices))

@@ -77,7 +77,7 @@ class _PatchData:
 
 
 def _prepare(V, F, cfg: NeuralConfig, rng: np.random.Generator) -> _PatchData:
-    # heavy: torch (~1.1 s to import), igl (~0.4 s to import)
+    # heavy: torch, igl
     import torch
 
     from dressmeup.geometry.simplify import decimate
