@@ -8,9 +8,9 @@ from a committed per-pair JSON, the paired difference of chosen method pairs bot
 study's "separated" can be checked against the leaderboard's rule without re-running any
 method (seconds, no data needed).
 
-    python benchmarks/studies/crossed_intervals.py benchmarks/results/retarget_v3_cross.json \\
+    python benchmarks/studies/crossed_intervals.py benchmarks/results/studies/2026-12-01-retarget_v3_cross.json \\
         --pairs isomap-refine-sup:isomap-refine-fast isomap-refine:skinning \\
-        --out benchmarks/results/retarget_v3_cross_crossed.md
+        --out benchmarks/results/studies/2026-12-04-retarget_v3_cross_crossed.md
 """
 
 from __future__ import annotations

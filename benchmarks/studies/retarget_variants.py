@@ -8,7 +8,7 @@ per-pair values (JSON). Used for the loose-garment variant and for the supervise
 
     python benchmarks/studies/retarget_variants.py --data ROOT --split test \\
         --methods isomap isomap-offset isomap+penetration isomap-offset+penetration \\
-        --out benchmarks/results/retarget_loose_garments.md
+        --out benchmarks/results/studies/2026-12-01-retarget_loose_garments.md
 """
 
 from __future__ import annotations

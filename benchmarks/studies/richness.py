@@ -6,7 +6,7 @@ landmark MDS at the same dimensions (the `auto` choice of ``isomap`` past 3000 s
 and of low-dimensional alternatives: the raw template coordinates (3-d) and Laplacian
 eigenmaps (3-d and 16-d). The geodesic matrix is the reference ranking.
 
-    python benchmarks/studies/richness.py --body anny --out benchmarks/results/richness_anny.md
+    python benchmarks/studies/richness.py --body anny --out benchmarks/results/studies/2026-11-22-richness_anny.md
 
 Writes a Markdown table and a JSON file with the same numbers.
 """
@@ -17,6 +17,7 @@ import argparse
 import json
 import sys
 import time
+from datetime import date
 from pathlib import Path
 
 import numpy as np
@@ -50,7 +51,7 @@ def main() -> None:
                     help="skip full MDS (its O(n^3) eigensolver takes hours past ~10k vertices on 2 "
                          "cores); then only the --subset rows of the geodesic matrix are computed")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default=None, help="Markdown output (default benchmarks/results/richness_<body>.md)")
+    ap.add_argument("--out", default=None, help="Markdown output (default benchmarks/results/studies/<date>-richness_<body>.md)")
     args = ap.parse_args()
     torch.set_num_threads(1)
     dims = [int(d) for d in args.dims.split(",")]
@@ -102,7 +103,7 @@ def main() -> None:
     score("Laplacian eigenmaps 3", eig[:, :3], t_eig)
     score("Laplacian eigenmaps 16", eig, t_eig)
 
-    out = Path(args.out or f"benchmarks/results/richness_{args.body}.md")
+    out = Path(args.out or f"benchmarks/results/studies/{date.today():%Y-%m-%d}-richness_{args.body}.md")
     lines = [f"# Richness study on the `{args.body}` template ({n} skin vertices"
              f"{f', scored on {len(sub)} random vertices' if len(sub) < n else ''}, k = {args.k})",
              "", "Lower is better. Seconds: time to build the embedding (full MDS includes the "
