@@ -7,12 +7,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from dressmeup.bench.board_html import html_table, to_html
-from dressmeup.bench.board_text import to_csv, to_latex, to_markdown
 from dressmeup.bench.edition import Edition
 from dressmeup.bench.intervals import N_RESAMPLES
 from dressmeup.bench.tasks import MetricSpec
-from dressmeup.errors import InputError
 
 FORMATS = ("md", "csv", "latex", "html")
 
@@ -163,9 +160,9 @@ class Leaderboard:
         sep = self.rows[i].vs_next
         if sep is None:
             return "–"
-        return "yes" if self._wins(sep) else "not separated"
+        return "yes" if self.wins(sep) else "not separated"
 
-    def _wins(self, sep: Separation) -> bool:
+    def wins(self, sep: Separation) -> bool:
         big = self.sensitivity is None or abs(sep.diff) > self.sensitivity
         return sep.separated and big
 
@@ -181,7 +178,7 @@ class Leaderboard:
         diff, lo, hi = (col.spec.display(x) for x in (sep.diff, sep.lo, sep.hi))
         lo, hi = sorted((lo, hi))
         text = f"{diff:+.{d}f} [{lo:+.{d}f}, {hi:+.{d}f}]"
-        return text if self._wins(sep) else text + " not separated"
+        return text if self.wins(sep) else text + " not separated"
 
     def method_text(self, row: BoardRow) -> str:
         """The method's name as plain text (escape it per format), with the
@@ -216,47 +213,23 @@ class Leaderboard:
             text += " " + self.interval(row, col)
         return text
 
-    def render(self, fmt: str) -> str:
-        """The table as ``md``, ``csv``, ``latex`` or ``html`` text."""
-        if fmt not in FORMATS:
-            raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
-        return {"md": to_markdown, "csv": to_csv, "latex": to_latex, "html": to_html}[fmt](self)
-
-    def to_markdown(self) -> str:
-        """GitHub-flavoured Markdown table with a caption line."""
-        return to_markdown(self)
-
-    def to_csv(self) -> str:
-        """CSV in display units (see :func:`dressmeup.bench.board_text.to_csv`)."""
-        return to_csv(self)
-
-    def to_latex(self) -> str:
-        """A ``booktabs`` LaTeX table."""
-        return to_latex(self)
-
-    def to_html(self) -> str:
-        """One self-contained HTML page."""
-        return to_html(self)
-
-    def html_table(self, links: dict[str, str] | None = None) -> str:
-        """The leaderboard ``<table>`` (see :func:`dressmeup.bench.board_html.html_table`)."""
-        return html_table(self, links)
-
-    def _runtime(self, row: BoardRow) -> str:
+    def runtime(self, row: BoardRow) -> str:
+        """The row's seconds per item as printed (``–`` when unknown)."""
         rt = row.runtime
         return f"{rt:.2f}" if isinstance(rt, (int, float)) and math.isfinite(rt) else "–"
 
-    def _caption(self, ascii_only: bool = False) -> str:
+    def caption(self, ascii_only: bool = False) -> str:
+        """The caption under every format of the table."""
         ed = self.edition
         return (f"Edition {ed.name} v{ed.version} (task {ed.task}, split {ed.split}; "
                 f"edition hash {ed.hash[:12]}, dataset manifest "
                 f"{(self.manifest_sha256 or '?')[:12]}). Sorted by "
-                f"{self._primary_label(ascii_only)}. Best per column in bold."
-                + self._ci_note()
+                f"{self.primary_label(ascii_only)}. Best per column in bold."
+                + self.ci_note()
                 + (f" Custom edition (not shipped with dressmeup; from {self.custom_edition})."
                    if self.custom_edition else ""))
 
-    def _ci_note(self) -> str:
+    def ci_note(self) -> str:
         """Caption sentences on intervals, separation, groups and comparability."""
 
         out = ""
@@ -296,7 +269,8 @@ class Leaderboard:
         """True when the rows are ranked within submission-level tracks."""
         return any(r.group is not None for r in self.rows)
 
-    def _primary_label(self, ascii_only: bool = False) -> str:
+    def primary_label(self, ascii_only: bool = False) -> str:
+        """The header of the column the rows are sorted by."""
         for c in self.columns:
             if c.key == self.primary:
                 return c.header(ascii_only=ascii_only)

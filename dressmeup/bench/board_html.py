@@ -6,12 +6,9 @@ from __future__ import annotations
 import datetime as _dt
 import html
 import math
-from typing import TYPE_CHECKING
 
+from dressmeup.bench.board import Leaderboard
 from dressmeup.bench.escape import safe_url
-
-if TYPE_CHECKING:  # pragma: no cover
-    from dressmeup.bench.board import Leaderboard
 
 #: Stylesheet of the HTML leaderboard (shared by the report site).
 HTML_CSS = """  body { font-family: -apple-system, "Segoe UI", Roboto, Helvetica, Arial, sans-serif;
@@ -144,7 +141,7 @@ def html_table(board: Leaderboard, links: dict[str, str] | None = None) -> str:
         rt = row.runtime
         cells += [f'<td data-v="{row.failed}">{row.failed}/{row.items}</td>',
                   f'<td data-v="{rt if isinstance(rt, (int, float)) else ""}">'
-                  f'{e(board._runtime(row))}</td>']
+                  f'{e(board.runtime(row))}</td>']
         if board.show_ci:
             lead = row.vs_leader
             vs = board.versus_leader(i)
@@ -166,10 +163,10 @@ def html_notes(board: Leaderboard) -> str:
         f"({'lower' if c.spec.better == 'lower' else 'higher'} is better"
         f"{', ' + e(c.spec.unit) if c.spec.unit else ''}): {e(c.spec.description)}</li>"
         for c in board.columns if c.group is None)
-    return (f'<p class="meta">Sorted by {e(board._primary_label())}; best value per column '
+    return (f'<p class="meta">Sorted by {e(board.primary_label())}; best value per column '
             "highlighted; click a column header to sort by it. Means over successfully "
             f"scored items{'; mean ± std' if board.show_std else ''}."
-            f"{e(board._ci_note())}</p>\n<ul class=\"legend\">{legend}</ul>")
+            f"{e(board.ci_note())}</p>\n<ul class=\"legend\">{legend}</ul>")
 
 def html_meta(board: Leaderboard) -> str:
     """The edition line above the HTML table."""

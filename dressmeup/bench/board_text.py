@@ -6,12 +6,10 @@ import csv
 import html
 import io
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from dressmeup.bench.board import Column, Leaderboard
 from dressmeup.bench.escape import csv_text, latex_text, md_text
-
-if TYPE_CHECKING:  # pragma: no cover
-    from dressmeup.bench.board import Column, Leaderboard
 
 
 def to_markdown(board: Leaderboard) -> str:
@@ -27,11 +25,11 @@ def to_markdown(board: Leaderboard) -> str:
         for c in board.columns:
             t = board.cell(row, c)
             cells.append(f"**{t}**" if i in board.best.get(c.key, ()) else t)
-        cells += [f"{row.failed}/{row.items}", board._runtime(row)]
+        cells += [f"{row.failed}/{row.items}", board.runtime(row)]
         if board.show_ci:
             cells += [board.versus_leader(i), board.separated(i)]
         lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n\n" + html.escape(board._caption(), quote=False) + "\n"
+    return "\n".join(lines) + "\n\n" + html.escape(board.caption(), quote=False) + "\n"
 
 def to_csv(board: Leaderboard) -> str:
     """CSV: numbers in display units (std columns when asked), ``best_in`` lists the
@@ -74,14 +72,14 @@ def to_csv(board: Leaderboard) -> str:
         vals += [row.failed, row.items,
                  "" if rt is None else f"{rt:.4f}", ";".join(best_in),
                  str(bool(row.comparable)).lower(),
-                 "" if sep is None else str(bool(board._wins(sep))).lower(),
+                 "" if sep is None else str(bool(board.wins(sep))).lower(),
                  row.schema_version,
                  str(bool(row.pareto)).lower() if board.pareto else "",
                  csv_text(row.group or ""),
                  *(["", "", "", ""] if lead is None else
                    [_disp(board, lead.diff),
                     *sorted([_disp(board, lead.lo), _disp(board, lead.hi)], key=float),
-                    str(bool(board._wins(lead))).lower()])]
+                    str(bool(board.wins(lead))).lower()])]
         w.writerow(vals)
     return buf.getvalue()
 
@@ -106,13 +104,13 @@ def to_latex(board: Leaderboard) -> str:
         for c in board.columns:
             t = board.cell(row, c).replace("±", r"$\pm$").replace("–", "--")
             cells.append(rf"\textbf{{{t}}}" if i in board.best.get(c.key, ()) else t)
-        cells += [f"{row.failed}/{row.items}", board._runtime(row).replace("–", "--")]
+        cells += [f"{row.failed}/{row.items}", board.runtime(row).replace("–", "--")]
         if board.show_ci:
             cells += [board.versus_leader(i).replace("–", "--"),
                       board.separated(i).replace("–", "--")]
         lines.append(" & ".join(cells) + r" \\")
     lines += [r"\bottomrule", r"\end{tabular}",
-              rf"\caption{{{esc(board._caption(ascii_only=True))}}}".replace(
+              rf"\caption{{{esc(board.caption(ascii_only=True))}}}".replace(
                   "◆", r"$\diamond$"),
               rf"\label{{tab:{esc(board.edition.name)}}}", r"\end{table}"]
     return "\n".join(lines) + "\n"

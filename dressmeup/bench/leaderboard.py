@@ -25,8 +25,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from dressmeup.bench.board import BoardRow, Column, Leaderboard, Separation
+from dressmeup.bench.board import FORMATS, BoardRow, Column, Leaderboard, Separation
+from dressmeup.bench.board_html import to_html
 from dressmeup.bench.board_stats import cell_stats, compare
+from dressmeup.bench.board_text import to_csv, to_latex, to_markdown
 from dressmeup.bench.edition import Edition, edition_from_dict, load_edition
 from dressmeup.bench.intervals import FEW_RESAMPLES, describe_levels, resample_count
 from dressmeup.bench.results import EDITION_JSON, Result, load_result
@@ -36,7 +38,7 @@ from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonio import parse_json_file
 
-__all__ = ["build_leaderboard", "format_summary", "write_leaderboard"]
+__all__ = ["build_leaderboard", "format_summary", "render", "write_leaderboard"]
 
 
 def _edition_of(result: Result) -> Edition:
@@ -310,6 +312,20 @@ def _authors(a: Any) -> str:
     return str(a) if a else ""
 
 
+def render(board: Leaderboard, fmt: str) -> str:
+    """The table as ``md``, ``csv``, ``latex`` or ``html`` text (:mod:`~dressmeup.bench.board_text`,
+    :mod:`~dressmeup.bench.board_html`).
+
+    Raises
+    ------
+    InputError
+        An unknown format.
+    """
+    if fmt not in FORMATS:
+        raise InputError(f"format must be one of {', '.join(FORMATS)}, got {fmt!r}")
+    return {"md": to_markdown, "csv": to_csv, "latex": to_latex, "html": to_html}[fmt](board)
+
+
 def write_leaderboard(results: Sequence[str | os.PathLike | Result], fmt: str,
                       out: str | os.PathLike | None = None, **kw: Any) -> str:
     """Build and render a leaderboard; write it to ``out`` (atomically) when given.
@@ -318,7 +334,7 @@ def write_leaderboard(results: Sequence[str | os.PathLike | Result], fmt: str,
     -------
     The rendered text.
     """
-    text = build_leaderboard(results, **kw).render(fmt)
+    text = render(build_leaderboard(results, **kw), fmt)
     if out is not None:
         atomic_write_text(Path(out), text)
     return text
