@@ -10,7 +10,7 @@ iterations=(60, 200, 160))``). Every setting is documented once, in its group:
 - :class:`Schedule`: step counts and learning rates of the stages;
 - :class:`StartSearch`: how a fit without ``init`` starts;
 - :class:`Limbs`: the limb-wise searches;
-- :class:`ShapeSearch`: the final search over phenotype starts;
+- :class:`Shapes`: the final search over phenotype starts;
 - :class:`ScanInput`: the scan's up axis and its support surfaces;
 - :class:`Runtime`: seed, device, threads, progress.
 
@@ -159,7 +159,7 @@ class Limbs:
 
 
 @dataclass(frozen=True)
-class ShapeSearch:
+class Shapes:
     """The final shape search (:mod:`.shapes`; phenotype models, fits without ``init``).
 
     Attributes
@@ -212,7 +212,7 @@ class Runtime:
 
 #: The groups of a :class:`RegistrationConfig`: attribute name -> class.
 GROUPS: dict[str, type] = {"data": DataTerm, "priors": Priors, "schedule": Schedule,
-                           "start": StartSearch, "limbs": Limbs, "shapes": ShapeSearch,
+                           "start": StartSearch, "limbs": Limbs, "shapes": Shapes,
                            "scan": ScanInput, "runtime": Runtime}
 
 
@@ -225,7 +225,7 @@ class RegistrationConfig:
     schedule: Schedule = field(default_factory=Schedule)
     start: StartSearch = field(default_factory=StartSearch)
     limbs: Limbs = field(default_factory=Limbs)
-    shapes: ShapeSearch = field(default_factory=ShapeSearch)
+    shapes: Shapes = field(default_factory=Shapes)
     scan: ScanInput = field(default_factory=ScanInput)
     runtime: Runtime = field(default_factory=Runtime)
 
@@ -364,5 +364,5 @@ def describe(config: RegistrationConfig) -> dict[str, Any]:
 
 
 __all__ = ["GROUPS", "PRESETS", "DataTerm", "Limbs", "Priors", "RegistrationConfig",
-           "Runtime", "ScanInput", "Schedule", "ShapeSearch", "StartSearch", "check_config",
+           "Runtime", "ScanInput", "Schedule", "Shapes", "StartSearch", "check_config",
            "describe", "get_config"]
