@@ -29,6 +29,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from dressmeup.bench.leaderboard import write_leaderboard
 from dressmeup.data.sample_capture import fuse_synthetic_sample
 from dressmeup.errors import DressmeupError
 from dressmeup.viz.site import write_site
@@ -83,7 +84,6 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     """
     # heavy: pandas
     from dressmeup import runs
-    from dressmeup.bench.leaderboard import write_leaderboard
 
     t0 = time.perf_counter()
     out = Path(out) if out is not None else Path.cwd() / "dressmeup-demo"
@@ -136,7 +136,6 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
 def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report) -> None:
     # heavy: pandas
     from dressmeup import runs
-    from dressmeup.bench.leaderboard import write_leaderboard
 
     available = runs.uvparam_methods()
     if not available:

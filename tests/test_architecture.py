@@ -284,7 +284,7 @@ IMPORT_MS = {
     "mpl_toolkits.mplot3d": 328, "open3d": 1925, "pandas": 521, "PIL": 9,
     "potpourri3d": 333, "pyarrow": 62, "pyarrow.parquet": 99, "pykdtree": 1, "pymeshlab": 174,
     "rich": 1, "robust_laplacian": 3, "scipy": 13, "scipy.interpolate": 680, "scipy.io": 303,
-    "scipy.linalg": 316, "scipy.optimize": 1113, "scipy.sparse": 277, "scipy.spatial": 310,
+    "scipy.linalg": 316, "scipy.optimize": 1113, "scipy.sparse": 277, "scipy.special": 234, "scipy.spatial": 310,
     "sqlalchemy": 362, "torch": 2324, "tqdm": 24, "trimesh": 1157, "uvicorn": 119,
     "warp": 462, "xatlas": 1,
 }

@@ -6,11 +6,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from dressmeup.bench.intervals import PairedDifference, crossed_bootstrap, paired_difference
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    import pandas as pd
 
 
 @dataclass(frozen=True)

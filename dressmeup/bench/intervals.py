@@ -49,7 +49,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.special import ndtri, stdtrit
 
 #: Bootstrap resamples drawn per interval.
 N_RESAMPLES = 2000
@@ -161,6 +160,9 @@ def _interval(x: np.ndarray, codes: Mapping[str, tuple[np.ndarray, int]], resamp
     num = sum(v.values()) ** 2
     den = sum(v[k] ** 2 / (varying[k][1] - 1) for k in v)
     df = num / den if den > 0 else math.inf
+    # heavy: scipy.special
+    from scipy.special import ndtri, stdtrit
+
     k = float(stdtrit(df, 1.0 - a) / ndtri(1.0 - a)) if math.isfinite(df) else 1.0
     lo, hi = mean - k * (mean - min(lo, mean)), mean + k * (max(hi, mean) - mean)
     # no weighting of these items can give a mean outside their range: the widened ends stay

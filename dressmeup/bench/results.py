@@ -27,16 +27,18 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from dressmeup.bench.intervals import LEVEL, METHOD, N_RESAMPLES, SEED, crossed_bootstrap
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_dir, atomic_write_text, only_temp_files
 from dressmeup.io.jsonio import parse_json_file, validate_json
 from dressmeup.io.tables import read_frame
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    import pandas as pd
 
 RESULT_SCHEMA = "dressmeup-result/3"
 #: Integer version of :data:`RESULT_SCHEMA` (stored as ``schema_version``).

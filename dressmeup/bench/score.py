@@ -8,10 +8,9 @@ import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 import pyarrow.parquet as pq
 
 from dressmeup import __version__
@@ -36,6 +35,9 @@ from dressmeup.errors import InputError
 from dressmeup.executors import Executor, LocalExecutor, require_shared
 from dressmeup.io.tables import read_frame, table_size
 from dressmeup.progress import progress
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    import pandas as pd
 
 
 class InvalidSubmissionError(InputError):
@@ -228,6 +230,9 @@ def _job_folders(jobs: list[dict[str, Any]]) -> list[str]:
 
 def _to_table(rows: list[dict[str, Any]], metrics: list[str], extra: list[str]) -> pd.DataFrame:
     """Rows -> DataFrame with a fixed column order, sorted by sample id."""
+    # heavy: pandas
+    import pandas as pd
+
     front = ["sample_id", "category"]
     table = pd.DataFrame(rows)
     for col in (*metrics, *extra):
