@@ -27,7 +27,7 @@ from dressmeup.bench.submission import submission_hash
 from dressmeup.bench.tasks import Task, get_task
 from dressmeup.bench.tasks.base import STATUS_ERROR
 from dressmeup.bench.tasks.common import other_data_reason
-from dressmeup.bench.validate import ValidationReport, validate_submission
+from dressmeup.bench.validate import ValidationReport, check_submission
 from dressmeup.data import layout
 from dressmeup.data.integrity import verify_checksums, verify_listed_files
 from dressmeup.data.parts import part_of, withheld_message
@@ -109,7 +109,7 @@ def score_submission(submission: str | os.PathLike, edition: str | os.PathLike |
     out = check_out_dir(out)
     ed = load_edition(edition)
     task = get_task(ed.task)
-    report, other_data = _admit(submission, ed, data_root, allow_other_data)
+    report, other_data = _admit(submission, ed, task, data_root, allow_other_data)
     report.dataset["files_verified"] = _verify_data(Path(data_root), report.items)
     sub_hash = submission_hash(submission)
     jobs = task.jobs(ed, Path(data_root), report.files, report.items,
@@ -159,14 +159,14 @@ def _provenance(ed: Edition, report: ValidationReport, sub_hash: str, executor: 
     }
 
 
-def _admit(submission, ed: Edition, data_root,
+def _admit(submission, ed: Edition, task: Task, data_root,
            allow_other_data: bool) -> tuple[ValidationReport, str | None]:
     """Refuse before any work: a public part (no ground truth), an invalid submission, data
     other than the edition's pin unless allowed. Returns the validation report and the reason
     the data is not the pinned data (None when it is)."""
     if part_of(data_root) == "public":
         raise InputError(withheld_message(data_root, "the ground truth"))
-    report = validate_submission(submission, ed, data_root)
+    report = check_submission(submission, ed, task, data_root)
     if not report.ok:
         raise InvalidSubmissionError(report)
     other_data = other_data_reason(ed, report.dataset or {}, data_root)

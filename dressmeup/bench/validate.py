@@ -110,7 +110,13 @@ def validate_submission(submission: str | os.PathLike, edition: str | os.PathLik
         When ``submission`` is not a folder or the edition cannot be loaded.
     """
     ed = load_edition(edition)
-    task = get_task(ed.task)
+    return check_submission(submission, ed, get_task(ed.task), data_root)
+
+
+def check_submission(submission: str | Path, ed: Edition, task: Task,
+                     data_root: str | Path) -> ValidationReport:
+    """:func:`validate_submission` for an edition and its task already loaded (scoring loads
+    them once and passes them down)."""
     sub = Path(submission)
     if not sub.is_dir():
         raise InputError(f"submission {sub} is not a folder (expected submission.json plus one "
