@@ -152,7 +152,7 @@ def _synth_edition(args: argparse.Namespace) -> int:
 def _probe_machine(ed) -> None:
     """Refuse (one line) to generate an edition whose pinned data this machine would not
     reproduce (:func:`dressmeup.bench.machine.machine_differs`), before anything is written."""
-    # start-up time: the probe loads the generator only when the command runs
+    # start-up: the probe loads the generator only when the command runs
     from dressmeup.bench.machine import machine_differs
 
     why, probe = machine_differs(ed)
