@@ -16,7 +16,7 @@ import sys
 
 def tables(result_dir: str, data_root: str) -> str:
     """Markdown: one table per grouping (pose, subject, garment type), then every scan."""
-    from dressmeup.bench.results import load_result
+    from dressmeup.bench.scoring.results import load_result
     from dressmeup.data import Dataset
 
     res = load_result(result_dir)

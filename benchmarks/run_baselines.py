@@ -71,7 +71,7 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
     this process), scoring (through ``executor``), tables."""
     from dressmeup import runs
     from dressmeup.bench import load_edition
-    from dressmeup.bench.leaderboard import write_leaderboard
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
     from dressmeup.cache import cache_dir
 
     work = Path(args.work) if args.work else cache_dir("bench")

@@ -44,7 +44,7 @@ RUNS = {
 
 def run(name: str, data: Path, work: Path) -> Path:
     from dressmeup import runs
-    from dressmeup.bench.score import score_submission
+    from dressmeup.bench.scoring.score import score_submission
 
     method, params, display = RUNS[name]
     sub, res = work / "subs" / name, work / "results" / name
@@ -112,7 +112,7 @@ def main(argv=None) -> int:
 
     work = args.work or cache_dir("bench") / "uvparam-v2"
     if args.rescore:
-        from dressmeup.bench.score import score_submission
+        from dressmeup.bench.scoring.score import score_submission
 
         for name in args.runs:
             sub, res = work / "subs" / name, work / "results" / name
@@ -124,7 +124,7 @@ def main(argv=None) -> int:
         for name in args.runs:
             run(name, args.data, work)
     results = sorted(p for p in (work / "results").iterdir() if (p / "summary.json").is_file())
-    from dressmeup.bench.leaderboard import write_leaderboard
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     committed = RESULTS / EDITION

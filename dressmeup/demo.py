@@ -29,7 +29,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from dressmeup.bench.leaderboard import write_leaderboard
+from dressmeup.bench.boards.leaderboard import write_leaderboard
 from dressmeup.data.sample_capture import fuse_synthetic_sample
 from dressmeup.errors import DressmeupError
 from dressmeup.viz.site import write_site

@@ -110,7 +110,7 @@ def main() -> None:
         print(f"{spec}: {len(cache)} pairs in {time.perf_counter() - t0:.0f} s "  # noqa: T201
               f"(load {os.getloadavg()[0]:.1f})", flush=True)
 
-    from dressmeup.bench.intervals import bootstrap_mean, paired_difference
+    from dressmeup.bench.scoring.intervals import bootstrap_mean, paired_difference
 
     types = sorted({r["type"] for r in rows})
     lines = [f"# {args.title}", "",
@@ -134,7 +134,7 @@ def main() -> None:
 
     for first in args.versus or args.methods[:1]:
         lines += ["", f"Means over all pairs with 95 % cluster-bootstrap intervals over the {n_g} source garments "
-                  f"(`dressmeup.bench.intervals`), and the paired difference to `{first}` "
+                  f"(`dressmeup.bench.scoring.intervals`), and the paired difference to `{first}` "
                   "(`Sep.`: its interval excludes 0).", "",
                   f"| method | P2S ↓ [mm] | NC ↑ | IR ↓ [%] | ΔP2S vs {first} [mm] | Sep. | ΔNC vs {first} | Sep. |",
                   "|---|---|---|---|---|:-:|---|:-:|"]

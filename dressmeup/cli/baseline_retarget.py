@@ -91,7 +91,7 @@ def _params(items: list[str]) -> dict:
 def _run(args: argparse.Namespace) -> int:
     # start-up: the stage loads when the command runs
     from dressmeup.bench import load_edition
-    from dressmeup.bench.submission import check_submission_out
+    from dressmeup.bench.scoring.submission import check_submission_out
     from dressmeup.runs import run_retarget_baseline
 
     check_submission_out(args.out, args.overwrite)  # before the work, naming --overwrite

@@ -128,7 +128,7 @@ def _run_uvparam(args: argparse.Namespace) -> int:
     # start-up: the stage loads when the command runs
     import numpy as np
 
-    from dressmeup.bench.submission import check_submission_out
+    from dressmeup.bench.scoring.submission import check_submission_out
     from dressmeup.data.shapes import DEFAULT_MESH_IDS
     from dressmeup.methods.uvparam import get_method
     from dressmeup.progress import progress
@@ -169,8 +169,8 @@ def _run_uvparam(args: argparse.Namespace) -> int:
                               chart_ids=res.chart_ids)
         sys.stdout.write(f"{mesh_id}: {len(V)} vertices, {res.n_charts} charts, {res.seconds:.2f} s\n")
     # start-up: the stage loads when the command runs
-    from dressmeup.bench.provenance import hardware
-    from dressmeup.bench.submission import write_submission
+    from dressmeup.bench.scoring.provenance import hardware
+    from dressmeup.bench.scoring.submission import write_submission
     from dressmeup.runs import BASELINE_AUTHORS
 
     write_submission(out, preds, edition=edition, method=args.method,

@@ -120,7 +120,7 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
 
 def _validate(args: argparse.Namespace) -> int:
     # start-up: the stage loads when the command runs
-    from dressmeup.bench.validate import validate_submission
+    from dressmeup.bench.scoring.validate import validate_submission
 
     report = validate_submission(args.submission, args.edition, args.data)
     n = args.max_per_kind or None
@@ -131,8 +131,8 @@ def _validate(args: argparse.Namespace) -> int:
 
 def _score(args: argparse.Namespace) -> int:
     # start-up: the stage loads when the command runs
-    from dressmeup.bench.leaderboard import format_summary
-    from dressmeup.bench.score import InvalidSubmissionError, score_submission
+    from dressmeup.bench.boards.leaderboard import format_summary
+    from dressmeup.bench.scoring.score import InvalidSubmissionError, score_submission
 
     executor = executor_from_args(args)
     try:
@@ -150,7 +150,7 @@ def _score(args: argparse.Namespace) -> int:
 
 def _leaderboard(args: argparse.Namespace) -> int:
     # start-up: the stage loads when the command runs
-    from dressmeup.bench.leaderboard import write_leaderboard
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
 
     per_cat = None
     if args.per_category is not None:

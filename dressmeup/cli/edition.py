@@ -174,7 +174,7 @@ def _export(args: argparse.Namespace) -> int:
 
 def _pack(args: argparse.Namespace) -> int:
     # start-up: the stage loads when the command runs
-    from dressmeup.bench.archive import pack_part, pins_of
+    from dressmeup.bench.archives.archive import pack_part, pins_of
     from dressmeup.bench.edition import load_edition
     from dressmeup.bench.parts import export_parts
     from dressmeup.data.parts import part_of
@@ -202,7 +202,7 @@ def _pack(args: argparse.Namespace) -> int:
 
 def _fetch(args: argparse.Namespace) -> int:
     # start-up: the stage loads when the command runs
-    from dressmeup.bench.archive import fetch, verify_folder
+    from dressmeup.bench.archives.archive import fetch, verify_folder
 
     out = fetch(args.name, args.source, args.out, part=args.part,
                 require_pin=not args.unpinned)
@@ -216,7 +216,7 @@ def _fetch(args: argparse.Namespace) -> int:
 
 def _verify(args: argparse.Namespace) -> int:
     # start-up: the stage loads when the command runs
-    from dressmeup.bench.archive import verify_folder
+    from dressmeup.bench.archives.archive import verify_folder
 
     problems = verify_folder(args.root, args.edition)
     for line in problems:

@@ -41,9 +41,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from dressmeup.bench.board_html import HTML_CSS, SORT_JS, html_meta, html_notes, html_table
-from dressmeup.bench.leaderboard import build_leaderboard
-from dressmeup.bench.results import load_result
+from dressmeup.bench.boards.board_html import HTML_CSS, SORT_JS, html_meta, html_notes, html_table
+from dressmeup.bench.boards.leaderboard import build_leaderboard
+from dressmeup.bench.scoring.results import load_result
 from dressmeup.bench.tasks import get_task
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from dressmeup.bench.submission import read_info, submission_hash
+from dressmeup.bench.scoring.submission import read_info, submission_hash
 from dressmeup.bench.tasks.common import manifest_sha256
 from dressmeup.errors import InputError
 

@@ -16,8 +16,9 @@ import pandas as pd
 import pytest
 
 from dressmeup.bench import build_leaderboard
+from dressmeup.bench.boards.leaderboard import render
 from dressmeup.bench.edition import edition_from_dict
-from dressmeup.bench.intervals import (
+from dressmeup.bench.scoring.intervals import (
     bootstrap_mean,
     crossed_bootstrap,
     describe_levels,
@@ -26,8 +27,7 @@ from dressmeup.bench.intervals import (
     paired_difference,
     resample_count,
 )
-from dressmeup.bench.leaderboard import render
-from dressmeup.bench.results import load_result, summarise
+from dressmeup.bench.scoring.results import load_result, summarise
 
 
 def test_distinct_resamples_is_multiset_count():
@@ -311,7 +311,7 @@ def test_separation_when_the_unit_is_the_item():
     must still find it (it crashed the demo's UV leaderboard once)."""
     from types import SimpleNamespace
 
-    from dressmeup.bench.leaderboard import _mark_separation
+    from dressmeup.bench.boards.leaderboard import _mark_separation
 
     ids = [f"m{i}" for i in range(6)]
     rows, results = [], []
@@ -358,9 +358,9 @@ def test_pareto_front_marked_for_uvparam():
     format (uv's request: is a low distortion bought by cutting the mesh)."""
     from types import SimpleNamespace
 
-    from dressmeup.bench.board import Column, Leaderboard
+    from dressmeup.bench.boards.board import Column, Leaderboard
+    from dressmeup.bench.boards.leaderboard import _mark_pareto
     from dressmeup.bench.edition import load_edition
-    from dressmeup.bench.leaderboard import _mark_pareto
     from dressmeup.bench.tasks import get_task
 
     ed = SimpleNamespace(task="uvparam", metrics=("qce", "seam_length", "flip"))
@@ -385,7 +385,7 @@ def test_pareto_front_marked_for_uvparam():
 
 def _row(method: str, **kw):
     """A leaderboard row with defaults for what a test does not set."""
-    from dressmeup.bench.board import BoardRow
+    from dressmeup.bench.boards.board import BoardRow
 
     base = dict(method=method, result=method, values={}, ci={}, failed=0, items=0,
                 runtime=None, url=None, authors="", comparable=True,
@@ -396,7 +396,7 @@ def _row(method: str, **kw):
 def test_a_result_edited_to_look_comparable_is_still_not(scored, tmp_path, monkeypatch):
     """Comparability is recomputed from the data pin: a summary flipped to comparable on
     other data stays unranked."""
-    import dressmeup.bench.leaderboard as lb
+    import dressmeup.bench.boards.leaderboard as lb
 
     def other(s):
         s["dataset"]["manifest_sha256"] = "f" * 64      # another dataset, claimed comparable

@@ -10,7 +10,7 @@ import shutil
 import pytest
 
 from dressmeup.bench import build_leaderboard, write_leaderboard
-from dressmeup.bench.leaderboard import render
+from dressmeup.bench.boards.leaderboard import render
 from dressmeup.cli import main
 from dressmeup.errors import InputError
 

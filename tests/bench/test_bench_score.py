@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from dressmeup.bench import load_result, score_submission
-from dressmeup.bench.score import InvalidSubmissionError
+from dressmeup.bench.scoring.score import InvalidSubmissionError
 from dressmeup.errors import InputError
 from dressmeup.executors import LocalExecutor
 

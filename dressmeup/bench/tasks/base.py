@@ -100,7 +100,7 @@ class Task:
     unit_columns : result columns naming the factors the items share, which bootstrap
         intervals resample together (retarget: garment, target subject, target pose;
         registration: subject, pose; uvparam: the mesh; see
-        :mod:`dressmeup.bench.intervals`).
+        :mod:`dressmeup.bench.scoring.intervals`).
     file_suffixes : accepted submission file suffixes.
     dataset_problems : ``(edition, data_root) -> (dataset info, problems)``; checks the pin.
     items : ``(edition, data_root) -> list[Item]``, in a stable order.

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from dressmeup.bench.intervals import PairedDifference, crossed_bootstrap, paired_difference
+from dressmeup.bench.scoring.intervals import PairedDifference, crossed_bootstrap, paired_difference
 
 if TYPE_CHECKING:  # pragma: no cover - annotations only
     import pandas as pd

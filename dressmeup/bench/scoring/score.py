@@ -15,19 +15,19 @@ import pyarrow.parquet as pq
 
 from dressmeup import __version__
 from dressmeup.bench.edition import Edition, load_edition
-from dressmeup.bench.provenance import environment
-from dressmeup.bench.results import (
+from dressmeup.bench.scoring.provenance import environment
+from dressmeup.bench.scoring.results import (
     RESULT_SCHEMA,
     RESULT_SCHEMA_VERSION,
     check_out_dir,
     summarise,
     write_result,
 )
-from dressmeup.bench.submission import submission_hash
+from dressmeup.bench.scoring.submission import submission_hash
+from dressmeup.bench.scoring.validate import ValidationReport, check_submission
 from dressmeup.bench.tasks import Task, get_task
 from dressmeup.bench.tasks.base import STATUS_ERROR
 from dressmeup.bench.tasks.common import other_data_reason
-from dressmeup.bench.validate import ValidationReport, check_submission
 from dressmeup.data import layout
 from dressmeup.data.integrity import verify_checksums, verify_listed_files
 from dressmeup.data.parts import part_of, withheld_message

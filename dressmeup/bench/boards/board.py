@@ -1,6 +1,6 @@
 """A leaderboard as data: columns, typed rows, ranks, the best cells, and how each cell and
-caption prints (the formats themselves: :mod:`~dressmeup.bench.board_text`,
-:mod:`~dressmeup.bench.board_html`)."""
+caption prints (the formats themselves: :mod:`~dressmeup.bench.boards.board_text`,
+:mod:`~dressmeup.bench.boards.board_html`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 from dataclasses import dataclass, field
 
 from dressmeup.bench.edition import Edition
-from dressmeup.bench.intervals import N_RESAMPLES
+from dressmeup.bench.scoring.intervals import N_RESAMPLES
 from dressmeup.bench.tasks import MetricSpec
 
 FORMATS = ("md", "csv", "latex", "html")

@@ -7,8 +7,8 @@ import datetime as _dt
 import html
 import math
 
-from dressmeup.bench.board import Leaderboard
-from dressmeup.bench.escape import safe_url
+from dressmeup.bench.boards.board import Leaderboard
+from dressmeup.bench.boards.escape import safe_url
 
 #: Stylesheet of the HTML leaderboard (shared by the report site).
 HTML_CSS = """  body { font-family: -apple-system, "Segoe UI", Roboto, Helvetica, Arial, sans-serif;

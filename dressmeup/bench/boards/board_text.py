@@ -8,8 +8,8 @@ import io
 import math
 from typing import Any
 
-from dressmeup.bench.board import Column, Leaderboard
-from dressmeup.bench.escape import csv_text, latex_text, md_text
+from dressmeup.bench.boards.board import Column, Leaderboard
+from dressmeup.bench.boards.escape import csv_text, latex_text, md_text
 
 
 def to_markdown(board: Leaderboard) -> str:

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from dressmeup.bench.edition import Edition, load_edition
-from dressmeup.bench.submission import ITEM_ID_RE, read_info, submission_files
+from dressmeup.bench.scoring.submission import ITEM_ID_RE, read_info, submission_files
 from dressmeup.bench.tasks import Item, Task, get_task
 from dressmeup.errors import InputError
 

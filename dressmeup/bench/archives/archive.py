@@ -30,8 +30,7 @@ from importlib import resources
 from pathlib import Path, PurePosixPath
 from typing import Any
 
-from dressmeup.bench.edition import Edition, load_edition
-from dressmeup.bench.transfer import (
+from dressmeup.bench.archives.transfer import (
     blocks,
     copy_resumable,
     download,
@@ -39,6 +38,7 @@ from dressmeup.bench.transfer import (
     join_source,
     read_small,
 )
+from dressmeup.bench.edition import Edition, load_edition
 from dressmeup.data import layout
 from dressmeup.data.parts import part_of, part_record
 from dressmeup.errors import InputError

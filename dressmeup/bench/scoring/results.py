@@ -8,7 +8,7 @@
                            ("ok" / "error"), error, note, seconds, task-specific ids
       summary.json         schema "dressmeup-result/3" (``schema_version`` 3): means/std
                            and 95 % bootstrap intervals (``ci95``, over the factors the
-                           items share, see dressmeup.bench.intervals) per metric, per category
+                           items share, see dressmeup.bench.scoring.intervals) per metric, per category
                            and per track (``per_track``, when rows carry ``track``), counts,
                            ``comparable`` (False when scored on other data), the method
                            (submission.json), edition name/version/hash and its full config,
@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dressmeup.bench.intervals import LEVEL, METHOD, N_RESAMPLES, SEED, crossed_bootstrap
+from dressmeup.bench.scoring.intervals import LEVEL, METHOD, N_RESAMPLES, SEED, crossed_bootstrap
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_dir, atomic_write_text, only_temp_files
 from dressmeup.io.jsonio import parse_json_file, validate_json
@@ -125,7 +125,7 @@ def stats(values: np.ndarray) -> dict[str, Any]:
 def metric_stats(values: np.ndarray, factors: dict[str, np.ndarray] | None = None
                  ) -> dict[str, Any]:
     """:func:`stats` plus, when ``factors`` are given, the 95 % interval over them
-    (:func:`~dressmeup.bench.intervals.crossed_bootstrap`: ``ci95`` [lo, hi], ``levels``,
+    (:func:`~dressmeup.bench.scoring.intervals.crossed_bootstrap`: ``ci95`` [lo, hi], ``levels``,
     ``df``, ``distinct_resamples``, ``degenerate``)."""
 
     out = stats(values)

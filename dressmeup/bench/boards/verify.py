@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from dressmeup.bench.edition import edition_from_dict, list_editions, load_edition
-from dressmeup.bench.results import EDITION_JSON, PER_SAMPLE, SUMMARY, Result, stats
+from dressmeup.bench.scoring.results import EDITION_JSON, PER_SAMPLE, SUMMARY, Result, stats
 from dressmeup.errors import InputError
 from dressmeup.io.jsonio import parse_json_file
 from dressmeup.io.tables import read_frame

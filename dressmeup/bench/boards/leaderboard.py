@@ -9,11 +9,11 @@ comparable (scored with ``--allow-other-data``), which are shown last, unranked 
 "not comparable" in every format.
 
 Results of schema ``dressmeup-result/2`` carry 95 % bootstrap intervals over the task's
-independent unit (see :mod:`dressmeup.bench.intervals`), shown as ``mean [lo, hi]``, and
+independent unit (see :mod:`dressmeup.bench.scoring.intervals`), shown as ``mean [lo, hi]``, and
 per-track means when the items carry a ``track`` (columns like per-category ones). Between
 consecutive ranks a paired bootstrap on the primary column says whether the two are separated
 ("Sep." column: ``yes`` / ``no``). Older results (``/1``) show "–" for what they lack.
-The table itself is :class:`~dressmeup.bench.board.Leaderboard`.
+The table itself is :class:`~dressmeup.bench.boards.board.Leaderboard`.
 """
 
 from __future__ import annotations
@@ -25,15 +25,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from dressmeup.bench.board import FORMATS, BoardRow, Column, Leaderboard, Separation
-from dressmeup.bench.board_html import to_html
-from dressmeup.bench.board_stats import cell_stats, compare
-from dressmeup.bench.board_text import to_csv, to_latex, to_markdown
+from dressmeup.bench.boards.board import FORMATS, BoardRow, Column, Leaderboard, Separation
+from dressmeup.bench.boards.board_html import to_html
+from dressmeup.bench.boards.board_stats import cell_stats, compare
+from dressmeup.bench.boards.board_text import to_csv, to_latex, to_markdown
+from dressmeup.bench.boards.verify import comparability, verify_results
 from dressmeup.bench.edition import Edition, edition_from_dict, load_edition
-from dressmeup.bench.intervals import FEW_RESAMPLES, describe_levels, resample_count
-from dressmeup.bench.results import EDITION_JSON, Result, load_result
+from dressmeup.bench.scoring.intervals import FEW_RESAMPLES, describe_levels, resample_count
+from dressmeup.bench.scoring.results import EDITION_JSON, Result, load_result
 from dressmeup.bench.tasks import get_task
-from dressmeup.bench.verify import comparability, verify_results
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonio import parse_json_file
@@ -108,7 +108,7 @@ def _one_edition(loaded: list[Result]) -> tuple[Edition, Any, dict, list[Result]
     """Refuse results of different editions, or comparable results of different datasets.
 
     Returns the edition, the check of the results
-    (:func:`~dressmeup.bench.verify.verify_results`), each result's comparability (by
+    (:func:`~dressmeup.bench.boards.verify.verify_results`), each result's comparability (by
     ``id``) and the comparable results.
     """
     hashes = {r.edition_hash for r in loaded}
@@ -205,7 +205,7 @@ def _best_cells(columns: list[Column], rows: list[BoardRow]) -> dict[str, set[in
 def _row(r: Result, columns: list[Column], factors: tuple[str, ...], names: list[str],
          submission_tracks: bool, comp: tuple[bool, str | None]) -> BoardRow:
     """One row: means from the summary (checked against the table by
-    :func:`~dressmeup.bench.verify.verify_results`), intervals and medians recomputed from
+    :func:`~dressmeup.bench.boards.verify.verify_results`), intervals and medians recomputed from
     the table."""
     s = r.summary
     values, cis, medians, levels = {}, {}, {}, {}
@@ -242,7 +242,7 @@ def _row(r: Result, columns: list[Column], factors: tuple[str, ...], names: list
 
 def _few_resamples(columns: list[Column], rows: list[BoardRow]) -> list[str]:
     """Caption lines for the columns whose factors allow fewer than
-    :data:`~dressmeup.bench.intervals.FEW_RESAMPLES` distinct resamples (columns resting on
+    :data:`~dressmeup.bench.scoring.intervals.FEW_RESAMPLES` distinct resamples (columns resting on
     the same levels share one line)."""
     by_text: dict[str, list[str]] = {}
     for c in columns:
@@ -285,7 +285,7 @@ def _mark_separation(rows: list[BoardRow], results: list[Result], primary: str,
     """Set ``vs_leader`` (paired comparison with the first comparable row of the group) and
     ``vs_next`` (with the next comparable row of the group) on the primary column, by the
     paired bootstrap over the items both scored
-    (:func:`~dressmeup.bench.board_stats.compare`)."""
+    (:func:`~dressmeup.bench.boards.board_stats.compare`)."""
     metric, _, track = primary.partition("#")
     track = track or None
     by_group: dict[str | None, list[tuple[BoardRow, Result]]] = {}
@@ -313,8 +313,8 @@ def _authors(a: Any) -> str:
 
 
 def render(board: Leaderboard, fmt: str) -> str:
-    """The table as ``md``, ``csv``, ``latex`` or ``html`` text (:mod:`~dressmeup.bench.board_text`,
-    :mod:`~dressmeup.bench.board_html`).
+    """The table as ``md``, ``csv``, ``latex`` or ``html`` text (:mod:`~dressmeup.bench.boards.board_text`,
+    :mod:`~dressmeup.bench.boards.board_html`).
 
     Raises
     ------

@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from dressmeup.bench.boards.escape import one_line_problem
 from dressmeup.bench.edition import Edition, load_edition
-from dressmeup.bench.escape import one_line_problem
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_dir, atomic_path, atomic_write_text
 from dressmeup.io.hashing import sha256_file

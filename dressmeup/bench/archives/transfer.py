@@ -1,4 +1,4 @@
-"""Moving bytes for the archives of :mod:`dressmeup.bench.archive`: a small file read from a
+"""Moving bytes for the archives of :mod:`dressmeup.bench.archives.archive`: a small file read from a
 URL or a path within the ``json_bytes`` bound, and a large one downloaded (HTTP range
 requests, retries) or copied, resuming what an earlier run left.
 """
