@@ -1,7 +1,7 @@
 """Per-pose, per-subject and per-garment means of a scored synth-registration-v3 result.
 
     python benchmarks/registration_poses.py RESULT_DIR DATA_ROOT \
-        > benchmarks/results/synth-registration-v3_poses.md
+        > benchmarks/results/synth-registration-v3/poses.md
 
 RESULT_DIR is a folder written by ``dressmeup score`` (``per_sample.parquet`` +
 ``summary.json``), DATA_ROOT the edition's data (pose names, subjects and garment types come
@@ -16,7 +16,7 @@ import sys
 
 def tables(result_dir: str, data_root: str) -> str:
     """Markdown: one table per grouping (pose, subject, garment type), then every scan."""
-    from dressmeup.bench.results import load_result
+    from dressmeup.bench.scoring.results import load_result
     from dressmeup.data import Dataset
 
     res = load_result(result_dir)

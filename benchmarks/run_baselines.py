@@ -5,8 +5,8 @@ private parts, run every available baseline on the public part into submissions,
 against the private part into a NEW run folder, then rewrite on purpose
 ``benchmarks/results/<edition>/<method>/`` (each result's ``summary.json``,
 ``per_sample.parquet`` and ``edition.json``, so that anyone can recheck a figure:
-``dressmeup leaderboard benchmarks/results/<edition>/*`` recomputes the table and its
-intervals from them) and ``benchmarks/results/<edition>.{md,csv,tex,html}`` (``dressmeup
+``dressmeup leaderboard benchmarks/results/<edition>/*/`` recomputes the table and its
+intervals from them) and ``benchmarks/results/<edition>/leaderboard.{md,csv,tex,html}`` (``dressmeup
 score`` itself never overwrites anything; this script owns those files).
 
     python benchmarks/run_baselines.py                              # every reference edition
@@ -71,7 +71,7 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
     this process), scoring (through ``executor``), tables."""
     from dressmeup import runs
     from dressmeup.bench import load_edition
-    from dressmeup.bench.leaderboard import write_leaderboard
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
     from dressmeup.cache import cache_dir
 
     work = Path(args.work) if args.work else cache_dir("bench")
@@ -99,20 +99,22 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
         out.mkdir(parents=True, exist_ok=True)
         results = _commit_results(results, out / ed.name)
         for fmt, ext in (("md", "md"), ("csv", "csv"), ("latex", "tex"), ("html", "html")):
-            write_leaderboard(results, fmt, out / f"{ed.name}.{ext}")
+            write_leaderboard(results, fmt, out / ed.name / f"leaderboard.{ext}")
         log(write_leaderboard(results, "md"))
-        log(f"{ed.name}: rewrote {out}/{ed.name}.{{md,csv,tex,html}} "
+        log(f"{ed.name}: rewrote {out}/{ed.name}/leaderboard.{{md,csv,tex,html}} "
             f"({time.perf_counter() - t0:.0f} s; run folder {run})")
     return 0
 
 
 def _commit_results(results: list[Path], dest: Path) -> list[Path]:
     """Copy each result folder's summary, per-item table and edition to ``dest/<method>/``
-    (replacing the edition's previously committed results) and return the copies."""
+    (replacing the edition's previously committed results; the edition folder's files stay)
+    and return the copies."""
     import shutil
 
-    if dest.exists():
-        shutil.rmtree(dest)
+    for old in (dest.iterdir() if dest.is_dir() else ()):
+        if old.is_dir():
+            shutil.rmtree(old)
     out = []
     for res in results:
         target = dest / Path(res).name

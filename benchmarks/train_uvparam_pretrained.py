@@ -8,7 +8,7 @@ a wall-clock budget and stops earlier when its validation loss improves by less 
 the last fifth of training (``train_set.converged``).
 
 Writes ``dressmeup/methods/uvparam/weights/neural_<model>.pt`` (float16), a JSON log per model
-in ``benchmarks/results/uvparam_pretrained_<model>.json`` and learning curves in
+in ``benchmarks/results/studies/<date>-uvparam_pretrained_<model>.json`` and learning curves in
 ``docs/images/uvparam_learning_<model>.png``.
 
     nice -n 10 python benchmarks/train_uvparam_pretrained.py --data DATA --models topwear dress \\
@@ -22,6 +22,7 @@ import json
 import os
 import sys
 import time
+from datetime import date
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -30,7 +31,7 @@ import numpy as np  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 WEIGHTS = REPO / "dressmeup" / "methods" / "uvparam" / "weights"
-RESULTS = REPO / "benchmarks" / "results"
+RESULTS = REPO / "benchmarks" / "results" / "studies"
 IMAGES = REPO / "docs" / "images"
 CATEGORIES = ("topwear", "bottomwear", "dress")
 WARP_SHAPES = ("sphere-2k", "torus-2k", "blob-2k", "sheet-2k", "skirt-2k")
@@ -120,7 +121,7 @@ def main(argv=None) -> int:
 
     import torch
 
-    from dressmeup.methods.uvparam.neural.train import save_model
+    from dressmeup.methods.uvparam.neural.model import save_model
     from dressmeup.methods.uvparam.neural.train_set import train_on_set
 
     torch.set_num_threads(1)
@@ -145,9 +146,9 @@ def main(argv=None) -> int:
         save_model(m, ckpt, half=True)
         log = {k: v for k, v in m.history.items()}
         RESULTS.mkdir(parents=True, exist_ok=True)
-        from dressmeup.methods.uvparam.neural.train import plain_values
+        from dressmeup.methods.uvparam.neural.model import plain_values
 
-        (RESULTS / f"uvparam_pretrained_{model}.json").write_text(json.dumps(
+        (RESULTS / f"{date.today():%Y-%m-%d}-uvparam_pretrained_{model}.json").write_text(json.dumps(
             {"config": args.config, "budget_minutes": args.budget_minutes,
              "checkpoint_bytes": ckpt.stat().st_size, "n_parameters": m.n_parameters,
              **plain_values(log)}, indent=1) + "\n")

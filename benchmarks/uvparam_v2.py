@@ -7,9 +7,9 @@ the unseen test garments (and the shape group), scored with seams, per track.
 Submissions and results go to ``<work>/subs/<run>`` and ``<work>/results/<run>``
 (``--work``, default ``$DRESSMEUP_CACHE/bench/uvparam-v2``); each result's summary, per-item
 table and edition are copied to ``benchmarks/results/synth-uvparam-v2/<run>/`` (so that
-``dressmeup leaderboard benchmarks/results/synth-uvparam-v2/*`` rebuilds the table), tables
-to ``benchmarks/results/synth-uvparam-v2.{md,csv,tex,html}`` plus
-``benchmarks/results/synth-uvparam-v2_groups.md`` (garments vs shapes, Pareto front marked).
+``dressmeup leaderboard benchmarks/results/synth-uvparam-v2/*/`` rebuilds the table), tables
+to ``benchmarks/results/synth-uvparam-v2/leaderboard.{md,csv,tex,html}`` plus
+``benchmarks/results/synth-uvparam-v2/groups.md`` (garments vs shapes, Pareto front marked).
 Each run prints the load average beside its time: the machine is shared.
 """
 
@@ -44,7 +44,7 @@ RUNS = {
 
 def run(name: str, data: Path, work: Path) -> Path:
     from dressmeup import runs
-    from dressmeup.bench.score import score_submission
+    from dressmeup.bench.scoring.score import score_submission
 
     method, params, display = RUNS[name]
     sub, res = work / "subs" / name, work / "results" / name
@@ -112,7 +112,7 @@ def main(argv=None) -> int:
 
     work = args.work or cache_dir("bench") / "uvparam-v2"
     if args.rescore:
-        from dressmeup.bench.score import score_submission
+        from dressmeup.bench.scoring.score import score_submission
 
         for name in args.runs:
             sub, res = work / "subs" / name, work / "results" / name
@@ -124,12 +124,13 @@ def main(argv=None) -> int:
         for name in args.runs:
             run(name, args.data, work)
     results = sorted(p for p in (work / "results").iterdir() if (p / "summary.json").is_file())
-    from dressmeup.bench.leaderboard import write_leaderboard
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     committed = RESULTS / EDITION
-    if committed.exists():
-        shutil.rmtree(committed)
+    for old in (committed.iterdir() if committed.is_dir() else ()):
+        if old.is_dir():  # the results of an earlier run; the tables are rewritten below
+            shutil.rmtree(old)
     copies = []
     for r in results:
         (committed / r.name).mkdir(parents=True)
@@ -138,11 +139,11 @@ def main(argv=None) -> int:
         copies.append(committed / r.name)
     results = copies
     for fmt, ext in (("md", "md"), ("csv", "csv"), ("latex", "tex"), ("html", "html")):
-        write_leaderboard(results, fmt, RESULTS / f"{EDITION}.{ext}")
+        write_leaderboard(results, fmt, committed / f"leaderboard.{ext}")
     text = (f"# {EDITION}: garments vs shapes\n\nMeans over the test garments (unseen by the "
             "pretrained models) and over the shape group; ◆ = on the Pareto front of QCE and "
             "seam length within the group.\n\n" + group_table(results))
-    (RESULTS / f"{EDITION}_groups.md").write_text(text + "\n")
+    (committed / "groups.md").write_text(text + "\n")
     print(text)
     return 0
 

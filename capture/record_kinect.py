@@ -61,7 +61,8 @@ def _devices(pyk4a, master: int):
 def cmd_intrinsics(args) -> int:
     import pyk4a
 
-    from dressmeup.capture.rig import Camera, Rig, save_rig
+    from dressmeup.capture.camera import Camera
+    from dressmeup.capture.rig import Rig, save_rig
 
     cams = []
     for i, _mode, dev in _devices(pyk4a, args.master):

@@ -29,6 +29,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from dressmeup.bench.boards.leaderboard import write_leaderboard
+from dressmeup.data.sample_capture import fuse_synthetic_sample
 from dressmeup.errors import DressmeupError
 from dressmeup.viz.site import write_site
 
@@ -80,9 +82,8 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     dict with ``run`` (folder), ``results`` (list of result folders), ``leaderboard`` (the
     retargeting table in Markdown), ``ok``.
     """
-    # start-up time: the stage loads when the command runs
+    # heavy: pandas
     from dressmeup import runs
-    from dressmeup.bench.leaderboard import write_leaderboard
 
     t0 = time.perf_counter()
     out = Path(out) if out is not None else Path.cwd() / "dressmeup-demo"
@@ -133,9 +134,8 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
 
 
 def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report) -> None:
-    # start-up time: the stage loads when the command runs
+    # heavy: pandas
     from dressmeup import runs
-    from dressmeup.bench.leaderboard import write_leaderboard
 
     available = runs.uvparam_methods()
     if not available:
@@ -170,7 +170,7 @@ def _uv_part(run: Path, out: Path, workers: int | None, quick: bool, log, report
 def _serve_part(edition: str, private: Path, subs: list[Path], run: Path, log,
                 report) -> None:
     """Start an evaluation server, submit the baselines over HTTP, publish them."""
-    # start-up time: the server stack (FastAPI, SQLAlchemy) loads only with --serve
+    # heavy: fastapi
     from dressmeup.server.local import LocalServer, submit_all
 
     local = LocalServer(run / "server").__enter__()
@@ -195,12 +195,6 @@ def _site_part(run: Path, log, report) -> None:
 
 def _fusion_part(data: Path, run: Path, quick: bool, log, report) -> None:
     """Render one synthetic capture of a test sample, fuse it, score it against the scan."""
-    try:
-        # optional dependency (ImportError handled)
-        from dressmeup.data.sample_capture import fuse_synthetic_sample
-    except ImportError as exc:
-        log(f"capture/fusion stage not available ({exc}): fusion part skipped")
-        return
     try:
         res = fuse_synthetic_sample(data, run / "fusion", n_samples=50_000 if quick else 100_000)
     except (ImportError, AttributeError) as exc:

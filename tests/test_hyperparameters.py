@@ -46,7 +46,7 @@ def test_parse_params_keys_values_and_errors():
 def test_hardware_string():
     import os
 
-    from dressmeup.bench.provenance import environment, hardware
+    from dressmeup.bench.scoring.provenance import environment, hardware
 
     h = hardware()
     assert h.endswith(f" CPU, {os.cpu_count()} cores") and len(h) > len(" CPU, 1 cores")

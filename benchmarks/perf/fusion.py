@@ -107,7 +107,8 @@ def _speed(frames, rig, repeats=3):
 def _view_camera(rig, width=360, height=540, azimuth_deg=25.0, distance=2.6):
     import math
 
-    from dressmeup.capture.rig import Camera, look_at
+    from dressmeup.capture.camera import Camera
+    from dressmeup.capture.rig import look_at
 
     up = rig.up
     a = math.radians(azimuth_deg)

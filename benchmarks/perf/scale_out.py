@@ -79,9 +79,9 @@ def measure(job: str, score_data: str | None) -> dict:
         import numpy as np
 
         from dressmeup.bench import load_edition, write_submission
+        from dressmeup.bench.scoring.validate import validate_submission
         from dressmeup.bench.tasks.retarget.evaluate import jobs as make_jobs
         from dressmeup.bench.tasks.retarget.evaluate import score_job
-        from dressmeup.bench.validate import validate_submission
         from dressmeup.cache import cache_dir
         from dressmeup.data import Dataset
 

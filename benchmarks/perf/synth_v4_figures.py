@@ -12,7 +12,7 @@
    vertices, mean, 95th percentile, and per sample).
 
     python benchmarks/perf/synth_v4_figures.py --data DIR [--garments 12] [--workers 2]
-        [--out benchmarks/results/synth-retarget-v4_figures]
+        [--out benchmarks/results/studies/YYYY-MM-DD-synth-retarget-v4_figures]
 
 Goals of the v4 editions: inside area median <= 0.3 % (max <= 2 %), median self-intersecting
 faces <= 5, sensitivity <= 1 mm median per vertex. The load average is printed beside every

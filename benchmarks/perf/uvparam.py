@@ -13,7 +13,7 @@ shared machine wall time is several times the CPU time.
     python benchmarks/perf/uvparam.py --with-xatlas             # adds xatlas (very slow)
     python benchmarks/perf/uvparam.py --checkpoint my.pt
 
-Writes benchmarks/results/perf_uvparam_<mesh>.md and prints the table.
+Writes benchmarks/results/studies/<date>-perf_uvparam_<mesh>.md and prints the table.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from datetime import date
 from pathlib import Path
 
 import numpy as np
@@ -30,9 +31,9 @@ from dressmeup.io.atomic import atomic_write_text
 from dressmeup.methods.uvparam import get_method
 from dressmeup.methods.uvparam.evaluate import markdown_table, score_uv
 from dressmeup.methods.uvparam.neural.infer import infer
-from dressmeup.methods.uvparam.neural.train import load_model
+from dressmeup.methods.uvparam.neural.model import load_model
 
-RESULTS = Path(__file__).resolve().parents[1] / "results"
+RESULTS = Path(__file__).resolve().parents[1] / "results" / "studies"
 
 
 def _load() -> float:
@@ -114,7 +115,7 @@ def main() -> None:
             f"`python benchmarks/perf/uvparam.py --mesh {args.mesh}"
             f"{' --no-proxy' if args.no_proxy else ''}{' --with-xatlas' if args.with_xatlas else ''}`\n")
     RESULTS.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(RESULTS / f"perf_uvparam_{args.mesh}{'_noproxy' if args.no_proxy else ''}.md", text)
+    atomic_write_text(RESULTS / f"{date.today():%Y-%m-%d}-perf_uvparam_{args.mesh}{'_noproxy' if args.no_proxy else ''}.md", text)
     print(text)
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from datetime import date
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +54,7 @@ def main() -> None:
     ap.add_argument("--weights", default=None, help="isomap-refine checkpoint (default: the shipped one)")
     ap.add_argument("--sigmas", default="0,0.001,0.01,0.1")
     ap.add_argument("--n-samples", type=int, default=20000)
-    ap.add_argument("--out", default="benchmarks/results/correspondence_noise.md")
+    ap.add_argument("--out", default=f"benchmarks/results/studies/{date.today():%Y-%m-%d}-correspondence_noise.md")
     args = ap.parse_args()
     torch.set_num_threads(1)
     rng = np.random.default_rng(0)

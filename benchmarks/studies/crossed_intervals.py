@@ -2,15 +2,15 @@
 
 ``retarget_variants.py`` reports intervals that resample source garments only. The
 leaderboards resample garments, target subjects and target poses together
-(``dressmeup.bench.intervals.crossed_bootstrap``, factors ``UNIT_COLUMNS`` of the retarget
+(``dressmeup.bench.scoring.intervals.crossed_bootstrap``, factors ``UNIT_COLUMNS`` of the retarget
 task), which is wider when a body or a pose is hard for every method. This script recomputes,
 from a committed per-pair JSON, the paired difference of chosen method pairs both ways, so a
 study's "separated" can be checked against the leaderboard's rule without re-running any
 method (seconds, no data needed).
 
-    python benchmarks/studies/crossed_intervals.py benchmarks/results/retarget_v3_cross.json \\
+    python benchmarks/studies/crossed_intervals.py benchmarks/results/studies/2026-12-01-retarget_v3_cross.json \\
         --pairs isomap-refine-sup:isomap-refine-fast isomap-refine:skinning \\
-        --out benchmarks/results/retarget_v3_cross_crossed.md
+        --out benchmarks/results/studies/2026-12-04-retarget_v3_cross_crossed.md
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import argparse
 import json
 from pathlib import Path
 
-from dressmeup.bench.intervals import paired_difference
+from dressmeup.bench.scoring.intervals import paired_difference
 from dressmeup.io.atomic import atomic_write_text
 
 #: metric -> (scale to the printed unit, format)
@@ -78,7 +78,7 @@ def main() -> None:
         f"{n} pairs. Paired differences of the item means (P2S and ED in mm, IR in %), 95 % "
         "intervals: resampling source garments only (as the study printed them) and resampling "
         "garments, target subjects and target poses together (the leaderboards' rule, "
-        "`dressmeup.bench.intervals.crossed_bootstrap`). Produced by "
+        "`dressmeup.bench.scoring.intervals.crossed_bootstrap`). Produced by "
         f"`python benchmarks/studies/crossed_intervals.py {args.results} --pairs {' '.join(args.pairs)}`.",
         "", *crossed_table(rows, pairs)]) + "\n"
     print(text)  # noqa: T201

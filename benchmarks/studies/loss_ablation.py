@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from datetime import date
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +54,7 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=80)
     ap.add_argument("--width", type=int, default=128)
     ap.add_argument("--n-samples", type=int, default=20000)
-    ap.add_argument("--out", default="benchmarks/results/loss_ablation.md")
+    ap.add_argument("--out", default=f"benchmarks/results/studies/{date.today():%Y-%m-%d}-loss_ablation.md")
     args = ap.parse_args()
     torch.set_num_threads(1)
     arch = dict(width=args.width, code_dim=64, pointnet_hidden=64, steps=args.steps)

@@ -50,7 +50,7 @@ def draw(submission: str, result: str, data: str, out: str) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from dressmeup.bench.results import load_result
+    from dressmeup.bench.scoring.results import load_result
     from dressmeup.data import Dataset
     from dressmeup.viz.figure import save_png
     from dressmeup.viz.registration import draw_registration_views

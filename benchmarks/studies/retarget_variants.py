@@ -8,7 +8,7 @@ per-pair values (JSON). Used for the loose-garment variant and for the supervise
 
     python benchmarks/studies/retarget_variants.py --data ROOT --split test \\
         --methods isomap isomap-offset isomap+penetration isomap-offset+penetration \\
-        --out benchmarks/results/retarget_loose_garments.md
+        --out benchmarks/results/studies/2026-12-01-retarget_loose_garments.md
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ METRICS = ("p2s", "ed", "nc", "ir")
 
 
 def _parse(spec: str) -> tuple[str, dict]:
-    from dressmeup.methods.retarget.run import parse_value
+    from dressmeup.hyperparameters import parse_value
 
     name, _, rest = spec.partition(":")
     kw = {}
@@ -110,7 +110,7 @@ def main() -> None:
         print(f"{spec}: {len(cache)} pairs in {time.perf_counter() - t0:.0f} s "  # noqa: T201
               f"(load {os.getloadavg()[0]:.1f})", flush=True)
 
-    from dressmeup.bench.intervals import bootstrap_mean, paired_difference
+    from dressmeup.bench.scoring.intervals import bootstrap_mean, paired_difference
 
     types = sorted({r["type"] for r in rows})
     lines = [f"# {args.title}", "",
@@ -134,7 +134,7 @@ def main() -> None:
 
     for first in args.versus or args.methods[:1]:
         lines += ["", f"Means over all pairs with 95 % cluster-bootstrap intervals over the {n_g} source garments "
-                  f"(`dressmeup.bench.intervals`), and the paired difference to `{first}` "
+                  f"(`dressmeup.bench.scoring.intervals`), and the paired difference to `{first}` "
                   "(`Sep.`: its interval excludes 0).", "",
                   f"| method | P2S ↓ [mm] | NC ↑ | IR ↓ [%] | ΔP2S vs {first} [mm] | Sep. | ΔNC vs {first} | Sep. |",
                   "|---|---|---|---|---|:-:|---|:-:|"]

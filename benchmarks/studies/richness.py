@@ -6,7 +6,7 @@ landmark MDS at the same dimensions (the `auto` choice of ``isomap`` past 3000 s
 and of low-dimensional alternatives: the raw template coordinates (3-d) and Laplacian
 eigenmaps (3-d and 16-d). The geodesic matrix is the reference ranking.
 
-    python benchmarks/studies/richness.py --body anny --out benchmarks/results/richness_anny.md
+    python benchmarks/studies/richness.py --body anny --out benchmarks/results/studies/2026-11-22-richness_anny.md
 
 Writes a Markdown table and a JSON file with the same numbers.
 """
@@ -17,6 +17,7 @@ import argparse
 import json
 import sys
 import time
+from datetime import date
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +31,13 @@ def main() -> None:
 
     from dressmeup.body import get_body_model
     from dressmeup.io.atomic import atomic_write_text
-    from dressmeup.methods.retarget import isomap as iso
+    from dressmeup.methods.retarget.embedding import (
+        geodesic_matrix,
+        heat_solver,
+        landmark_geodesics,
+        skin_component,
+    )
+    from dressmeup.methods.retarget.mds import classical_mds, landmark_mds, laplacian_eigenmaps
     from dressmeup.metrics import richness
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -44,13 +51,13 @@ def main() -> None:
                     help="skip full MDS (its O(n^3) eigensolver takes hours past ~10k vertices on 2 "
                          "cores); then only the --subset rows of the geodesic matrix are computed")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default=None, help="Markdown output (default benchmarks/results/richness_<body>.md)")
+    ap.add_argument("--out", default=None, help="Markdown output (default benchmarks/results/studies/<date>-richness_<body>.md)")
     args = ap.parse_args()
     torch.set_num_threads(1)
     dims = [int(d) for d in args.dims.split(",")]
 
     model = get_body_model(args.body)
-    ids, F = iso.skin_component(model.template_vertices, model.faces)
+    ids, F = skin_component(model.template_vertices, model.faces)
     V = np.asarray(model.template_vertices)[ids]
     n = len(ids)
     print(f"{args.body}: {n} skin vertices, {len(F)} faces")  # noqa: T201
@@ -58,12 +65,12 @@ def main() -> None:
     sub = np.sort(rng.choice(n, args.subset, replace=False)) if 0 < args.subset < n else np.arange(n)
     t = time.perf_counter()
     if args.no_full:
-        solver = iso.heat_solver(V, F)
+        solver = heat_solver(V, F)
         Dsub = np.stack([solver.compute_distance(int(i))[sub] for i in sub]).astype(np.float32)
         Dsub = 0.5 * (Dsub + Dsub.T)
         np.fill_diagonal(Dsub, 0.0)
     else:
-        D = iso.geodesic_matrix(V, F)
+        D = geodesic_matrix(V, F)
         Dsub = D[np.ix_(sub, sub)]
     t_geo = time.perf_counter() - t
     print(f"heat geodesics for scoring: {t_geo:.1f} s", flush=True)  # noqa: T201
@@ -78,25 +85,25 @@ def main() -> None:
 
     if not args.no_full:
         t = time.perf_counter()
-        full = iso.classical_mds(D, dim=max(dims), seed=args.seed)
+        full = classical_mds(D, dim=max(dims), seed=args.seed)
         t_full = time.perf_counter() - t + t_geo
         del D
         for d in dims:
             score(f"Isomap {d} (full MDS)", full[:, :d], t_full)
     t = time.perf_counter()
-    lm, Dl = iso.landmark_geodesics(V, F, args.landmarks, seed=args.seed)
-    lmds = iso.landmark_mds(Dl, lm, dim=max(dims), seed=args.seed)
+    lm, Dl = landmark_geodesics(V, F, args.landmarks, seed=args.seed)
+    lmds = landmark_mds(Dl, lm, dim=max(dims), seed=args.seed)
     t_lm = time.perf_counter() - t
     for d in dims:
         score(f"Isomap {d} (landmark MDS, {len(lm)})", lmds[:, :d], t_lm)
     score("template coordinates (xyz)", V.astype(np.float32), 0.0)
     t = time.perf_counter()
-    eig = iso.laplacian_eigenmaps(V, F, dim=16)
+    eig = laplacian_eigenmaps(V, F, dim=16)
     t_eig = time.perf_counter() - t
     score("Laplacian eigenmaps 3", eig[:, :3], t_eig)
     score("Laplacian eigenmaps 16", eig, t_eig)
 
-    out = Path(args.out or f"benchmarks/results/richness_{args.body}.md")
+    out = Path(args.out or f"benchmarks/results/studies/{date.today():%Y-%m-%d}-richness_{args.body}.md")
     lines = [f"# Richness study on the `{args.body}` template ({n} skin vertices"
              f"{f', scored on {len(sub)} random vertices' if len(sub) < n else ''}, k = {args.k})",
              "", "Lower is better. Seconds: time to build the embedding (full MDS includes the "

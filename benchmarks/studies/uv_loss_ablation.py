@@ -7,13 +7,14 @@ with angle and area weights raised to 0.1 (to show what the small thesis weights
 
     python benchmarks/studies/uv_loss_ablation.py [--mesh blob-1.5k] [--uv-iters 400]
 
-Writes benchmarks/results/uv_loss_ablation.md.
+Writes benchmarks/results/studies/<date>-uv_loss_ablation.md.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from datetime import date
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +26,7 @@ from dressmeup.methods.uvparam.evaluate import markdown_table, score_uv
 from dressmeup.methods.uvparam.neural.infer import infer
 from dressmeup.methods.uvparam.neural.train import train
 
-RESULTS = Path(__file__).resolve().parents[1] / "results"
+RESULTS = Path(__file__).resolve().parents[1] / "results" / "studies"
 VARIANTS = [
     ("cycle only", (1.0, 0.0, 0.0, 0.0)),
     ("cycle + iso", (1.0, 1.0, 0.0, 0.0)),
@@ -62,7 +63,7 @@ def main() -> None:
             f"{args.uv_iters} UV steps, one shared PatchNet (seed {args.seed}); scored on the training mesh.\n\n"
             + markdown_table(rows, cols))
     RESULTS.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(RESULTS / "uv_loss_ablation.md", text)
+    atomic_write_text(RESULTS / f"{date.today():%Y-%m-%d}-uv_loss_ablation.md", text)
     print(text)
 
 

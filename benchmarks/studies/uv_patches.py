@@ -6,13 +6,14 @@ islands and non-disk patches add charts).
 
     python benchmarks/studies/uv_patches.py [--mesh blob-1.5k] [--patches 2 4 8 12 16]
 
-Writes benchmarks/results/uv_patches.md.
+Writes benchmarks/results/studies/<date>-uv_patches.md.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from datetime import date
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,7 @@ from dressmeup.methods.uvparam.evaluate import markdown_table, score_uv
 from dressmeup.methods.uvparam.neural.infer import infer
 from dressmeup.methods.uvparam.neural.train import train
 
-RESULTS = Path(__file__).resolve().parents[1] / "results"
+RESULTS = Path(__file__).resolve().parents[1] / "results" / "studies"
 
 
 def main() -> None:
@@ -52,7 +53,7 @@ def main() -> None:
             f"{args.config} configuration, {args.uv_iters} UV steps, seed {args.seed}; scored on the training mesh.\n\n"
             + markdown_table(rows, cols))
     RESULTS.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(RESULTS / "uv_patches.md", text)
+    atomic_write_text(RESULTS / f"{date.today():%Y-%m-%d}-uv_patches.md", text)
     print(text)
 
 

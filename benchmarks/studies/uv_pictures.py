@@ -18,7 +18,8 @@ from dressmeup.data.shapes import make_test_mesh
 from dressmeup.methods.uvparam import get_method
 from dressmeup.methods.uvparam.evaluate import score_uv
 from dressmeup.methods.uvparam.neural.infer import infer
-from dressmeup.methods.uvparam.neural.train import load_model, save_model, train
+from dressmeup.methods.uvparam.neural.model import load_model, save_model
+from dressmeup.methods.uvparam.neural.train import train
 from dressmeup.viz.uv_checker import render_uv_checker
 
 IMAGES = Path(__file__).resolve().parents[2] / "docs" / "images"

@@ -7,13 +7,14 @@ reported separately, as in the thesis. QCE/ASE/flips are given beside the times.
     python benchmarks/studies/uv_resolution.py [--shape blob] [--resolutions 30k 100k]
         [--methods xatlas slim lscm] [--config fast]
 
-Writes benchmarks/results/uv_resolution_<shape>.md.
+Writes benchmarks/results/studies/<date>-uv_resolution_<shape>.md.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from datetime import date
 from pathlib import Path
 
 import numpy as np
@@ -24,9 +25,10 @@ from dressmeup.io.atomic import atomic_write_text
 from dressmeup.methods.uvparam import get_method
 from dressmeup.methods.uvparam.evaluate import markdown_table, score_uv
 from dressmeup.methods.uvparam.neural.infer import infer
-from dressmeup.methods.uvparam.neural.train import load_model, save_model, train
+from dressmeup.methods.uvparam.neural.model import load_model, save_model
+from dressmeup.methods.uvparam.neural.train import train
 
-RESULTS = Path(__file__).resolve().parents[1] / "results"
+RESULTS = Path(__file__).resolve().parents[1] / "results" / "studies"
 
 
 def main() -> None:
@@ -69,7 +71,7 @@ def main() -> None:
             f"included (not cached), torch threads {args.threads}. Shared 2-core CPU.\n\n"
             + markdown_table(rows, cols))
     RESULTS.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(RESULTS / f"uv_resolution_{args.shape}.md", text)
+    atomic_write_text(RESULTS / f"{date.today():%Y-%m-%d}-uv_resolution_{args.shape}.md", text)
     print(text)
 
 

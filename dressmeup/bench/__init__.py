@@ -9,19 +9,16 @@ and leaderboards (docs/spec.md section 4; docs/benchmark.md).
 
 from __future__ import annotations
 
+from dressmeup.bench.boards.leaderboard import build_leaderboard, write_leaderboard
 from dressmeup.bench.edition import Edition, list_editions, load_edition
-from dressmeup.bench.executor import Executor, LocalExecutor
-from dressmeup.bench.leaderboard import build_leaderboard, write_leaderboard
-from dressmeup.bench.results import Result, load_result
-from dressmeup.bench.score import InvalidSubmissionError, ScoreResult, score_submission
-from dressmeup.bench.submission import SubmissionInfo, submission_hash, write_submission
-from dressmeup.bench.validate import Problem, ValidationReport, validate_submission
+from dressmeup.bench.scoring.results import Result, load_result
+from dressmeup.bench.scoring.score import InvalidSubmissionError, ScoreResult, score_submission
+from dressmeup.bench.scoring.submission import SubmissionInfo, submission_hash, write_submission
+from dressmeup.bench.scoring.validate import Problem, ValidationReport, validate_submission
 
 __all__ = [
     "Edition",
-    "Executor",
     "InvalidSubmissionError",
-    "LocalExecutor",
     "Problem",
     "Result",
     "ScoreResult",

@@ -140,7 +140,6 @@ def render_captures(root: Path, sample_ids: list[str], out: Path, seed: int = 0)
     noise) into ``out/<sample_id>/``, without its ground truth, plus
     ``sample_to_world.json`` (the 4 x 4 placement of the sample's scan in the rig's world, in
     metres). Returns the written files relative to ``out.parent``."""
-    # heavy: the capture stage loads open3d (~0.8 s to import)
     written = []
     for sid in sample_ids:
         sample = open_dataset(str(root.resolve()))[sid]

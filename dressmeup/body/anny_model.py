@@ -152,7 +152,7 @@ def _no_download():
 def _quiet_warp() -> None:
     """Keep warp's initialisation banner (CUDA/devices/kernel cache) off stdout."""
     try:
-        # optional dependency (ImportError handled)
+        # optional: warp (a dependency of anny, not of dressmeup)
         import warp
     except ImportError:  # pragma: no cover - warp is a dependency of anny
         return
@@ -177,7 +177,7 @@ def init_warp_quietly() -> None:
     """
 
     try:
-        # optional dependency (ImportError handled)
+        # optional: warp (a dependency of anny, not of dressmeup)
         import warp
     except ImportError:  # pragma: no cover - warp is a dependency of anny
         return
@@ -202,7 +202,7 @@ def _configure_caches():
     _quiet_warp()
     if not os.environ.get("WARP_CACHE_PATH"):
         try:
-            # optional dependency (ImportError handled)
+            # optional: warp (a dependency of anny, not of dressmeup)
             import warp
 
             if getattr(warp.config, "kernel_cache_dir", None) is None:
@@ -284,7 +284,7 @@ class AnnyBody(LBSBodyModel):
         self._anchors = _anchor_bones(labels)
         faces = model.get_triangular_faces().cpu().numpy().astype(np.int64)
         n_all = int(model.template_vertices.shape[0])
-        # Skin = largest connected component.
+        # heavy: scipy.sparse
         from dressmeup.geometry.topology import largest_component
 
         self.skin_vertex_ids, self.faces = largest_component(faces, n_all)

@@ -125,7 +125,7 @@ class LBSBodyModel:
         """
         cached = self.__dict__.get("_skin")
         if cached is None:
-            # heavy: scipy (~0.5 s to import)
+            # heavy: scipy.sparse
             from dressmeup.geometry.topology import largest_component
 
             cached = self.__dict__["_skin"] = largest_component(self.faces, self.n_vertices,

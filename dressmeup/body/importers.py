@@ -122,7 +122,7 @@ def _rest_root(model, shape: np.ndarray) -> np.ndarray:
 
 
 def _rotvec_compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.spatial
     from scipy.spatial.transform import Rotation
 
     return (Rotation.from_rotvec(a) * Rotation.from_rotvec(b)).as_rotvec()
@@ -169,7 +169,7 @@ def import_easymocap(path: str | os.PathLike, body_model=None, model: str = "smp
     pose = _pose_for(bm, poses, path, "poses")
     shape = _shape_for(bm, shapes, path, "shapes")
     J0 = _rest_root(bm, shape)
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.spatial
     from scipy.spatial.transform import Rotation
 
     pose[0] = _rotvec_compose(Rh, pose[0])

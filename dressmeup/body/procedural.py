@@ -154,7 +154,7 @@ def _skinning_weights(V: np.ndarray, sigma: float = 0.035) -> np.ndarray:
 
 @functools.lru_cache(maxsize=4)
 def _build(voxel: float) -> tuple[np.ndarray, ...]:
-    # heavy: scipy (~0.5 s to import), igl (~0.4 s to import)
+    # heavy: igl, scipy.sparse
     import igl
     import scipy.sparse as sp
 
@@ -167,7 +167,7 @@ def _build(voxel: float) -> tuple[np.ndarray, ...]:
     S = _sdf(GV)
     V, F, _ = igl.marching_cubes(S, GV, int(n[0]), int(n[1]), int(n[2]), 0.0)
     # Drop duplicate vertices (marching cubes shares them by edge key already) and keep the
-    # largest connected component.
+    # heavy: scipy.sparse
     from dressmeup.geometry.topology import largest_component
 
     keep, F = largest_component(np.asarray(F, dtype=np.int64), V.shape[0])

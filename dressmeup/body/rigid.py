@@ -30,7 +30,7 @@ def rotate_params(params: BodyParams, model, R: np.ndarray) -> BodyParams:
     -------
     New :class:`BodyParams` whose posed vertices are ``vertices @ R.T`` of ``params``'.
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.spatial
     from scipy.spatial.transform import Rotation
 
     R = np.asarray(R, dtype=np.float64)

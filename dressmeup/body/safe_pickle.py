@@ -75,7 +75,7 @@ class _RestrictedUnpickler(pickle.Unpickler):
         if (module, name) in _ALLOWED:
             return super().find_class(module, name)
         if module.startswith("scipy.sparse") and name in _SPARSE:
-            # heavy: scipy (~0.5 s to import)
+            # heavy: scipy.sparse
             import scipy.sparse
 
             return getattr(scipy.sparse, name)

@@ -107,7 +107,7 @@ def transfer_weights(
     if smooth_iterations:
         if faces is None:
             raise ValueError("faces: needed to smooth the transferred weights")
-        # heavy: scipy (~0.5 s to import)
+        # heavy: scipy.sparse
         import scipy.sparse as sp
 
         from dressmeup.geometry.laplacian import adjacency
@@ -138,7 +138,7 @@ def _reject_facing_away(body_V: np.ndarray, body_F: np.ndarray, body_W: np.ndarr
     the body vertices, and flipped the test for garment points near armpits and crotches
     between two builds of the same body).
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.spatial
     from scipy.spatial import cKDTree
 
     vert_n = vertex_normals(body_V, body_F)

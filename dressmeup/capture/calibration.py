@@ -19,9 +19,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
-from dressmeup.capture.rig import Camera, Rig
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.rig import Rig
 from dressmeup.errors import InputError
 
 __all__ = ["BoardSpec", "make_board", "render_board_view", "detect_board_pose", "solve_extrinsics",
@@ -48,9 +50,6 @@ class BoardSpec:
 
 def make_board(spec: BoardSpec) -> Any:
     """The OpenCV ``CharucoBoard`` of a spec (InputError on an unknown dictionary name)."""
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     name = spec.dictionary
     if not hasattr(cv2.aruco, name):
         raise InputError(f"board dictionary {name!r} is not an OpenCV aruco dictionary (e.g. DICT_5X5_100)")
@@ -96,9 +95,6 @@ def render_board_view(spec: BoardSpec, camera: Camera, board_center_to_world: np
     -------
     (h, w) uint8
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     board = make_board(spec)
     W, H = spec.size
     pw, ph = round(W * pixels_per_metre), round(H * pixels_per_metre)
@@ -132,9 +128,6 @@ def detect_board_pose(image: np.ndarray, camera: Camera, spec: BoardSpec, min_co
     (4, 4) float64 mapping board coordinates (origin at the board's first corner) to camera
     coordinates, or None.
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     board = make_board(spec)
     gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
     detector = cv2.aruco.CharucoDetector(board)
@@ -223,9 +216,6 @@ def calibrate_rig(images_dir: str | os.PathLike, rig: Rig, spec: BoardSpec) -> t
     ------
     InputError for unreadable images (naming the file) or unconnected cameras.
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     root = Path(images_dir)
     if not root.is_dir():
         raise FileNotFoundError(f"calibration image folder not found: {root}")

@@ -6,7 +6,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from dressmeup.capture.rig import Camera, Rig
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.rig import Rig
 from dressmeup.errors import InputError
 
 __all__ = ["RGBDFrame", "frame_camera", "with_rig_cameras"]

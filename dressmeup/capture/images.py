@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from dressmeup.errors import InputError
@@ -26,8 +27,6 @@ def frame_name(index: int) -> str:
 
 def read_png(path: Path) -> np.ndarray:
     """Decode an image file as stored (any depth and channel count); InputError names the file."""
-    import cv2  # reason: start-up time of the command line
-
     if not path.is_file():
         raise InputError(f"{path}: file is missing")
     image_header(path)  # its size is bounded (dressmeup.limits) before anything is decoded
@@ -77,8 +76,6 @@ def read_color_png(path: str | os.PathLike, width: int | None = None,
     ------
     InputError naming the file.
     """
-    import cv2  # reason: start-up time of the command line
-
     path = Path(path)
     img = read_png(path)
     if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] not in (3, 4):
@@ -117,8 +114,6 @@ def check_size(path: Path, img: np.ndarray, width: int | None, height: int | Non
 
 def write_png(path: str | os.PathLike, img: np.ndarray) -> None:
     """Write an image array as PNG, atomically (OpenCV channel order: BGR)."""
-    import cv2  # reason: start-up time of the command line
-
     path = Path(path)
     with atomic_path(path) as tmp:
         if not cv2.imwrite(str(tmp), img):

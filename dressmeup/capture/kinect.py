@@ -19,10 +19,13 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
-from dressmeup.capture.rig import Camera, Rig
-from dressmeup.capture.session import RGBDFrame, SessionInfo, write_frame, write_session
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.frame import RGBDFrame
+from dressmeup.capture.rig import Rig
+from dressmeup.capture.session import SessionInfo, write_frame, write_session
 from dressmeup.errors import DressmeupError, InputError
 
 __all__ = ["require_pyk4a", "read_intrinsics", "mkv_frames", "mkv_to_session"]
@@ -33,7 +36,7 @@ log = logging.getLogger(__name__)
 def require_pyk4a() -> Any:
     """Import ``pyk4a`` or raise a clear error saying how to get it."""
     try:
-        # optional dependency (ImportError handled)
+        # optional: pyk4a (ImportError handled)
         import pyk4a
     except ImportError as exc:
         raise DressmeupError(
@@ -83,9 +86,6 @@ def mkv_frames(mkv: str | os.PathLike, n_frames: int = 1, skip_frames: int = 30)
     -------
     list of RGBDFrame with colour in the depth camera's geometry and depth in metres.
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     pyk4a = require_pyk4a()
     path = Path(mkv)
     pb = _open(path)

@@ -31,24 +31,14 @@ from typing import Any
 import numpy as np
 
 # Camera and the pose rule live in capture.camera; re-exported here, where rigs are read
-from dressmeup.capture.camera import Camera, PoseRepair, camera_pose_repair, check_rigid
+from dressmeup.capture.camera import Camera, PoseRepair, camera_pose_repair
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonio import parse_json_file
 
 __all__ = [
-    "Camera",
-    "Rig",
-    "RigReading",
-    "read_rig",
-    "parse_rig",
-    "load_rig",
-    "save_rig",
-    "ring_rig",
-    "check_rigid",
-    "perturb_rig",
-    "look_at",
-    "RIG_FORMAT",
+    "Rig", "RigReading", "read_rig", "parse_rig", "load_rig", "save_rig", "ring_rig",
+    "perturb_rig", "look_at", "RIG_FORMAT"
 ]
 
 RIG_FORMAT = "dressmeup-rig"

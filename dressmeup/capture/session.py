@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 # frames and their PNG files have their own homes; re-exported here, where sessions are read
-from dressmeup.capture.frame import RGBDFrame, frame_camera, with_rig_cameras
+from dressmeup.capture.frame import RGBDFrame
 from dressmeup.capture.images import (
     frame_name,
     read_color_png,
@@ -42,24 +42,9 @@ from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonio import parse_json_file, validate_json
 
 __all__ = [
-    "GarmentInfo",
-    "SessionInfo",
-    "RGBDFrame",
-    "frame_camera",
-    "with_rig_cameras",
-    "Session",
-    "SessionCheck",
-    "open_session",
-    "check_session",
-    "validate_session",
-    "write_session",
-    "write_frame",
-    "read_depth_png",
-    "read_color_png",
-    "read_label_png",
-    "SESSION_FORMAT",
-    "LABEL_UNKNOWN",
-    "LABEL_SKIN",
+    "GarmentInfo", "SessionInfo", "Session", "SessionCheck", "open_session", "check_session",
+    "validate_session", "write_session", "write_frame", "SESSION_FORMAT", "LABEL_UNKNOWN",
+    "LABEL_SKIN"
 ]
 
 SESSION_FORMAT = "dressmeup-session"

@@ -89,9 +89,9 @@ def _params(items: list[str]) -> dict:
 
 
 def _run(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.bench import load_edition
-    from dressmeup.bench.submission import check_submission_out
+    from dressmeup.bench.scoring.submission import check_submission_out
     from dressmeup.runs import run_retarget_baseline
 
     check_submission_out(args.out, args.overwrite)  # before the work, naming --overwrite
@@ -112,11 +112,11 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.methods.retarget.train_dataset import train_from_dataset
 
     if args.threads:
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         import torch
 
         torch.set_num_threads(int(args.threads))

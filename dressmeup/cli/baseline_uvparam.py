@@ -75,7 +75,7 @@ def _parse_params(items: list[str]) -> dict:
 
 def load_mesh_arg(spec: str):
     """A test-mesh id or a mesh file -> (mesh_id, V, F)."""
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     import numpy as np
 
     from dressmeup.data.shapes import make_test_mesh
@@ -86,12 +86,12 @@ def load_mesh_arg(spec: str):
             raise FileNotFoundError(f"mesh file {path} does not exist")
         mesh_id = re.sub(r"[^A-Za-z0-9_-]", "_", path.stem)
         if path.suffix.lower() in (".obj", ".ply"):  # the toolkit's bounded reader
-            # start-up time: the stage loads when the command runs
+            # start-up: the stage loads when the command runs
             from dressmeup.io.mesh import load_mesh
 
             m = load_mesh(path)
             return mesh_id, m.vertices, m.faces
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         import trimesh
 
         from dressmeup.geometry.mesh import as_arrays
@@ -111,7 +111,7 @@ def load_mesh_arg(spec: str):
 
 
 def _mesh_ids_from_edition(edition: str) -> list[str]:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.bench.edition import load_edition
 
     ed = load_edition(edition)
@@ -125,10 +125,10 @@ def _mesh_ids_from_edition(edition: str) -> list[str]:
 
 def _run_uvparam(args: argparse.Namespace) -> int:
 
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     import numpy as np
 
-    from dressmeup.bench.submission import check_submission_out
+    from dressmeup.bench.scoring.submission import check_submission_out
     from dressmeup.data.shapes import DEFAULT_MESH_IDS
     from dressmeup.methods.uvparam import get_method
     from dressmeup.progress import progress
@@ -161,16 +161,16 @@ def _run_uvparam(args: argparse.Namespace) -> int:
         preds[mesh_id] = {"uv": res.uv, "uv_faces": res.uv_faces, "chart_ids": res.chart_ids,
                           "seconds": np.float64(res.seconds)}
         if args.images:
-            # start-up time: the stage loads when the command runs
+            # start-up: the stage loads when the command runs
             from dressmeup.viz.uv_checker import render_uv_checker
 
             render_uv_checker(V, F, res.uv, res.uv_faces, Path(args.images) / f"uv-{args.method}-{mesh_id}.png",
                               title=f"{args.method} on {mesh_id} ({res.n_charts} charts)",
                               chart_ids=res.chart_ids)
         sys.stdout.write(f"{mesh_id}: {len(V)} vertices, {res.n_charts} charts, {res.seconds:.2f} s\n")
-    # start-up time: the stage loads when the command runs
-    from dressmeup.bench.provenance import hardware
-    from dressmeup.bench.submission import write_submission
+    # start-up: the stage loads when the command runs
+    from dressmeup.bench.scoring.provenance import hardware
+    from dressmeup.bench.scoring.submission import write_submission
     from dressmeup.runs import BASELINE_AUTHORS
 
     write_submission(out, preds, edition=edition, method=args.method,
@@ -185,7 +185,7 @@ def _run_uvparam(args: argparse.Namespace) -> int:
 
 def _run_on_mesh_set(args: argparse.Namespace, params: dict) -> int:
     """``--data``: every mesh of the edition's split, through :func:`dressmeup.runs.run_uvparam_baseline`."""
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.runs import run_uvparam_baseline
 
     if args.edition is None:
@@ -201,9 +201,10 @@ def _run_on_mesh_set(args: argparse.Namespace, params: dict) -> int:
 
 
 def _run_train(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.geometry.simplify import decimate
-    from dressmeup.methods.uvparam.neural.train import get_config, save_model, train
+    from dressmeup.methods.uvparam.neural.model import get_config, save_model
+    from dressmeup.methods.uvparam.neural.train import train
 
     cfg = get_config(args.config, **_parse_params(args.param))
     mesh_id, V, F = load_mesh_arg(args.mesh)

@@ -119,8 +119,8 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _validate(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
-    from dressmeup.bench.validate import validate_submission
+    # start-up: the stage loads when the command runs
+    from dressmeup.bench.scoring.validate import validate_submission
 
     report = validate_submission(args.submission, args.edition, args.data)
     n = args.max_per_kind or None
@@ -130,9 +130,9 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _score(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
-    from dressmeup.bench.leaderboard import format_summary
-    from dressmeup.bench.score import InvalidSubmissionError, score_submission
+    # start-up: the stage loads when the command runs
+    from dressmeup.bench.boards.leaderboard import format_summary
+    from dressmeup.bench.scoring.score import InvalidSubmissionError, score_submission
 
     executor = executor_from_args(args)
     try:
@@ -149,8 +149,8 @@ def _score(args: argparse.Namespace) -> int:
 
 
 def _leaderboard(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
-    from dressmeup.bench.leaderboard import write_leaderboard
+    # start-up: the stage loads when the command runs
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
 
     per_cat = None
     if args.per_category is not None:
@@ -166,7 +166,7 @@ def _leaderboard(args: argparse.Namespace) -> int:
 
 
 def _editions(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.bench.edition import list_editions, load_edition
 
     if args.name:
@@ -182,7 +182,7 @@ def _editions(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.demo import run_demo
 
     res = run_demo(out=args.out, workers=args.workers, quick=args.quick,

@@ -75,19 +75,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _load_scan(path: str):
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     import numpy as np
 
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"scan not found: {p}")
     if p.suffix.lower() == ".npy":
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         from dressmeup.io.npz import load_npy
 
         return _points(load_npy(p, what="scan"), p)
     if p.suffix.lower() in (".xyz", ".txt"):
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         from dressmeup.limits import MESH_BYTES
 
         MESH_BYTES.check(p.stat().st_size, str(p), "point file size")
@@ -96,14 +96,14 @@ def _load_scan(path: str):
         except ValueError as exc:
             raise InputError(f"{p}: not a point list of x y z rows ({exc})") from exc
     if p.suffix.lower() == ".ply":  # a mesh or a point cloud: header checked before parsing
-        # start-up time: the stage loads when the command runs
-        from dressmeup.io.mesh import check_ply_header
+        # start-up: the stage loads when the command runs
+        from dressmeup.io.ply import check_ply_header
 
         check_ply_header(p)
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     import trimesh
 
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.limits import MESH_BYTES
 
     MESH_BYTES.check(p.stat().st_size, str(p))
@@ -123,7 +123,7 @@ def _load_scan(path: str):
 
 def _points(P, path: Path):
     """``P`` when it is ``(p, 3)`` finite points, at least four of them."""
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     import numpy as np
 
     P = np.asarray(P)
@@ -136,23 +136,23 @@ def _points(P, path: Path):
 
 
 def _load_keypoints(path: str):
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     import numpy as np
 
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"keypoints file not found: {p}")
     if p.suffix.lower() == ".json":
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         from dressmeup.io.jsonio import read_json
 
         return {k: np.asarray(v, dtype=float) for k, v in read_json(p, "keypoints").items()}
     if p.suffix.lower() == ".npy":
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         from dressmeup.io.npz import load_npy
 
         return load_npy(p, what="keypoints file")
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.io.npz import load_npz
 
     return load_npz(p, what="keypoints file")
@@ -185,7 +185,7 @@ def _checked_scan(args: argparse.Namespace):
     """The scan, and when ``--up`` names another axis, checked to look upright once turned."""
     scan = _load_scan(args.scan)
     if args.up not in (None, "y"):
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         from dressmeup.body.registration.scan import check_upright, rotate_scan, up_rotation
 
         turned = rotate_scan(scan, up_rotation(args.up))
@@ -197,7 +197,7 @@ def _checked_scan(args: argparse.Namespace):
 def _precheck(path: str) -> None:
     """Refuse a parameter file whose size or content is out of bounds (a pickle bomb, a
     damaged .npz) before minutes of model building; the importer reads it afterwards."""
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.io.jsonio import parse_json_file
     from dressmeup.io.npz import npz_arrays_info
     from dressmeup.io.pickles import read_pickle_bytes
@@ -212,7 +212,7 @@ def _precheck(path: str) -> None:
 
 
 def _run_register(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.body import get_body_model
     from dressmeup.body.importers import import_body_params
     from dressmeup.body.registration import register as fit
@@ -248,7 +248,7 @@ def _run_register(args: argparse.Namespace) -> int:
                          f"scan points on {len(support['planes'])} flat support surfaces "
                          f"({kinds}; --keep-support keeps them)\n")
     if scan is not None:
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         from dressmeup.body.registration.scan import rotate_scan, up_rotation
         from dressmeup.body.rigid import rotate_params
 
@@ -277,7 +277,7 @@ def _report_fit(model, params, scan, out: Path, picture: bool, seed: int,
     ``<stem>.metrics.json`` and the picture as ``<stem>.fit.png``; the scan's points on
     ``supports`` (floor, seat: see ``registration.support``) are left out."""
 
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     import numpy as np
 
     from dressmeup.body.registration.metrics import fit_metrics, format_metrics, vertex_parts
@@ -301,7 +301,7 @@ def _report_fit(model, params, scan, out: Path, picture: bool, seed: int,
     atomic_write_text(metrics_path, json.dumps(m, indent=1))
     written = [str(metrics_path)]
     if picture:
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         from scipy.spatial.transform import Rotation
 
         from dressmeup.body.registration.metrics import outside_distances_mm

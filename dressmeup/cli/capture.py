@@ -135,7 +135,7 @@ def _register_import(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _import_capture(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.capture.importers import ImportOptions, import_capture
 
     out = Path(args.out)
@@ -162,7 +162,7 @@ def _import_capture(args: argparse.Namespace) -> int:
 
 
 def _validate_session(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.capture.session import check_session
 
     check = check_session(args.session, check_images=not args.quick)
@@ -208,7 +208,7 @@ def _fusion_args(p: argparse.ArgumentParser) -> None:
 
 
 def _fusion_config(args: argparse.Namespace) -> Any:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.fusion.cleanup import CleanupConfig
     from dressmeup.fusion.icp import ICPConfig
     from dressmeup.fusion.pipeline import FusionConfig
@@ -225,7 +225,7 @@ def _fusion_config(args: argparse.Namespace) -> Any:
 
 
 def _load_rig(spec: str) -> Any:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.capture.rig import load_rig, ring_rig
 
     if spec == "default-7":
@@ -234,7 +234,7 @@ def _load_rig(spec: str) -> Any:
 
 
 def _synth_capture(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.capture.synthetic import (
         NoiseModel,
         make_mannequin,
@@ -268,7 +268,7 @@ def _synth_capture(args: argparse.Namespace) -> int:
 
 
 def _fuse(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.capture.session import open_session
     from dressmeup.fusion.pipeline import fuse_session, save_scan
 
@@ -290,7 +290,7 @@ def _fuse(args: argparse.Namespace) -> int:
     extra: dict[str, Any] = {"session": str(Path(args.session).resolve()),
                              **({"pose_notes": session.notes} if session.notes else {})}
     if args.garments:
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         from dressmeup.extraction.pipeline import extract_garments, save_garment
 
         ex = extract_garments(result, session.info)
@@ -314,7 +314,7 @@ def _fuse(args: argparse.Namespace) -> int:
 
 
 def _build_dataset(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.data.from_captures import build_dataset_from_sessions
     from dressmeup.extraction.pipeline import ExtractionConfig
 

@@ -111,7 +111,7 @@ def _generator_1_is_serial(args: argparse.Namespace) -> None:
 
 
 def _synth_edition(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.bench.edition import load_edition
     from dressmeup.bench.tasks.common import manifest_sha256
     from dressmeup.data.synth import generate_dataset
@@ -123,7 +123,7 @@ def _synth_edition(args: argparse.Namespace) -> int:
     if not args.allow_other_data:
         _probe_machine(ed)
     if ed.task == "uvparam":  # a mesh set, not a garment dataset
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         from dressmeup.runs import build_data
 
         root = build_data(ed, args.out)
@@ -152,7 +152,7 @@ def _synth_edition(args: argparse.Namespace) -> int:
 def _probe_machine(ed) -> None:
     """Refuse (one line) to generate an edition whose pinned data this machine would not
     reproduce (:func:`dressmeup.bench.machine.machine_differs`), before anything is written."""
-    # start-up time: the probe loads the generator only when the command runs
+    # start-up: the probe loads the generator only when the command runs
     from dressmeup.bench.machine import machine_differs
 
     why, probe = machine_differs(ed)
@@ -164,7 +164,7 @@ def _probe_machine(ed) -> None:
 
 
 def _synth(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.data.synth import generate_dataset
 
     if args.edition:
@@ -185,7 +185,7 @@ def _synth(args: argparse.Namespace) -> int:
                             poses=args.poses, seed=args.seed, body_model=args.body_model,
                             registration_noise=args.registration_noise,
                             write_scan=not args.no_scan, **kw)
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.data.dataset import Dataset
 
     ds = Dataset(root)
@@ -201,7 +201,7 @@ def _synth(args: argparse.Namespace) -> int:
 
 
 def _validate(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.data.validate import validate_dataset
 
     rep = validate_dataset(args.root, check_meshes=not args.no_meshes,
@@ -211,7 +211,7 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _import(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.data.importing import import_dataset
 
     frames = None
@@ -229,7 +229,7 @@ def _import(args: argparse.Namespace) -> int:
     sys.stdout.write(res.summary + "\n")
     sys.stdout.write(f"wrote {res.written} samples ({res.resumed} already there) to {res.root}\n")
     if args.pictures > 0:
-        # start-up time: the stage loads when the command runs
+        # start-up: the stage loads when the command runs
         from dressmeup.data.dataset import Dataset
         from dressmeup.viz.overlay import render_sample_overlay
 

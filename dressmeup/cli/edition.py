@@ -125,7 +125,7 @@ def _add_verify(esub: argparse._SubParsersAction) -> None:
 
 
 def _edition_create(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.bench.edition_create import create_edition
 
     out = Path(args.out or f"{args.name}.json")
@@ -146,7 +146,7 @@ def _edition_create(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.bench.parts import export_parts, leaks
 
     if not args.public and not args.private:
@@ -173,8 +173,8 @@ def _export(args: argparse.Namespace) -> int:
 
 
 def _pack(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
-    from dressmeup.bench.archive import pack_part, pins_of
+    # start-up: the stage loads when the command runs
+    from dressmeup.bench.archives.archive import pack_part, pins_of
     from dressmeup.bench.edition import load_edition
     from dressmeup.bench.parts import export_parts
     from dressmeup.data.parts import part_of
@@ -201,8 +201,8 @@ def _pack(args: argparse.Namespace) -> int:
 
 
 def _fetch(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
-    from dressmeup.bench.archive import fetch, verify_folder
+    # start-up: the stage loads when the command runs
+    from dressmeup.bench.archives.archive import fetch, verify_folder
 
     out = fetch(args.name, args.source, args.out, part=args.part,
                 require_pin=not args.unpinned)
@@ -215,8 +215,8 @@ def _fetch(args: argparse.Namespace) -> int:
 
 
 def _verify(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
-    from dressmeup.bench.archive import verify_folder
+    # start-up: the stage loads when the command runs
+    from dressmeup.bench.archives.archive import verify_folder
 
     problems = verify_folder(args.root, args.edition)
     for line in problems:

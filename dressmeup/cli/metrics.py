@@ -57,7 +57,7 @@ def _display(m) -> tuple[str, str]:
 
 def _surface(mesh, what: str):
     """``mesh`` when some face has a positive area (metrics sample its surface)."""
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.geometry.mesh import face_areas
 
     if not face_areas(mesh.vertices, mesh.faces).sum() > 0:
@@ -68,7 +68,7 @@ def _surface(mesh, what: str):
 
 def run(args: argparse.Namespace) -> int:
     """Load the meshes, compute the report and print it."""
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.io.mesh import load_mesh
     from dressmeup.metrics.report import compare_meshes, scale_mismatch
 

@@ -80,7 +80,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _server(args: argparse.Namespace, **kw):
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from sqlalchemy.exc import ArgumentError, NoSuchModuleError
 
     from dressmeup.server.service import EvaluationServer
@@ -94,7 +94,7 @@ def _server(args: argparse.Namespace, **kw):
 
 
 def _serve(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     import uvicorn
 
     from dressmeup.server.app import create_app
@@ -110,7 +110,7 @@ def _serve(args: argparse.Namespace) -> int:
 
 
 def _add_team(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.server.accounts import add_team
 
     server = _server(args)
@@ -122,7 +122,7 @@ def _add_team(args: argparse.Namespace) -> int:
 
 
 def _revoke_team(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from dressmeup.server.accounts import revoke_team
 
     server = _server(args)
@@ -140,7 +140,7 @@ def _add_edition(args: argparse.Namespace) -> int:
 
 
 def _list(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
+    # start-up: the stage loads when the command runs
     from sqlalchemy import func, select
 
     from dressmeup.server.db import Submission, Team
@@ -159,7 +159,6 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _submit(args: argparse.Namespace) -> int:
-    # start-up time: the stage loads when the command runs
     sub = Path(args.submission)
     if not (sub / "submission.json").is_file():
         raise InputError(f"{sub} is not a submission folder (no submission.json)")

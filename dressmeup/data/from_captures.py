@@ -26,6 +26,7 @@ from dressmeup.data import layout
 from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import DressmeupError, InputError
 from dressmeup.executors import LocalExecutor, in_order, require_shared
+from dressmeup.extraction.pipeline import ExtractionConfig, extract_garments
 from dressmeup.fusion.pipeline import FusionConfig, fuse_session, reuse_scan
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.progress import progress
@@ -124,9 +125,6 @@ def build_session(job: dict[str, Any]) -> dict[str, Any]:
     in the output frame, ``texture`` (h,w,3) uint8 or None), ``scan`` = ``(V, F)``, ``body``
     (BodyParams or None), ``labels_from`` and ``body_source``.
     """
-    # heavy: scipy (~0.5 s to import)
-    from dressmeup.extraction.pipeline import extract_garments
-
     session = open_session(job["session"])
     info = session.info
     scan_dir = job.get("scan_dir")
@@ -189,9 +187,6 @@ def build_dataset_from_sessions(sessions: Sequence[str | Path], out: str | Path,
     -------
     BuildReport. Failed sessions are also listed in ``out/build-failures.json``.
     """
-    # heavy: scipy (~0.5 s to import)
-    from dressmeup.extraction.pipeline import ExtractionConfig
-
     folders = find_sessions(sessions)
     if not folders:
         raise InputError("sessions: no session folder given")

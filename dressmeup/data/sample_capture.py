@@ -17,7 +17,7 @@ from dressmeup.capture.synthetic import (
 from dressmeup.data.dataset import Dataset
 from dressmeup.errors import InputError
 from dressmeup.fusion.pipeline import fuse_session
-from dressmeup.io.mesh import write_ply
+from dressmeup.io.ply import write_ply
 from dressmeup.metrics import fusion_quality
 
 __all__ = ["fuse_synthetic_sample"]

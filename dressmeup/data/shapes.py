@@ -27,6 +27,7 @@ import re
 
 import numpy as np
 
+from dressmeup.body import get_body_model
 from dressmeup.errors import InputError
 
 __all__ = ["SHAPES", "make_test_mesh", "parse_mesh_id", "DEFAULT_MESH_IDS", "SHAPES_VERSION"]
@@ -179,11 +180,6 @@ def _skirt(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _body(n: int | None) -> tuple[np.ndarray, np.ndarray]:
-    try:
-        # optional dependency (ImportError handled)
-        from dressmeup.body import get_body_model
-    except ImportError as exc:  # the body stage is not installed/ready
-        raise InputError("mesh 'body-*': dressmeup.body.get_body_model is not available") from exc
     # heavy: trimesh (~0.7 s to import)
     import trimesh
 

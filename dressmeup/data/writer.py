@@ -30,7 +30,7 @@ from dressmeup.io.hashing import sha256_file
 from dressmeup.io.images import read_image
 from dressmeup.io.jsonable import json_default
 from dressmeup.io.jsonio import parse_json_file
-from dressmeup.io.mesh import save_mesh
+from dressmeup.io.mesh import load_mesh, save_mesh
 from dressmeup.io.outlock import output_lock
 
 log = logging.getLogger(__name__)
@@ -280,9 +280,6 @@ class DatasetWriter:
         sid = row["sample_id"]
         if sid not in self._faces_key:
             try:
-                # optional dependency (ImportError handled)
-                from dressmeup.io.mesh import load_mesh
-
                 F = load_mesh(layout.resolve_inside(self.root, row["garment_path"])).faces
             except Exception:  # noqa: BLE001 - unreadable: topology unknown, not shared
                 return None

@@ -49,7 +49,7 @@ def _stderr(line: str) -> None:
 
 def _import_distributed() -> Any:
     try:
-        # optional dependency (ImportError handled)
+        # optional: distributed (ImportError handled)
         import distributed
     except ImportError as exc:  # pragma: no cover - depends on the install
         raise InputError("--executor dask needs Dask distributed: pip install "

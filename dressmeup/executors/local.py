@@ -10,6 +10,7 @@ workers are gone the resource tracker sees its pipe close and exits by itself.
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
 import signal
@@ -47,9 +48,6 @@ def die_with_parent(parent_pid: int, poll_s: float = 0.5) -> str:
     how = "thread"
     if sys.platform.startswith("linux"):
         try:
-            # optional dependency (ImportError handled)
-            import ctypes
-
             libc = ctypes.CDLL(None, use_errno=True)
             if libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0:
                 how = "prctl"

@@ -8,19 +8,22 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from dressmeup.capture.frame import RGBDFrame, frame_camera
 from dressmeup.capture.rig import Rig
-from dressmeup.capture.session import RGBDFrame, frame_camera
 from dressmeup.capture.visibility import raycasting_scene, visible_from
 from dressmeup.geometry.laplacian import adjacency
 from dressmeup.geometry.mesh import vertex_normals
 from dressmeup.geometry.topology import face_adjacency
 
-__all__ = ["LabelConfig", "visible_from", "vote_labels", "smooth_labels", "face_labels_from_vertices",
-           "remove_label_islands", "label_mesh", "cluster_colors", "ColorFallbackWarning"]
+__all__ = [
+    "LabelConfig", "vote_labels", "smooth_labels", "face_labels_from_vertices",
+    "remove_label_islands", "label_mesh", "cluster_colors", "ColorFallbackWarning"
+]
 
 log = logging.getLogger(__name__)
 
@@ -73,9 +76,6 @@ def vote_labels(vertices: np.ndarray, faces: np.ndarray, frames: Sequence[RGBDFr
     -------
     (n, n_labels) float64 vote weights (column 0 stays 0).
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     cfg = config or LabelConfig()
     V = np.asarray(vertices, dtype=np.float64)
     F = np.asarray(faces, dtype=np.int64)
@@ -270,9 +270,6 @@ def cluster_colors(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray, 
     -------
     (m,) int64 face labels.
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     warnings.warn("no label masks: garments separated from skin by colour, which fails on "
                   "skin-coloured garments and garments of similar colour at similar heights; "
                   "check the result or provide label masks", ColorFallbackWarning, stacklevel=2)

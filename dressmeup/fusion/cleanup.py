@@ -46,7 +46,7 @@ def largest_components(faces: np.ndarray, n_vertices: int, min_fraction: float) 
     -------
     (m,) bool
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.sparse
     from dressmeup.geometry.topology import large_components
 
     return large_components(faces, n_vertices, min_fraction)
@@ -108,7 +108,7 @@ def cleanup_mesh(vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray | N
         if out.has_vertex_color() and not cfg.poisson_depth:
             C2 = np.clip(np.round(out.vertex_color_matrix()[:, :3] * 255), 0, 255).astype(np.uint8)
         else:
-            # heavy: scipy (~0.5 s to import)
+            # heavy: scipy.spatial
             from scipy.spatial import cKDTree
 
             _, idx = cKDTree(V).query(V2)

@@ -8,10 +8,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import cv2
 import numpy as np
 
-from dressmeup.capture.rig import Camera
-from dressmeup.capture.session import RGBDFrame
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.frame import RGBDFrame
 
 __all__ = ["DepthFilterConfig", "undistort_frame", "remove_flying_pixels", "view_cosines", "filter_depth"]
 
@@ -68,9 +69,6 @@ def undistort_frame(frame: RGBDFrame, camera: Camera) -> RGBDFrame:
     -------
     RGBDFrame
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     if not camera.has_distortion:
         return frame
     size = (camera.width, camera.height)
@@ -170,9 +168,6 @@ def filter_depth(depth: np.ndarray, config: DepthFilterConfig | None = None,
     ------
     ValueError when ``depth`` is not a 2-D array.
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     cfg = config or DepthFilterConfig()
     d = np.asarray(depth, dtype=np.float32)
     if d.ndim != 2:

@@ -28,10 +28,12 @@ from dressmeup.fusion.tsdf import integrate_tsdf
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonable import json_default
 from dressmeup.io.jsonio import read_json
-from dressmeup.io.ply import write_ply  # re-exported: its home is io.ply
+from dressmeup.io.ply import write_ply
 
-__all__ = ["FusionConfig", "FusionResult", "prepare_frames", "fuse_frames", "fuse_session",
-           "save_scan", "load_scan", "write_ply"]
+__all__ = [
+    "FusionConfig", "FusionResult", "prepare_frames", "fuse_frames", "fuse_session",
+    "save_scan", "load_scan"
+]
 
 log = logging.getLogger(__name__)
 

@@ -27,7 +27,7 @@ def resolve_device(device: str = "cpu") -> str:
     ------
     ValueError when CUDA is asked for but open3d was built without it or sees no GPU.
     """
-    import open3d as o3d  # reason: heavy optional dependency
+    import open3d as o3d  # heavy: open3d
 
     dev = device.lower()
     if dev in ("cpu", "cpu:0"):
@@ -66,7 +66,7 @@ def integrate_grid(frames: Sequence[RGBDFrame], voxel_size: float = 0.004, trunc
     ValueError on bad arguments, a depth image whose size differs from its camera, or when
     no frame has depth.
     """
-    import open3d as o3d  # reason: heavy optional dependency
+    import open3d as o3d  # heavy: open3d
     import open3d.core as o3c
 
     if voxel_size <= 0:

@@ -22,7 +22,7 @@ def edge_graph(V: np.ndarray, F: np.ndarray):
     -------
     scipy.sparse.csr_matrix of shape (n, n)
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.sparse
     from scipy.sparse import coo_matrix
 
     E = edges(F)
@@ -72,7 +72,7 @@ def geodesic_distances(
         )
     src = src.astype(np.int64)
     if method == "dijkstra":
-        # heavy: scipy (~0.5 s to import)
+        # heavy: scipy.sparse
         from scipy.sparse.csgraph import dijkstra
 
         return np.asarray(

@@ -3,12 +3,25 @@
 
 from __future__ import annotations
 
-import functools
 import os
 
 import numpy as np
 
 from dressmeup.geometry.mesh import as_points
+
+# pykdtree queries on as many OpenMP threads as cores unless told otherwise, and its bundled
+# OpenMP runtime reads OMP_NUM_THREADS once, when it is loaded: it is loaded here with that
+# variable set to 1 and the caller's value put back at once, so torch's own runtime is
+# untouched. Registration fits run one per core, as scipy's queries with ``workers=1`` did.
+_omp_threads = os.environ.get("OMP_NUM_THREADS")
+os.environ["OMP_NUM_THREADS"] = "1"
+try:
+    from pykdtree.kdtree import KDTree as _PyKDTree
+finally:
+    if _omp_threads is None:
+        del os.environ["OMP_NUM_THREADS"]
+    else:
+        os.environ["OMP_NUM_THREADS"] = _omp_threads
 
 __all__ = ["knn", "spatial_order", "build_tree", "NearestTree", "nearest_backend"]
 
@@ -32,7 +45,7 @@ def build_tree(points: np.ndarray):
     -------
     scipy.spatial.cKDTree
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.spatial
     from scipy.spatial import cKDTree
 
     return cKDTree(points, balanced_tree=False, compact_nodes=False)
@@ -101,29 +114,9 @@ def knn(
     return dist, idx
 
 
-@functools.lru_cache(maxsize=1)
 def _pykdtree_class():
-    """pykdtree's ``KDTree`` class, or None when pykdtree is not installed.
-
-    pykdtree queries on as many OpenMP threads as cores unless told otherwise, and its
-    bundled OpenMP runtime reads ``OMP_NUM_THREADS`` once, when it is loaded: the module is
-    imported here with that variable set to 1 (and the caller's value put back at once, so
-    torch's own runtime is untouched). Registration fits run one per core, as scipy's queries
-    with ``workers=1`` did; two threads per query would only add spinning threads.
-    """
-    old = os.environ.get("OMP_NUM_THREADS")
-    os.environ["OMP_NUM_THREADS"] = "1"
-    try:
-        # optional dependency (ImportError handled)
-        from pykdtree.kdtree import KDTree
-    except ImportError:
-        return None
-    finally:
-        if old is None:
-            del os.environ["OMP_NUM_THREADS"]
-        else:
-            os.environ["OMP_NUM_THREADS"] = old
-    return KDTree
+    """pykdtree's ``KDTree`` class (loaded with this module, on one OpenMP thread)."""
+    return _PyKDTree
 
 
 def nearest_backend() -> str:
@@ -161,7 +154,7 @@ class NearestTree:
         if self.backend == "pykdtree":
             self._tree = _pykdtree_class()(pts)
         else:
-            # heavy: scipy (~0.5 s to import)
+            # heavy: scipy.spatial
             from scipy.spatial import cKDTree
 
             self._tree = cKDTree(pts)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+import xatlas
 from scipy.sparse.csgraph import connected_components
 
 from dressmeup.geometry.uv_atlas import relabel, signed_uv_areas
@@ -42,9 +43,6 @@ def pack_charts(uv: np.ndarray, uv_faces: np.ndarray, padding: int = 2, resoluti
     uv_faces : (m, 3) int64, the input's indexing (each chart moved by a global scale and
         its own translation)
     """
-    # heavy: xatlas (~0.2 s to import)
-    import xatlas
-
     uv = np.asarray(uv, dtype=np.float64)
     uv_faces = np.asarray(uv_faces, dtype=np.int64)
     lo = uv.min(axis=0)
@@ -166,9 +164,6 @@ def xatlas_atlas(V: np.ndarray, F: np.ndarray, *, resolution: int | None = None,
     -------
     XatlasAtlas
     """
-    # heavy: xatlas (~0.2 s to import)
-    import xatlas
-
     atlas = xatlas.Atlas()
     atlas.add_mesh(np.ascontiguousarray(V, dtype=np.float32), np.ascontiguousarray(F, dtype=np.uint32))
     co = xatlas.ChartOptions()

@@ -33,11 +33,10 @@ from dressmeup.geometry.mesh import as_arrays, as_faces, as_points
 from dressmeup.io.atomic import atomic_write_bytes
 from dressmeup.io.images import image_header, read_image
 from dressmeup.io.obj import read_obj, write_obj
-from dressmeup.io.ply import check_ply_header, read_ply, write_mesh_ply, write_ply
+from dressmeup.io.ply import check_ply_header, read_ply, write_mesh_ply
 from dressmeup.limits import MESH_BYTES
 
-# check_ply_header and write_ply live in io.ply; importable from here too
-__all__ = ["MeshData", "check_ply_header", "load_mesh", "save_mesh", "write_ply"]
+__all__ = ["MeshData", "load_mesh", "save_mesh"]
 
 MESH_SUFFIXES = (".ply", ".obj")
 

@@ -88,7 +88,7 @@ def _emb_extremes(
     n, d = E.shape
     r = np.arange(e - s)
     if d <= GRAM_MIN_DIM:
-        # heavy: scipy (~0.5 s to import)
+        # heavy: scipy.spatial
         from scipy.spatial.distance import cdist
 
         Eb = cdist(E[s:e], E, metric="euclidean")

@@ -290,7 +290,7 @@ def uv_seams(vertices, faces, uv, uv_faces=None, rtol: float = 1e-6) -> UVSeams:
         ``seam_length`` (3D seam length / sqrt(3D area), lower means fewer cuts),
         ``n_charts``, ``packing_efficiency`` (UV area / normalised square, higher is better).
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.sparse
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 

@@ -19,9 +19,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from dressmeup.bench.boards.leaderboard import format_summary
 from dressmeup.bench.edition import Edition, load_edition
-from dressmeup.bench.leaderboard import format_summary
-from dressmeup.bench.score import score_submission
+from dressmeup.bench.scoring.score import score_submission
 from dressmeup.runs.common import (
     BASELINE_AUTHORS,
     Log,
@@ -73,7 +73,7 @@ def score_many(subs: dict[str, Path], edition: str | Edition, data_root: str | o
                log: Log = _quiet, allow_other_data: bool = False) -> list[Path]:
     """Score each submission into ``results_dir/<name>`` (new folders); return the folders.
     ``allow_other_data``: score data that differ from the edition's pin, marked not
-    comparable (see :func:`~dressmeup.bench.score.score_submission`)."""
+    comparable (see :func:`~dressmeup.bench.scoring.score.score_submission`)."""
     out = []
     for sub in subs.values():
         res = score_submission(sub, edition, data_root, Path(results_dir) / sub.name,

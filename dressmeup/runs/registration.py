@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 
 from dressmeup.bench.edition import Edition, load_edition
-from dressmeup.bench.provenance import hardware
-from dressmeup.bench.submission import write_submission
+from dressmeup.bench.scoring.provenance import hardware
+from dressmeup.bench.scoring.submission import write_submission
 from dressmeup.bench.tasks.common import open_dataset
 from dressmeup.bench.tasks.registration.data import items
 from dressmeup.body import get_body_model

@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 
 from dressmeup.bench.edition import Edition, load_edition
-from dressmeup.bench.provenance import hardware
-from dressmeup.bench.submission import write_submission
+from dressmeup.bench.scoring.provenance import hardware
+from dressmeup.bench.scoring.submission import write_submission
 from dressmeup.bench.tasks.retarget.data import edition_pairs
 from dressmeup.data import Dataset
 from dressmeup.executors import require_shared
@@ -33,7 +33,7 @@ def run_retarget_baseline(method_name: str, edition: str | Edition, data_root: s
 
     The one path from a retargeting method to a submission: ``dressmeup baseline retarget``,
     ``dressmeup demo`` and ``benchmarks/run_baselines.py`` all come here, so every
-    submission records its hardware (:func:`dressmeup.bench.provenance.hardware`) and
+    submission records its hardware (:func:`dressmeup.bench.scoring.provenance.hardware`) and
     hyperparameters the same way.
 
     Trainable methods (with ``fit``) use the weights they ship for the dataset's body model,

@@ -8,7 +8,7 @@ from pathlib import Path
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from dressmeup.bench.archive import LOCAL_INDEX, load_pins, verify_folder
+from dressmeup.bench.archives.archive import LOCAL_INDEX, load_pins, verify_folder
 from dressmeup.bench.edition import Edition, load_edition
 from dressmeup.bench.tasks import get_task
 from dressmeup.bench.tasks.common import other_data_reason

@@ -2,7 +2,7 @@
 
 A submission moves ``queued`` -> ``scoring`` -> ``scored`` | ``failed``. The scorer claims
 one queued submission at a time with a conditional update (only one claimant wins), scores
-it with the toolkit's own :func:`~dressmeup.bench.score.score_submission` into
+it with the toolkit's own :func:`~dressmeup.bench.scoring.score.score_submission` into
 ``results/<id>`` (written in a hidden folder and renamed into place: a result either exists
 whole or not at all), then records ``scored``. On start, :func:`recover` settles what a
 killed server left: a ``scoring`` submission whose result exists is ``scored``; one without
@@ -23,7 +23,7 @@ from pathlib import Path
 from sqlalchemy import select, update
 from sqlalchemy.orm import sessionmaker
 
-from dressmeup.bench.score import score_submission
+from dressmeup.bench.scoring.score import score_submission
 from dressmeup.errors import DressmeupError
 from dressmeup.executors import make_executor
 from dressmeup.server.config import ServerConfig

@@ -11,8 +11,8 @@ from pathlib import Path
 
 from sqlalchemy import func, select
 
-from dressmeup.bench.escape import one_line_problem, safe_url
-from dressmeup.bench.validate import validate_submission
+from dressmeup.bench.boards.escape import one_line_problem, safe_url
+from dressmeup.bench.scoring.validate import validate_submission
 from dressmeup.errors import InputError
 from dressmeup.server import pages
 from dressmeup.server.config import ServerConfig

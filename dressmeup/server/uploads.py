@@ -6,7 +6,7 @@ written in chunks and refused as soon as it passes the limit (``413``); the arch
 unpacked member by member into a new folder: only regular files, no path outside the
 folder, no links or devices, at most ``max_members`` members and ``max_unpacked_mb`` in all
 (counted while writing, so a member lying about its size is caught), then the toolkit's
-validator (:func:`dressmeup.bench.validate.validate_submission`) lists every problem.
+validator (:func:`dressmeup.bench.scoring.validate.validate_submission`) lists every problem.
 """
 
 from __future__ import annotations

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from dressmeup.body import get_body_model
+from dressmeup.data.dataset import Dataset
+from dressmeup.data.synth.garments import BodyFrame
 from dressmeup.errors import InputError
 from dressmeup.io.images import read_image
 from dressmeup.viz.figure import save_png
@@ -150,9 +152,6 @@ def render_dataset_contact_sheet(root: str | os.PathLike, path: str | os.PathLik
     view : ``front`` or ``side``.
     one_per_type : show garments of distinct types first.
     """
-    # heavy: pyarrow (~0.3 s to import)
-    from dressmeup.data.dataset import Dataset
-
     ds = Dataset(root)
     m = ds.manifest.sort_values(["garment_id", "pose_id"])
     garments = list(dict.fromkeys(m["garment_id"]))
@@ -174,9 +173,6 @@ def render_dataset_contact_sheet(root: str | os.PathLike, path: str | os.PathLik
                 out = model.posed(b)
                 layers.append(MeshLayer(out.vertices, model.faces, (0.75, 0.75, 0.75)))
                 if frame is None:
-                    # heavy: pyarrow (~0.3 s to import)
-                    from dressmeup.data.synth.garments import BodyFrame
-
                     frame = BodyFrame.from_joints(out.rest_joints, tuple(model.joint_names))
             layers.append(MeshLayer(gm.vertices, gm.faces, (0.8, 0.35, 0.3),
                                     _face_colors_from_texture(gm)))
@@ -207,10 +203,6 @@ def render_garment_on_bodies(root: str | os.PathLike, garment_id: str, path: str
     view : ``front`` or ``side``.
     max_poses : columns at most.
     """
-    # heavy: pyarrow (~0.3 s to import)
-    from dressmeup.data.dataset import Dataset
-    from dressmeup.data.synth.garments import BodyFrame
-
     ds = Dataset(root)
     m = ds.manifest[ds.manifest["garment_id"] == garment_id]
     if m.empty:

@@ -41,12 +41,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from dressmeup.bench.boards.board_html import HTML_CSS, SORT_JS, html_meta, html_notes, html_table
+from dressmeup.bench.boards.leaderboard import build_leaderboard
+from dressmeup.bench.scoring.results import load_result
+from dressmeup.bench.tasks import get_task
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.viz.result_images import render_grouped_bars
-from dressmeup.viz.site_method import MAX_IMAGES, PICTURE_TASKS, method_page
+from dressmeup.viz.site_method import MAX_IMAGES, method_page
 
-__all__ = ["IMAGES_PER_SIDE", "MAX_IMAGES", "PICTURE_TASKS", "SiteReport", "write_site"]
+__all__ = ["IMAGES_PER_SIDE", "SiteReport", "write_site"]
 
 #: Best and worst items drawn per method (each side).
 IMAGES_PER_SIDE = 5
@@ -110,9 +114,6 @@ def _slug(text: str, taken: set[str]) -> str:
 
 def _page(title: str, body: str, nav: str = "") -> str:
     """A complete HTML page with the leaderboard stylesheet and the sorting script."""
-    # heavy: pandas (~0.4 s to import)
-    from dressmeup.bench.board_html import HTML_CSS, SORT_JS
-
     generated = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return f"""<!DOCTYPE html>
 <html lang="en">
@@ -197,10 +198,6 @@ def write_site(results: Sequence[str | os.PathLike], out: str | os.PathLike, *,
     InputError
         No results, unreadable results, or results of one edition on different datasets.
     """
-    # heavy: pandas (~0.4 s to import)
-    from dressmeup.bench.leaderboard import build_leaderboard
-    from dressmeup.bench.results import load_result
-
     t0 = time.perf_counter()
     loaded = [load_result(r) for r in results]
     if not loaded:
@@ -245,10 +242,6 @@ class _Site:
 def _write_edition(site: _Site, board: Any, group: list, ed_dir: Path, ed_slug: str) -> str:
     """Write the method pages and the leaderboard page of one edition into ``ed_dir``;
     return its section of the site's index."""
-    # heavy: pandas (~0.4 s to import)
-    from dressmeup.bench.board_html import html_meta, html_notes, html_table
-    from dressmeup.bench.tasks import get_task
-
     e = html.escape
     report = site.report
     task = get_task(board.edition.task)

@@ -9,6 +9,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from dressmeup.bench.scoring.submission import read_info, submission_hash
+from dressmeup.bench.tasks.common import manifest_sha256
 from dressmeup.errors import InputError
 
 
@@ -19,9 +21,6 @@ def find_submission(result: Any, search: Sequence[str | os.PathLike]) -> tuple[P
     name or the method name, then at the path recorded in the result; the folder must
     still hash to the recorded sha256.
     """
-    # heavy: pandas (~0.4 s to import)
-    from dressmeup.bench.submission import read_info, submission_hash
-
     rec = result.summary.get("submission", {})
     recorded = Path(rec.get("path", "")) if rec.get("path") else None
     cands: list[Path] = []
@@ -60,9 +59,6 @@ def find_submission(result: Any, search: Sequence[str | os.PathLike]) -> tuple[P
 def find_data_root(result: Any, roots: Sequence[str | os.PathLike]) -> tuple[Path | None, str]:
     """The dataset root a result was scored on (matched by manifest sha256), or None and
     the reason."""
-    # heavy: pandas (~0.4 s to import)
-    from dressmeup.bench.tasks.common import manifest_sha256
-
     want = result.manifest_hash
     recorded = result.summary.get("dataset", {}).get("root")
     for r in [*map(Path, roots), *([Path(recorded)] if recorded else [])]:

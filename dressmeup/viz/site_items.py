@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dressmeup.bench.tasks.fusion.data import read_mesh
 from dressmeup.io.mesh import load_mesh
 from dressmeup.viz.result_images import penetrating_faces, render_error_pair, vertex_distances_mm
 from dressmeup.viz.site_viewer import ItemView
@@ -28,7 +29,7 @@ def _submission_file(sub: Path, item_id: str) -> Path | None:
 
 
 def _retarget_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
-    # heavy: pandas (~0.4 s to import)
+    # heavy: scipy.sparse
     from dressmeup.bench.tasks.retarget.data import open_dataset, read_prediction
     from dressmeup.bench.tasks.retarget.evaluate import posed_body_file
 
@@ -52,8 +53,7 @@ def _retarget_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
 
 
 def _fusion_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
-    # heavy: pandas (~0.4 s to import), pyarrow (~0.3 s to import)
-    from dressmeup.bench.tasks.fusion.data import read_mesh
+    # heavy: scipy.sparse
     from dressmeup.bench.tasks.retarget.data import open_dataset
 
     f = _submission_file(sub, row["sample_id"])
@@ -92,7 +92,7 @@ def draw_items(task: str, rows: list[dict], sub: Path, root: Path, img_dir: Path
 
     out: list[tuple[Path, str]] = []
     if task == "uvparam":
-        # heavy: pandas (~0.4 s to import), pyarrow (~0.3 s to import)
+        # heavy: pandas
         from dressmeup.bench.tasks.uvparam.data import meshes, read_prediction
 
         paths = {m.mesh_id: m.path for m in meshes(root)}

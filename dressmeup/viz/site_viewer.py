@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from dressmeup.io.atomic import atomic_write_text
+from dressmeup.viz.result_images import ERROR_CMAP
 
 #: The vendored three.js release (``npm pack three@THREE_VERSION``).
 THREE_VERSION = "0.187.0"
@@ -200,8 +201,6 @@ def view_data(items: list[ItemView], vmax_mm: float, error_label: str, truth_lab
     the colour scale (``vmax_mm``, the 256 colours of the error colour map)."""
     # heavy: matplotlib (~0.3 s to import)
     from matplotlib import colormaps
-
-    from dressmeup.viz.result_images import ERROR_CMAP
 
     lut = (colormaps[ERROR_CMAP](np.linspace(0, 1, 256))[:, :3] * 255).round().astype(np.uint8)
     out = []

@@ -116,7 +116,7 @@ def _draw_views(fig: Any, V: np.ndarray, P: np.ndarray, col: np.ndarray,
     """One 3-D axis per ``(elevation, azimuth)`` of ``views`` (the first of ``fig``'s
     ``len(views) + 1`` columns): triangles ``P (f, 3, 3)`` in checker colours ``col (f, 3)``
     shaded by how squarely they face the eye, framed on the bounds of ``V (n, 3)``."""
-    # heavy: mpl_toolkits (part of matplotlib, ~0.3 s to import)
+    # heavy: mpl_toolkits.mplot3d
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     nrm = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from dressmeup.bench import load_edition
-from dressmeup.bench.archive import (
+from dressmeup.bench.archives.archive import (
     LOCAL_INDEX,
     fetch,
     index_sha256,
@@ -164,7 +164,7 @@ def _evil_archive(folder: Path, ed, members: list[tarfile.TarInfo], payload: byt
     name = f"{ed.name}-public.tar.gz"
     (folder / name).write_bytes(buf.getvalue())
     files = [[m.name, hashlib.sha256(payload).hexdigest(), len(payload)] for m in members]
-    from dressmeup.bench.archive import Entry
+    from dressmeup.bench.archives.archive import Entry
 
     idx = {"format": "dressmeup-archive-index/1", "edition": ed.name, "part": "public",
            "index_sha256": index_sha256([Entry(*f) for f in files]),

@@ -134,7 +134,7 @@ def test_validate_submission_refuses_fifos_and_escaping_symlinks(scored, bench_e
                                                                  bench_data, tmp_path, kind):
     import os
 
-    from dressmeup.bench.validate import validate_submission
+    from dressmeup.bench.scoring.validate import validate_submission
 
     sub = tmp_path / "sub"
     shutil.copytree(scored["gt"]["sub"], sub)

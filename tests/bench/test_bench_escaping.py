@@ -28,7 +28,7 @@ def evil_result(scored, tmp_path):
 
 
 def test_markdown_has_no_raw_html_and_keeps_the_table(evil_result):
-    from dressmeup.bench.leaderboard import write_leaderboard
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
 
     md = write_leaderboard(evil_result, "md")
     assert "<script>" not in md and "&lt;script&gt;" in md
@@ -38,7 +38,7 @@ def test_markdown_has_no_raw_html_and_keeps_the_table(evil_result):
 
 
 def test_csv_cells_cannot_run_as_formulas(evil_result):
-    from dressmeup.bench.leaderboard import write_leaderboard
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
 
     rows = list(csv.reader(io.StringIO(write_leaderboard(evil_result, "csv"))))
     methods = [r[1] for r in rows[1:]]
@@ -47,7 +47,7 @@ def test_csv_cells_cannot_run_as_formulas(evil_result):
 
 
 def test_latex_escapes_backslash_once(evil_result):
-    from dressmeup.bench.leaderboard import write_leaderboard
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
 
     tex = write_leaderboard(evil_result, "latex")
     assert r"a\textbackslash{}b" in tex and r"\{c\}" in tex
@@ -55,7 +55,7 @@ def test_latex_escapes_backslash_once(evil_result):
 
 
 def test_html_links_only_real_urls(evil_result):
-    from dressmeup.bench.leaderboard import write_leaderboard
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
 
     page = write_leaderboard(evil_result, "html")
     assert "<script>alert" not in page
@@ -63,7 +63,7 @@ def test_html_links_only_real_urls(evil_result):
 
 
 def test_escape_helpers():
-    from dressmeup.bench.escape import csv_text, latex_text, md_text, safe_url
+    from dressmeup.bench.boards.escape import csv_text, latex_text, md_text, safe_url
 
     assert csv_text("-1+2") == "'-1+2" and csv_text("isomap") == "isomap"
     assert latex_text("50%_\\") == r"50\%\_\textbackslash{}"
@@ -82,7 +82,7 @@ def multi_line_result(scored, tmp_path):
 
 
 def test_a_method_name_is_one_line_in_every_text_format(multi_line_result):
-    from dressmeup.bench.leaderboard import write_leaderboard
+    from dressmeup.bench.boards.leaderboard import write_leaderboard
 
     one = "Two paragraphs and a name"
     tex = write_leaderboard(multi_line_result, "latex")
@@ -97,7 +97,7 @@ def test_a_method_name_is_one_line_in_every_text_format(multi_line_result):
 def test_a_method_name_with_a_line_break_is_refused_at_submission(tmp_path, name):
     import numpy as np
 
-    from dressmeup.bench.submission import info_problems, write_submission
+    from dressmeup.bench.scoring.submission import info_problems, write_submission
     from dressmeup.errors import InputError
 
     with pytest.raises(InputError, match="method must be one line of text"):

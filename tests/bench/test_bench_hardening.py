@@ -66,7 +66,7 @@ def test_killed_baseline_leaves_no_orphan_predictions(bench_edition, tmp_path):
     code = textwrap.dedent(f"""
         import os, signal
         import numpy as np
-        import dressmeup.bench.submission as S
+        import dressmeup.bench.scoring.submission as S
         n = [0]
         orig = np.savez
         def savez(*a, **k):

@@ -16,8 +16,9 @@ import pandas as pd
 import pytest
 
 from dressmeup.bench import build_leaderboard
+from dressmeup.bench.boards.leaderboard import render
 from dressmeup.bench.edition import edition_from_dict
-from dressmeup.bench.intervals import (
+from dressmeup.bench.scoring.intervals import (
     bootstrap_mean,
     crossed_bootstrap,
     describe_levels,
@@ -26,7 +27,7 @@ from dressmeup.bench.intervals import (
     paired_difference,
     resample_count,
 )
-from dressmeup.bench.results import load_result, summarise
+from dressmeup.bench.scoring.results import load_result, summarise
 
 
 def test_distinct_resamples_is_multiset_count():
@@ -197,7 +198,7 @@ def test_old_results_get_intervals_recomputed_from_their_table(scored, tmp_path)
     board = build_leaderboard([scored["gt"]["res"].path, old, fake])
     rows = {r.method: r for r in board.rows}
     assert rows["OLD"].ci["p2s"] == rows["FAKE"].ci["p2s"] != (0.0, 0.0)
-    table = list(csv.DictReader(io.StringIO(board.render("csv"))))
+    table = list(csv.DictReader(io.StringIO(render(board, "csv"))))
     old_csv = next(r for r in table if r["method"] == "OLD")
     assert old_csv["schema_version"] == "1" and old_csv["P2S ↓ [mm] ci95 lo"] != ""
 
@@ -211,9 +212,9 @@ def test_tracks_get_columns_in_every_format(scored, tmp_path):
     b = _copy(scored["noisy"]["res"].path, tmp_path / "b", table_edit=add_tracks)
     board = build_leaderboard([a, b])
     assert [c.track for c in board.columns if c.track] == ["cross", "re-pose"]
-    assert "P2S ↓ [mm] · track cross" in board.render("md").splitlines()[0]
-    assert "P2S ↓ [mm] · track re-pose" in board.render("csv").splitlines()[0]
-    assert "track cross" in board.render("latex") and "track re-pose" in board.render("html")
+    assert "P2S ↓ [mm] · track cross" in render(board, "md").splitlines()[0]
+    assert "P2S ↓ [mm] · track re-pose" in render(board, "csv").splitlines()[0]
+    assert "track cross" in render(board, "latex") and "track re-pose" in render(board, "html")
     col = next(c for c in board.columns if c.track == "cross")
     assert board.rows[0].ci[col.key][0] <= board.rows[0].values[col.key][0]
 
@@ -230,7 +231,7 @@ def test_tracks_get_columns_in_every_format(scored, tmp_path):
     board = build_leaderboard([b, a])
     assert board.primary == "p2s#cross" and board.rows[0].method == "GT"
     assert [c.track for c in board.columns if c.track] == ["re-pose", "cross"]   # its order
-    assert "Sorted by P2S ↓ [mm] · track cross" in board.render("md")
+    assert "Sorted by P2S ↓ [mm] · track cross" in render(board, "md")
     # every track is shown for the primary metric even without per-category metrics
     bare = build_leaderboard([b, a], per_category=[])
     assert [c.key for c in bare.columns if c.track] == ["p2s#re-pose", "p2s#cross"]
@@ -255,13 +256,13 @@ def test_rank_separation_marked(scored, tmp_path):
     assert [seps["NOISY"], seps["NOISY-TWIN"]].count(None) == 1
     assert all(r.vs_leader.separated for r in board.rows[1:])
     assert board.rows[0].vs_leader is None
-    rows = list(csv.DictReader(io.StringIO(board.render("csv"))))
+    rows = list(csv.DictReader(io.StringIO(render(board, "csv"))))
     assert rows[0]["separated_from_next"] == "true" and rows[2]["separated_from_next"] == ""
     assert rows[1]["separated_from_leader"] == "true" and float(rows[1]["diff_to_leader"]) > 0
-    md = board.render("md")
+    md = render(board, "md")
     assert "Sep." in md and "vs #1" in md and "not separated" in md
-    assert "Sep." in board.render("latex")
-    assert 'class="sep sep-no"' in board.render("html")
+    assert "Sep." in render(board, "latex")
+    assert 'class="sep sep-no"' in render(board, "html")
 
 
 def test_a_difference_within_the_sensitivity_is_not_a_win(scored, tmp_path):
@@ -273,7 +274,7 @@ def test_a_difference_within_the_sensitivity_is_not_a_win(scored, tmp_path):
     assert board.separated(0) == "yes"
     board.sensitivity = 10.0                       # metres: far above any difference here
     assert board.separated(0) == "not separated"
-    assert "sensitivity" in board.render("md")
+    assert "sensitivity" in render(board, "md")
 
 
 def test_not_comparable_marked_in_every_format(scored, tmp_path):
@@ -285,20 +286,20 @@ def test_not_comparable_marked_in_every_format(scored, tmp_path):
     nc = _copy(scored["gt"]["res"].path, tmp_path / "nc", method="ELSEWHERE", edit=other)
     board = build_leaderboard([scored["noisy"]["res"].path, nc])
     assert board.rows[-1].method == "ELSEWHERE"       # last, unranked
-    md = board.render("md")
+    md = render(board, "md")
     assert "| – | ELSEWHERE (not comparable) |" in md and "Not comparable" in md
     assert all(r.method != "ELSEWHERE" or not any(
         board.rows.index(r) in v for v in board.best.values()) for r in board.rows)
-    rows = list(csv.DictReader(io.StringIO(board.render("csv"))))
+    rows = list(csv.DictReader(io.StringIO(render(board, "csv"))))
     assert rows[-1]["comparable"] == "false" and rows[-1]["rank"] == ""
-    assert "ELSEWHERE (not comparable)" in board.render("latex")
-    assert ">not comparable</span>" in board.render("html")
+    assert "ELSEWHERE (not comparable)" in render(board, "latex")
+    assert ">not comparable</span>" in render(board, "html")
 
 
 def test_html_escapes_method_names_and_sorts(scored, tmp_path):
     evil = _copy(scored["gt"]["res"].path, tmp_path / "evil",
                  method='<script>alert("x")</script>')
-    page = build_leaderboard([evil, scored["noisy"]["res"].path]).render("html")
+    page = render(build_leaderboard([evil, scored["noisy"]["res"].path]), "html")
     assert "<script>alert" not in page and "&lt;script&gt;alert" in page
     assert page.count("<script>") == 1 and 'data-type="num"' in page
     first_metric_cell = page.split("</td>", 2)[2]        # rank, method, then P2S
@@ -310,7 +311,7 @@ def test_separation_when_the_unit_is_the_item():
     must still find it (it crashed the demo's UV leaderboard once)."""
     from types import SimpleNamespace
 
-    from dressmeup.bench.leaderboard import _mark_separation
+    from dressmeup.bench.boards.leaderboard import _mark_separation
 
     ids = [f"m{i}" for i in range(6)]
     rows, results = [], []
@@ -334,7 +335,7 @@ def test_one_unit_shows_degenerate_interval_and_says_why(scored, tmp_path):
     a = _copy(scored["gt"]["res"].path, tmp_path / "a", table_edit=one_garment)
     b = _copy(scored["noisy"]["res"].path, tmp_path / "b", table_edit=one_garment)
     board = build_leaderboard([a, b])
-    md = board.render("md")
+    md = render(board, "md")
     assert board.show_ci and "[–]" in md.splitlines()[2] and "degenerate" in md
     assert not any(r.separated for r in board.rows)
     assert board.separated(0) == "not separated"
@@ -349,7 +350,7 @@ def test_three_units_still_separate_a_consistent_gap_and_the_caption_says_why(sc
     assert board.separated(0) == "yes"
     lead = board.rows[1].vs_leader
     assert lead.lo > 0 and lead.hi - lead.lo > 0
-    assert "allow only 10 distinct resamples" in board.render("md")
+    assert "allow only 10 distinct resamples" in render(board, "md")
 
 
 def test_pareto_front_marked_for_uvparam():
@@ -357,8 +358,9 @@ def test_pareto_front_marked_for_uvparam():
     format (uv's request: is a low distortion bought by cutting the mesh)."""
     from types import SimpleNamespace
 
+    from dressmeup.bench.boards.board import Column, Leaderboard
+    from dressmeup.bench.boards.leaderboard import _mark_pareto
     from dressmeup.bench.edition import load_edition
-    from dressmeup.bench.leaderboard import Column, Leaderboard, _mark_pareto
     from dressmeup.bench.tasks import get_task
 
     ed = SimpleNamespace(task="uvparam", metrics=("qce", "seam_length", "flip"))
@@ -374,16 +376,16 @@ def test_pareto_front_marked_for_uvparam():
     board = Leaderboard(edition=ed2, manifest_sha256=None,
                         columns=[Column(m, specs[m]) for m in ("qce", "seam_length")],
                         rows=rows, primary="qce", pareto=("qce", "seam_length"))
-    assert "| few-cuts ◆ |" in board.render("md") and "Pareto front" in board.render("md")
-    table = list(csv.DictReader(io.StringIO(board.render("csv"))))
+    assert "| few-cuts ◆ |" in render(board, "md") and "Pareto front" in render(board, "md")
+    table = list(csv.DictReader(io.StringIO(render(board, "csv"))))
     assert [r["pareto"] for r in table] == ["true", "true", "false"]
-    assert r"few-cuts $\diamond$" in board.render("latex")
-    assert board.render("html").count('class="pareto"') == 2
+    assert r"few-cuts $\diamond$" in render(board, "latex")
+    assert render(board, "html").count('class="pareto"') == 2
 
 
 def _row(method: str, **kw):
     """A leaderboard row with defaults for what a test does not set."""
-    from dressmeup.bench.board import BoardRow
+    from dressmeup.bench.boards.board import BoardRow
 
     base = dict(method=method, result=method, values={}, ci={}, failed=0, items=0,
                 runtime=None, url=None, authors="", comparable=True,
@@ -394,7 +396,7 @@ def _row(method: str, **kw):
 def test_a_result_edited_to_look_comparable_is_still_not(scored, tmp_path, monkeypatch):
     """Comparability is recomputed from the data pin: a summary flipped to comparable on
     other data stays unranked."""
-    import dressmeup.bench.leaderboard as lb
+    import dressmeup.bench.boards.leaderboard as lb
 
     def other(s):
         s["dataset"]["manifest_sha256"] = "f" * 64      # another dataset, claimed comparable
@@ -447,4 +449,4 @@ def test_one_track_gets_no_repeated_columns(scored, tmp_path):
     b = _copy(scored["noisy"]["res"].path, tmp_path / "b", table_edit=one_track)
     board = build_leaderboard([a, b])
     assert not [c for c in board.columns if c.track]
-    assert board.primary == "p2s" and "track re-pose" not in board.render("md")
+    assert board.primary == "p2s" and "track re-pose" not in render(board, "md")

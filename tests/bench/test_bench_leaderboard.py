@@ -10,6 +10,7 @@ import shutil
 import pytest
 
 from dressmeup.bench import build_leaderboard, write_leaderboard
+from dressmeup.bench.boards.leaderboard import render
 from dressmeup.cli import main
 from dressmeup.errors import InputError
 
@@ -23,7 +24,7 @@ def test_rows_sorted_by_primary_metric_and_best_marked(scored):
     assert [r.method for r in board.rows] == ["GT", "NOISY"]
     for key in ("p2s", "p2s_bi", "chamfer", "ed", "nc", "p2s@dress"):
         assert board.best[key] == {0}, key
-    md = board.render("md")
+    md = render(board, "md")
     head = md.splitlines()[0]
     for h in ("P2S ↓ [mm]", "Chamfer ↓ [mm²]", "ED ↓ [mm]", "NC ↑", "IR ↓ [%]",
               "P2S ↓ [mm] · topwear", "Runtime [s/sample]"):
@@ -37,7 +38,7 @@ def test_rows_sorted_by_primary_metric_and_best_marked(scored):
 def test_sort_by_and_std(scored):
     board = build_leaderboard(_paths(scored), sort_by="ir", show_std=True, per_category=[])
     assert all(c.category is None for c in board.columns)
-    assert "±" in board.render("md")
+    assert "±" in render(board, "md")
     with pytest.raises(InputError, match="cannot sort by"):
         build_leaderboard(_paths(scored), sort_by="qce")
 

@@ -20,7 +20,7 @@ import pytest
 from dressmeup import runs
 from dressmeup.bench import load_edition
 from dressmeup.bench.parts import export_parts, leaks
-from dressmeup.bench.score import score_submission
+from dressmeup.bench.scoring.score import score_submission
 from dressmeup.bench.tasks.retarget.data import edition_pairs
 from dressmeup.data import Dataset
 from dressmeup.data.manifest import read_manifest, write_manifest

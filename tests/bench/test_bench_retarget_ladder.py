@@ -24,8 +24,8 @@ import pytest
 
 from dressmeup import runs
 from dressmeup.bench import load_edition
-from dressmeup.bench.score import score_submission
-from dressmeup.bench.submission import write_submission
+from dressmeup.bench.scoring.score import score_submission
+from dressmeup.bench.scoring.submission import write_submission
 
 EDITION = "synth-retarget-tiny-v4"
 SIGMA = 0.001

@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 
 from dressmeup.bench import load_edition
-from dressmeup.bench.score import score_submission
-from dressmeup.bench.submission import write_submission
+from dressmeup.bench.scoring.score import score_submission
+from dressmeup.bench.scoring.submission import write_submission
 
 EDITION = "synth-retarget-tiny-v4"
 

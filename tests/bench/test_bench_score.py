@@ -11,9 +11,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dressmeup.bench import LocalExecutor, load_result, score_submission
-from dressmeup.bench.score import InvalidSubmissionError
+from dressmeup.bench import load_result, score_submission
+from dressmeup.bench.scoring.score import InvalidSubmissionError
 from dressmeup.errors import InputError
+from dressmeup.executors import LocalExecutor
 
 
 def test_ground_truth_scores_zero_distance_and_unit_nc(scored):

@@ -58,7 +58,7 @@ def test_submission_track(tmp_path):
 @pytest.mark.slow  # generates five garments (~70 s on a loaded 2-core machine)
 def test_garment_edition_builds_splits_scores_seams_and_tracks(tmp_path):
     from dressmeup import runs
-    from dressmeup.bench.score import score_submission
+    from dressmeup.bench.scoring.score import score_submission
     from dressmeup.bench.tasks.uvparam.data import meshes
 
     ed_path = tmp_path / "uv2.json"

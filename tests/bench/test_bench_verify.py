@@ -9,6 +9,7 @@ import shutil
 
 import pytest
 
+from dressmeup.bench.boards.leaderboard import render
 from dressmeup.errors import InputError
 
 
@@ -25,7 +26,7 @@ def _edit(path, fn):
 
 
 def test_forged_mean_is_refused(scored, tmp_path):
-    from dressmeup.bench.leaderboard import build_leaderboard
+    from dressmeup.bench.boards.leaderboard import build_leaderboard
 
     forged = _copy(scored, "noisy", tmp_path)
     _edit(forged / "summary.json", lambda s: s["metrics"]["p2s"].update(mean=0.0))
@@ -39,7 +40,7 @@ def test_forged_mean_is_refused(scored, tmp_path):
 
 
 def test_edited_or_forged_edition_is_refused(scored, tmp_path):
-    from dressmeup.bench.leaderboard import build_leaderboard
+    from dressmeup.bench.boards.leaderboard import build_leaderboard
 
     edited = _copy(scored, "noisy", tmp_path)
     _edit(edited / "edition.json", lambda e: e.update(per_category=[]))
@@ -54,8 +55,8 @@ def test_edited_or_forged_edition_is_refused(scored, tmp_path):
 
 
 def test_shipped_edition_name_must_carry_its_hash(scored, tmp_path):
+    from dressmeup.bench.boards.leaderboard import build_leaderboard
     from dressmeup.bench.edition import edition_from_dict
-    from dressmeup.bench.leaderboard import build_leaderboard
 
     fake = _copy(scored, "gt", tmp_path)
     ed = json.loads((fake / "edition.json").read_text())
@@ -68,18 +69,18 @@ def test_shipped_edition_name_must_carry_its_hash(scored, tmp_path):
 
 
 def test_custom_edition_is_allowed_and_marked(scored):
-    from dressmeup.bench.leaderboard import build_leaderboard
+    from dressmeup.bench.boards.leaderboard import build_leaderboard
 
     board = build_leaderboard([scored["gt"]["res"].path, scored["noisy"]["res"].path])
     assert board.custom_edition
-    assert "Custom edition" in board.render("md")
+    assert "Custom edition" in render(board, "md")
 
 
 def test_per_track_means_are_recomputed(scored, tmp_path):
     import pandas as pd
 
-    from dressmeup.bench.results import load_result, summarise
-    from dressmeup.bench.verify import check_summary
+    from dressmeup.bench.boards.verify import check_summary
+    from dressmeup.bench.scoring.results import load_result, summarise
 
     res = _copy(scored, "noisy", tmp_path)
     table = pd.read_parquet(res / "per_sample.parquet")

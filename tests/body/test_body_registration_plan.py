@@ -7,7 +7,6 @@ import pytest
 
 from dressmeup.body.registration import OptimizationRegistrar, register
 from dressmeup.body.registration.config import (
-    REMOVED,
     DataTerm,
     describe,
     get_config,
@@ -162,8 +161,8 @@ def test_get_config_validates_overrides():
         get_config("slow")
     with pytest.raises(InputError, match=r"unknown option\(s\) \['colour'\]; known: .*cloth_max"):
         get_config(colour="red")
-    for name in REMOVED:  # a removed setting says what a fit does instead
-        with pytest.raises(InputError, match=f"{name}: removed; "):
+    for name in ("loose_cloth", "lbfgs_steps", "optimize_scale"):  # retired (CHANGELOG.md)
+        with pytest.raises(InputError, match=rf"unknown option\(s\) \['{name}'\]; known: "):
             register(np.zeros((20, 3)), "procedural", **{name: 1})
     with pytest.raises(InputError, match="data: expected a DataTerm"):
         get_config(data={"cloth_max": 0.05})

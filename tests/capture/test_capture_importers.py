@@ -15,9 +15,10 @@ import cv2
 import numpy as np
 import pytest
 
+from dressmeup.capture.camera import Camera
 from dressmeup.capture.importers import ImportOptions, import_capture
 from dressmeup.capture.importers.common import associate, select_frames
-from dressmeup.capture.rig import Camera, Rig, look_at
+from dressmeup.capture.rig import Rig, look_at
 from dressmeup.capture.session import open_session
 from dressmeup.capture.synthetic import render_frames
 from dressmeup.errors import InputError

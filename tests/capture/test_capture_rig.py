@@ -8,15 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from dressmeup.capture.rig import (
-    Rig,
-    check_rigid,
-    load_rig,
-    look_at,
-    perturb_rig,
-    ring_rig,
-    save_rig,
-)
+from dressmeup.capture.camera import check_rigid
+from dressmeup.capture.rig import Rig, load_rig, look_at, perturb_rig, ring_rig, save_rig
 from dressmeup.errors import InputError
 
 

@@ -8,7 +8,8 @@ import shutil
 import numpy as np
 import pytest
 
-from dressmeup.capture.session import open_session, read_depth_png, validate_session
+from dressmeup.capture.images import read_depth_png
+from dressmeup.capture.session import open_session, validate_session
 from dressmeup.errors import InputError
 
 

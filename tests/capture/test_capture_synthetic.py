@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dressmeup.capture.rig import Camera, Rig, look_at
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.rig import Rig, look_at
 from dressmeup.capture.synthetic import NoiseModel, SyntheticSubject, render_frames
 
 

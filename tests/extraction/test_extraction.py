@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dressmeup.capture.rig import Camera, Rig
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.rig import Rig
 from dressmeup.capture.synthetic import SyntheticSubject, render_frames
 from dressmeup.extraction.cutout import cut_garment, remove_ears
 from dressmeup.extraction.labels import ColorFallbackWarning, cluster_colors, label_mesh

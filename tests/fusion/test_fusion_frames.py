@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from dressmeup.capture.frame import RGBDFrame, frame_camera
 from dressmeup.capture.rig import ring_rig
-from dressmeup.capture.session import RGBDFrame, frame_camera
 from dressmeup.errors import InputError
 
 

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from dressmeup.capture.camera import Camera
 from dressmeup.capture.frame import with_rig_cameras
-from dressmeup.capture.rig import Camera, Rig, look_at, perturb_rig, ring_rig
+from dressmeup.capture.rig import Rig, look_at, perturb_rig, ring_rig
 from dressmeup.capture.synthetic import NoiseModel, SyntheticSubject, render_frames
 from dressmeup.fusion.evaluate import extrinsic_errors
 from dressmeup.fusion.icp import ICPConfig

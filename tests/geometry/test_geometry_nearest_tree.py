@@ -4,6 +4,9 @@ or scipy, against a brute-force search."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -94,10 +97,13 @@ def test_backend_choice_and_fallback(monkeypatch):
 
 @pytest.mark.skipif(neighbors._pykdtree_class() is None, reason="pykdtree not installed")
 @pytest.mark.parametrize("value", [None, "7"])
-def test_pykdtree_import_puts_the_thread_variable_back(monkeypatch, value):
-    if value is None:
-        monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
-    else:
-        monkeypatch.setenv("OMP_NUM_THREADS", value)
-    assert neighbors._pykdtree_class.__wrapped__() is not None
-    assert os.environ.get("OMP_NUM_THREADS") == value
+def test_pykdtree_import_puts_the_thread_variable_back(value):
+    # pykdtree is loaded with the module, in a fresh interpreter here
+    env = {k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"}
+    if value is not None:
+        env["OMP_NUM_THREADS"] = value
+    code = ("import os; from dressmeup.geometry import neighbors; "
+            "print(neighbors._pykdtree_class() is not None, os.environ.get('OMP_NUM_THREADS'))")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True, cwd=Path(__file__).resolve().parents[2]).stdout.split()
+    assert out == ["True", str(value)]

@@ -165,7 +165,8 @@ def test_write_ply_compact_roundtrip_with_colours_and_labels(tmp_path):
     from pathlib import Path
 
     from dressmeup.io.jsonable import json_default
-    from dressmeup.io.mesh import load_mesh, write_ply
+    from dressmeup.io.mesh import load_mesh
+    from dressmeup.io.ply import write_ply
 
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
     F = np.array([[0, 1, 2], [0, 1, 3]])

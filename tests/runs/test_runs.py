@@ -8,7 +8,7 @@ import json
 import pytest
 
 from dressmeup.bench import validate_submission
-from dressmeup.bench.provenance import hardware
+from dressmeup.bench.scoring.provenance import hardware
 from dressmeup.cli import main
 
 

@@ -38,7 +38,7 @@ def data(tmp_path_factory):
 
 def test_runner_writes_a_scoreable_submission(data, tmp_path):
     from dressmeup.bench.edition_create import create_edition
-    from dressmeup.bench.score import score_submission
+    from dressmeup.bench.scoring.score import score_submission
 
     # the edition's protocol on this small dataset (an edition pinned by its manifest)
     ed = create_edition(data, "registration", "small-registration")

@@ -21,7 +21,7 @@ pytest.importorskip("httpx")
 
 from fastapi.testclient import TestClient  # noqa: E402
 
-from dressmeup.bench.score import score_submission  # noqa: E402
+from dressmeup.bench.scoring.score import score_submission  # noqa: E402
 from dressmeup.errors import InputError  # noqa: E402
 from dressmeup.server.accounts import add_team, revoke_team, token_sha256  # noqa: E402
 from dressmeup.server.app import create_app  # noqa: E402

@@ -100,7 +100,7 @@ class Task:
     unit_columns : result columns naming the factors the items share, which bootstrap
         intervals resample together (retarget: garment, target subject, target pose;
         registration: subject, pose; uvparam: the mesh; see
-        :mod:`dressmeup.bench.intervals`).
+        :mod:`dressmeup.bench.scoring.intervals`).
     file_suffixes : accepted submission file suffixes.
     dataset_problems : ``(edition, data_root) -> (dataset info, problems)``; checks the pin.
     items : ``(edition, data_root) -> list[Item]``, in a stable order.
@@ -155,7 +155,8 @@ class Task:
             raise TypeError(f"task {self.name!r}: " + "; ".join(problems))
 
 
-def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any) -> Task:
+def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any,
+                  jobs: Any = None) -> Task:
     """Build a :class:`Task` from its four modules.
 
     Parameters
@@ -165,6 +166,8 @@ def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any)
         columns naming the factors bootstrap intervals resample), ``FILE_SUFFIXES``/
         ``dataset_problems``/``items``/``check_file``, ``jobs``/``score_job`` and
         ``metric_specs``.
+    jobs : the task's job builder when ``evaluate`` has none (tasks scored one item per job
+        pass :func:`~dressmeup.bench.tasks.sampletask.simple_jobs`).
 
     Raises
     ------
@@ -180,7 +183,7 @@ def assemble_task(name: str, config: Any, data: Any, evaluate: Any, render: Any)
         dataset_problems=data.dataset_problems,
         items=data.items,
         check_file=data.check_file,
-        jobs=evaluate.jobs,
+        jobs=jobs if jobs is not None else evaluate.jobs,
         score_job=evaluate.score_job,
         metric_specs=render.metric_specs,
         track_level=getattr(config, "TRACK_LEVEL", "item"),

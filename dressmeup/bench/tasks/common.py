@@ -27,7 +27,6 @@ def open_dataset(root: str):
     ----------
     root : dataset root as a resolved path string (the cache key).
     """
-    # heavy: pyarrow (~0.3 s to import)
     return Dataset(root)
 
 

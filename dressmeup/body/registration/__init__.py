@@ -57,7 +57,6 @@ from dressmeup.body.registration.optimizer import OptimizationRegistrar, Registr
 from dressmeup.body.registration.plan import Plan, build_plan
 from dressmeup.body.registration.scan import prepare_scan
 from dressmeup.body.registration.terms import JOINT_LIMITS
-from dressmeup.body.skeleton import SMPL22_JOINT_NAMES
 from dressmeup.errors import InputError
 
 
@@ -150,7 +149,6 @@ def register(scan, model, init: BodyParams | None = None, keypoints=None,
 __all__ = [
     "JOINT_LIMITS",
     "PRESETS",
-    "SMPL22_JOINT_NAMES",
     "FromFileRegistrar",
     "OptimizationRegistrar",
     "Plan",

@@ -10,7 +10,7 @@ iterations=(60, 200, 160))``). Every setting is documented once, in its group:
 - :class:`Schedule`: step counts and learning rates of the stages;
 - :class:`StartSearch`: how a fit without ``init`` starts;
 - :class:`Limbs`: the limb-wise searches;
-- :class:`ShapeSearch`: the final search over phenotype starts;
+- :class:`Shapes`: the final search over phenotype starts;
 - :class:`ScanInput`: the scan's up axis and its support surfaces;
 - :class:`Runtime`: seed, device, threads, progress.
 
@@ -159,7 +159,7 @@ class Limbs:
 
 
 @dataclass(frozen=True)
-class ShapeSearch:
+class Shapes:
     """The final shape search (:mod:`.shapes`; phenotype models, fits without ``init``).
 
     Attributes
@@ -212,7 +212,7 @@ class Runtime:
 
 #: The groups of a :class:`RegistrationConfig`: attribute name -> class.
 GROUPS: dict[str, type] = {"data": DataTerm, "priors": Priors, "schedule": Schedule,
-                           "start": StartSearch, "limbs": Limbs, "shapes": ShapeSearch,
+                           "start": StartSearch, "limbs": Limbs, "shapes": Shapes,
                            "scan": ScanInput, "runtime": Runtime}
 
 
@@ -225,7 +225,7 @@ class RegistrationConfig:
     schedule: Schedule = field(default_factory=Schedule)
     start: StartSearch = field(default_factory=StartSearch)
     limbs: Limbs = field(default_factory=Limbs)
-    shapes: ShapeSearch = field(default_factory=ShapeSearch)
+    shapes: Shapes = field(default_factory=Shapes)
     scan: ScanInput = field(default_factory=ScanInput)
     runtime: Runtime = field(default_factory=Runtime)
 
@@ -254,32 +254,6 @@ PRESETS: dict[str, RegistrationConfig] = {
                           yaw_candidates=4)),
 }
 
-#: Settings of earlier releases that are gone, and what a fit does instead (named in the
-#: error for an unknown option).
-REMOVED: dict[str, str] = {
-    "loose_cloth": "far cloth is ruled by far_cloth ('free' or 'pull')",
-    "far_cloth_from": "the far-cloth rule applies from the shape stage, the pose stage "
-                      "running once with and once without it (see registration.plan)",
-    "far_cloth_branch": "the pose stage runs with and without the far-cloth rule whenever "
-                        "far_cloth is not 'pull'",
-    "skip_unseen": "body points the scan did not see never carry a body -> scan cost",
-    "hand_weight": "hand vertices weigh as much as the others",
-    "correspondence_every": "scan -> body pairs are refreshed every second step",
-    "refine_rounds": "no L-BFGS rounds follow the stages",
-    "lbfgs_steps": "no L-BFGS rounds follow the stages",
-    "shape_in_pose_stage": "the shape always moves at half rate in the pose stage",
-    "yaw_search": "the rest-pose start (hypotheses=()) always tries four yaws",
-    "keep_opposite_yaw": "the yaw opposite the best always goes on",
-    "refine_opposite": "the best hypothesis facing away is refined when the kept ones all "
-                       "face one way",
-    "yaw_postures": "the yaw search runs from the A-pose",
-    "limb_scan_cap": "the limb searches cap scan -> body distances at 0.1 m",
-    "shape_search_builds": "each gender's shape-search start is the build that fits best",
-    "optimize_scale": "the result has scale 1 (the size is in the shape)",
-    "size_init": "fits without init start at the scan's size and hand it to the shape",
-    "size_handover": "the size is handed to the shape before the shape stage",
-}
-
 
 def get_config(preset: str | RegistrationConfig = "default", **overrides: Any
                ) -> RegistrationConfig:
@@ -292,13 +266,12 @@ def get_config(preset: str | RegistrationConfig = "default", **overrides: Any
     Raises
     ------
     InputError
-        Unknown preset, unknown or removed setting, or a value out of its range.
+        Unknown preset, unknown setting, or a value out of its range.
     """
     config = resolve_config(PRESETS, preset, {}, what="registration preset")
     unknown = sorted(set(overrides) - set(SETTING_GROUP) - set(GROUPS))
     if unknown:
-        gone = "".join(f" ({k}: removed; {REMOVED[k]})" for k in unknown if k in REMOVED)
-        raise InputError(f"registrar 'optimization': unknown option(s) {unknown}{gone}; "
+        raise InputError(f"registrar 'optimization': unknown option(s) {unknown}; "
                          f"known: {sorted(SETTING_GROUP)}")
     groups = {g: overrides[g] for g in GROUPS if g in overrides}
     for g, value in groups.items():
@@ -390,6 +363,6 @@ def describe(config: RegistrationConfig) -> dict[str, Any]:
     return {k: v for k, v in config.flat().items() if v != default[k]}
 
 
-__all__ = ["GROUPS", "PRESETS", "REMOVED", "DataTerm", "Limbs", "Priors", "RegistrationConfig",
-           "Runtime", "ScanInput", "Schedule", "ShapeSearch", "StartSearch", "check_config",
+__all__ = ["GROUPS", "PRESETS", "DataTerm", "Limbs", "Priors", "RegistrationConfig",
+           "Runtime", "ScanInput", "Schedule", "Shapes", "StartSearch", "check_config",
            "describe", "get_config"]

@@ -45,7 +45,7 @@ CANONICAL_POSES["stride-right"] = {"arm": (0.25, -1.0, 0.0), **_BACK_LEG, "right
 
 #: Hypotheses defined but tried only when asked for (``hypotheses=``): the strides help the
 #: raised-knee tuning fits but make a clothed walking fit 13 mm worse
-#: (benchmarks/results/registration/2026-12-03-folded-legs.md).
+#: (benchmarks/results/studies/registration/2026-12-03-folded-legs.md).
 OPT_IN_HYPOTHESES: tuple[str, ...] = ("stride-left", "stride-right")
 #: The hypotheses tried by default: all of :data:`CANONICAL_POSES` but the opt-in ones.
 DEFAULT_HYPOTHESES: tuple[str, ...] = tuple(n for n in CANONICAL_POSES

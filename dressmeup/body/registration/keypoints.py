@@ -43,7 +43,7 @@ MEDIAPIPE_TO_SMPL: dict[int, str] = {
 def keypoints_available() -> bool:
     """True when mediapipe's legacy pose solution can be imported (``[keypoints]`` extra)."""
     try:
-        # optional dependency (ImportError handled)
+        # optional: mediapipe (any import failure means not available)
         import mediapipe as mp
 
         return hasattr(mp, "solutions") and hasattr(mp.solutions, "pose")
@@ -187,7 +187,7 @@ def detect_2d(images: list[np.ndarray], model_complexity: int = 1) -> list[dict 
     ImportError : mediapipe (the ``[keypoints]`` extra) is not installed.
     """
     try:
-        # optional dependency (ImportError handled)
+        # optional: mediapipe (ImportError handled)
         import mediapipe as mp
     except ImportError as exc:
         raise ImportError("keypoints from scans need the [keypoints] extra: pip install "

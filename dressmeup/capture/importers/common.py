@@ -10,6 +10,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from dressmeup.capture.camera import Camera, PoseRepair, rigid_pose
@@ -195,8 +196,6 @@ def safe_id(text: str, default: str = "scene") -> str:
 
 
 def _write_frame_files(out: Path, serial: str, fr: SourceFrame, report: ImportReport) -> None:
-    import cv2  # reason: start-up time of the command line
-
     depth = read_png(fr.depth)
     if depth.dtype != np.uint16 or depth.ndim != 2:
         raise InputError(f"{fr.depth}: depth must be a single-channel 16-bit PNG, got {depth.dtype} "

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 __all__ = ["NoiseModel"]
@@ -63,9 +64,6 @@ class NoiseModel:
         -------
         (h, w) uint8
         """
-        # heavy: cv2 (~0.3 s to import)
-        import cv2
-
         out = labels.copy()
         fg = labels > 0
         present = [int(v) for v in np.unique(labels) if v > 0]

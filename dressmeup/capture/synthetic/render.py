@@ -5,10 +5,12 @@ from __future__ import annotations
 
 from typing import Any
 
+import cv2
 import numpy as np
 
-from dressmeup.capture.rig import Camera, Rig
-from dressmeup.capture.session import RGBDFrame
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.frame import RGBDFrame
+from dressmeup.capture.rig import Rig
 from dressmeup.capture.synthetic.noise import NoiseModel
 from dressmeup.capture.synthetic.subject import SyntheticSubject, _perp
 from dressmeup.capture.visibility import raycasting_scene
@@ -28,9 +30,6 @@ def camera_rays(camera: Camera) -> np.ndarray:
     (h, w, 6) float32 rays (origin, direction) whose direction has camera-frame z = 1, so a
     ray-cast ``t_hit`` is the depth along the optical axis.
     """
-    # heavy: cv2 (~0.3 s to import)
-    import cv2
-
     u, v = np.meshgrid(np.arange(camera.width, dtype=np.float64), np.arange(camera.height, dtype=np.float64))
     pix = np.stack([u.ravel(), v.ravel()], axis=1)
     if camera.has_distortion:

@@ -13,7 +13,8 @@ import math
 
 import numpy as np
 
-from dressmeup.capture.rig import Camera, Rig, look_at
+from dressmeup.capture.camera import Camera
+from dressmeup.capture.rig import Rig, look_at
 from dressmeup.capture.synthetic.subject import SyntheticSubject, make_mannequin
 
 __all__ = ["make_room", "walk_rig"]
@@ -31,7 +32,7 @@ def _box(lo: np.ndarray, hi: np.ndarray, inward: bool = False) -> tuple[np.ndarr
 
 
 def _subdivide(V: np.ndarray, F: np.ndarray, max_edge: float) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh  # reason: start-up time
+    import trimesh  # heavy: trimesh
 
     v, f = trimesh.remesh.subdivide_to_size(V, F, max_edge=max_edge)
     return np.asarray(v, float), np.asarray(f, np.int64)

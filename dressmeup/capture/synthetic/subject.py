@@ -95,7 +95,7 @@ def make_mannequin(n_around: int = 160, n_up: int = 240, seed: int = 0) -> Synth
     -------
     SyntheticSubject
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.interpolate
     from scipy.interpolate import PchipInterpolator
 
     py, pa, pb = _profile()
@@ -123,7 +123,7 @@ def make_mannequin(n_around: int = 160, n_up: int = 240, seed: int = 0) -> Synth
     cap_b = np.stack([np.full(n_around, bottom), idx[0], nxt[0]], -1)
     cap_t = np.stack([np.full(n_around, top), nxt[-1], idx[-1]], -1)
     faces = np.vstack([quads, cap_b, cap_t]).astype(np.int64)
-    # orientation: outward normals
+    # heavy: trimesh
     import trimesh
 
     tm = trimesh.Trimesh(verts, faces, process=False)
@@ -246,7 +246,7 @@ def subject_from_sample(sample_dir: str | os.PathLike, tolerance: float = 0.004,
     manifest = subject_dir.parent.parent / "manifest.parquet"
     if manifest.is_file():
         try:
-            # optional dependency (ImportError handled)
+            # heavy: pandas
             import pandas as pd
 
             df = pd.read_parquet(manifest)

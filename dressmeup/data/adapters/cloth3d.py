@@ -87,7 +87,7 @@ def write_pc2(path: str | os.PathLike, frames: np.ndarray, float16: bool = False
 
 
 def _mat_to_dict(obj: Any) -> Any:
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.io
     from scipy.io.matlab import mat_struct
 
     if isinstance(obj, mat_struct):
@@ -101,7 +101,7 @@ def _mat_to_dict(obj: Any) -> Any:
 
 def load_info(path: str | os.PathLike) -> dict[str, Any]:
     """Read a CLOTH3D ``info.mat`` into plain Python (dicts, arrays, strings)."""
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.io
     import scipy.io
 
     try:
@@ -166,7 +166,7 @@ def cloth3d_body(info: dict, t: int, body_model=None, source: str = "info.mat",
     ------
     MissingModelError : no SMPL model file (the message says where to put it).
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.spatial
     from scipy.spatial.transform import Rotation
 
     poses = _frame_columns(info, "poses", 72, source)

@@ -18,20 +18,7 @@ geometry apart from its layers; its names are importable from here too.
 
 from __future__ import annotations
 
-from dressmeup.methods.nn.diffusion_ops import (
-    OPERATOR_VERSION,
-    Operators,
-    compute_operators,
-    tangent_gradient_operators,
-)
-
-__all__ = [
-    "Operators",
-    "compute_operators",
-    "tangent_gradient_operators",
-    "DiffusionNet",
-    "OPERATOR_VERSION",
-]
+__all__ = ["DiffusionNet"]
 
 
 def _torch_modules():

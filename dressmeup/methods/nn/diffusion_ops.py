@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import robust_laplacian
 import scipy.sparse as sp
 from scipy.linalg import eigh
 from scipy.sparse.csgraph import dijkstra
@@ -101,9 +102,6 @@ class Operators:
 
 def _laplacian_and_mass(V: np.ndarray, F: np.ndarray, laplacian: str) -> tuple[sp.csr_matrix, np.ndarray]:
     if laplacian == "robust":
-        # heavy: robust_laplacian (~0.3 s to import)
-        import robust_laplacian
-
         L, M = robust_laplacian.mesh_laplacian(np.asarray(V, dtype=np.float64), np.asarray(F))
         mass = np.asarray(M.diagonal(), dtype=np.float64)
         L = sp.csr_matrix(L)

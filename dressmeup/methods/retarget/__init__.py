@@ -106,7 +106,7 @@ def get_method(name: str, **hyperparameters: Any):
         if p not in POSTPROCESSES:
             raise InputError(f"unknown post-process {p!r} in {name!r}; known: {sorted(POSTPROCESSES)}")
         chain.append(_make(POSTPROCESSES, p, post_kw[p]))
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.sparse
     from dressmeup.methods.retarget.postprocess import Pipeline
 
     return Pipeline(method, chain)

@@ -48,7 +48,7 @@ def skin_component(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray
     faces : (f, 3) int64
         The component's faces re-indexed into ``vertex_ids``.
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.sparse
     from dressmeup.geometry.topology import largest_component
 
     V, F = as_arrays(V, F, name="template")

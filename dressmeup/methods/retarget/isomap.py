@@ -16,31 +16,19 @@ import numpy as np
 
 from dressmeup.geometry.laplacian import uniform_laplacian
 from dressmeup.methods.retarget.base import RetargetMethod, body_context, check_garment
-from dressmeup.methods.retarget.correspondence import (  # noqa: F401  (re-exported)
+from dressmeup.methods.retarget.correspondence import (
     CoarseResult,
     coarse_retarget,
-    extrapolate,
     inverse_distance_weights,
     knn_embedding,
-    place,
 )
-from dressmeup.methods.retarget.embedding import (  # noqa: F401  (re-exported)
+from dressmeup.methods.retarget.embedding import (
     TemplateEmbedding,
     embedding_for,
-    geodesic_matrix,
-    heat_solver,
-    landmark_geodesics,
-    skin_component,
-    template_embedding,
 )
-from dressmeup.methods.retarget.mds import classical_mds, landmark_mds, laplacian_eigenmaps  # noqa: F401
 from dressmeup.methods.retarget.prepared import prepare_garment
 
-__all__ = [
-    "skin_component", "geodesic_matrix", "landmark_geodesics", "classical_mds", "landmark_mds",
-    "laplacian_eigenmaps", "TemplateEmbedding", "template_embedding", "extrapolate", "knn_embedding",
-    "place", "embedding_for", "CoarseResult", "coarse_retarget", "IsomapRetarget", "IsomapOffset",
-]
+__all__ = ["IsomapRetarget", "IsomapOffset"]
 
 
 class IsomapRetarget(RetargetMethod):

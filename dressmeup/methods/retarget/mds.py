@@ -23,7 +23,7 @@ def _top_eigen(B: np.ndarray, d: int, seed: int) -> tuple[np.ndarray, np.ndarray
     ``seed`` is unused (kept for a stable signature). Eigenvector signs are normalised
     (largest-magnitude entry positive) for determinism.
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.linalg
     from scipy.linalg import eigh
 
     n = B.shape[0]
@@ -131,7 +131,7 @@ def laplacian_eigenmaps(V: np.ndarray, F: np.ndarray, dim: int = 16) -> np.ndarr
     -------
     (n, dim) float32 ndarray.
     """
-    # heavy: scipy (~0.5 s to import)
+    # heavy: scipy.sparse
     from scipy.sparse.linalg import eigsh
 
     from dressmeup.geometry.laplacian import cotan_laplacian, mass_matrix

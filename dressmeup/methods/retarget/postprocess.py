@@ -8,7 +8,6 @@ from dressmeup.cache import hash_arrays
 from dressmeup.methods.retarget.base import RetargetMethod, body_context, check_garment
 from dressmeup.methods.retarget.detail import DetailTransfer
 from dressmeup.methods.retarget.penetration import resolve_penetration
-from dressmeup.methods.retarget.refine import WEIGHTS_DIR  # noqa: F401  (shipped weights of chains)
 
 __all__ = ["DetailPost", "PenetrationPost", "Pipeline"]
 

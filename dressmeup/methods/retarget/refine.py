@@ -34,7 +34,6 @@ import io
 import logging
 import time
 from dataclasses import asdict, fields
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -45,13 +44,13 @@ from dressmeup.errors import InputError, MissingModelError
 from dressmeup.geometry.mesh import edges as mesh_edges
 from dressmeup.io.atomic import atomic_write_bytes
 from dressmeup.methods.nn.checkpoint import load_checkpoint
+from dressmeup.methods.retarget.base import RetargetMethod
+from dressmeup.methods.retarget.embedding import TemplateEmbedding
 from dressmeup.methods.retarget.isomap import IsomapRetarget
 from dressmeup.methods.retarget.refine_config import PRESETS, RefineConfig, get_config
 from dressmeup.methods.retarget.refine_infer import retarget_prepared
-from dressmeup.methods.retarget.refine_losses import (  # noqa: F401  (re-exported)
-    MASK_JOINTS,
+from dressmeup.methods.retarget.refine_losses import (
     RefineSample,
-    correspondence_points,
     face_pairs,
     joint_mask,
     refine_losses,
@@ -62,23 +61,13 @@ from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
 
-__all__ = ["IsomapRefine", "IsomapRefineFast", "RefineSample", "refine_losses", "joint_mask",
-           "correspondence_points", "WEIGHTS_DIR", "MASK_JOINTS"]
+__all__ = ["IsomapRefine", "IsomapRefineFast", "WEIGHTS_DIR"]
 
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
 _FORMAT = "dressmeup-isomap-refine-v1"
 
 
-@lru_cache(maxsize=8)
-def _config_fields(kind: type) -> frozenset[str]:
-    return frozenset(f.name for f in fields(kind))
-
-
-def _field_names(config: Any) -> frozenset[str]:
-    return _config_fields(type(config))
-
-
-class IsomapRefine(IsomapRetarget):
+class IsomapRefine(RetargetMethod):
     """``isomap-refine``: Isomap coarse placement + self-supervised refinement network.
 
     Parameters
@@ -93,8 +82,8 @@ class IsomapRefine(IsomapRetarget):
         Torch device ("cpu"; CUDA when asked and available).
     **overrides
         Settings of :class:`~dressmeup.methods.retarget.refine_config.RefineConfig`
-        (validated: an unknown name or a wrong type raises ``InputError``). Every setting
-        reads as an attribute (``method.width``); assigning one replaces the configuration.
+        (validated: an unknown name or a wrong type raises ``InputError``). The settings are
+        ``method.config`` (``method.config.width``); :meth:`set_params` replaces it.
     """
 
     name = "isomap-refine"
@@ -105,8 +94,7 @@ class IsomapRefine(IsomapRetarget):
 
     def __init__(self, config: str | RefineConfig | None = None, *, weights: str | None = None,
                  device: str = "cpu", **overrides: Any) -> None:
-        object.__setattr__(self, "config", get_config(config or self.default_preset,
-                                                      presets=self.presets, **overrides))
+        self.config = get_config(config or self.default_preset, presets=self.presets, **overrides)
         self.weights = weights
         self.device = device
 
@@ -123,27 +111,30 @@ class IsomapRefine(IsomapRetarget):
     def set_params(self, **params: Any) -> IsomapRefine:
         """Change settings by name (validated like the constructor's overrides)."""
         runtime = {k: params.pop(k) for k in ("weights", "device") if k in params}
-        object.__setattr__(self, "config", get_config(self.config, presets=self.presets, **params))
+        self.config = get_config(self.config, presets=self.presets, **params)
         for k, v in runtime.items():
-            object.__setattr__(self, k, v)
+            setattr(self, k, v)
         return self
 
-    def __getattr__(self, name: str) -> Any:
-        config = self.__dict__.get("config")
-        if config is not None and name in _field_names(config):
-            return getattr(config, name)
-        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
+    def coarse_method(self) -> IsomapRetarget:
+        """The coarse stage these settings describe (the thesis': no push-out, no smoothing)."""
+        c = self.config
+        return IsomapRetarget(dim=c.dim, k_extrapolate=c.k_extrapolate, k_place=c.k_place,
+                              embedding_method=c.embedding_method, n_landmarks=c.n_landmarks,
+                              correspondence_noise=c.correspondence_noise,
+                              carry_offset=c.carry_offset, precompute=c.precompute, seed=c.seed)
 
-    def __setattr__(self, name: str, value: Any) -> None:
-        config = self.__dict__.get("config")
-        if config is not None and name in _field_names(config):
-            self.set_params(**{name: value})
-        else:
-            object.__setattr__(self, name, value)
+    def embedding(self, body_model) -> TemplateEmbedding:
+        """The (cached) template embedding of the coarse stage."""
+        return self.coarse_method().embedding(body_model)
 
-    # the coarse stage of the thesis has no push-out and no smoothing
-    offset = 0.0
-    smooth_iterations = 0
+    def prepared(self, garment_V, garment_F, source_context, embedding: TemplateEmbedding):
+        """The coarse stage's per-garment preparation (see :meth:`IsomapRetarget.prepared`)."""
+        return self.coarse_method().prepared(garment_V, garment_F, source_context, embedding)
+
+    def coarse(self, garment_V, garment_F, source, target, body_model):
+        """The coarse placement (see :meth:`IsomapRetarget.coarse`)."""
+        return self.coarse_method().coarse(garment_V, garment_F, source, target, body_model)
 
     # ----------------------------------------------------------------------------------------
     def prepare(self, garment_V, garment_F, source, target, body_model, truth=None) -> RefineSample:
@@ -160,19 +151,19 @@ class IsomapRefine(IsomapRetarget):
         TV = t.skin_vertices - center
         x = res.positions - center
         tree = cKDTree(TV)
-        k = int(min(self.k_neighbors, len(TV)))
+        k = int(min(self.config.k_neighbors, len(TV)))
         _, nb = tree.query(x, k=k)
         nb = np.asarray(nb).reshape(len(x), k)
         neighbors = (TV[nb] - x[:, None, :]).reshape(len(x), 3 * k)
         seconds = time.perf_counter() - t0
         E = mesh_edges(F)
-        mask = joint_mask(V, s.joints, getattr(body_model, "joint_names", ()), self.joint_mask_radius)
+        mask = joint_mask(V, s.joints, getattr(body_model, "joint_names", ()), self.config.joint_mask_radius)
         ew = (~(mask[E[:, 0]] | mask[E[:, 1]])).astype(np.float32)
         return RefineSample(
             x=x.astype(np.float32), phi=res.garment_embedding.astype(np.float32),
             neighbors=neighbors.astype(np.float32),
-            garment_points=subsample(V - s.joints[0], self.n_points, self.seed).astype(np.float32),
-            body_points=subsample(TV, self.n_points, self.seed + 1).astype(np.float32),
+            garment_points=subsample(V - s.joints[0], self.config.n_points, self.config.seed).astype(np.float32),
+            body_points=subsample(TV, self.config.n_points, self.config.seed + 1).astype(np.float32),
             input_V=V, faces=F, edges=E, edge_weights=ew, face_pairs=face_pairs(F),
             target_V=TV, target_N=t.skin_normals(), target_emb=emb.embedding, center=center,
             seconds_correspondence=seconds, _tree=tree,
@@ -195,10 +186,10 @@ class IsomapRefine(IsomapRetarget):
 
         from dressmeup.methods.retarget.refine_net import build_network
 
-        torch.manual_seed(int(self.seed))
-        in_dim = 3 + int(self.dim) + 3 * int(self.k_neighbors)
-        net = build_network(in_dim, int(self.code_dim), int(self.width), int(self.depth),
-                            int(self.pointnet_hidden), float(self.out_scale))
+        torch.manual_seed(int(self.config.seed))
+        in_dim = 3 + int(self.config.dim) + 3 * int(self.config.k_neighbors)
+        net = build_network(in_dim, int(self.config.code_dim), int(self.config.width), int(self.config.depth),
+                            int(self.config.pointnet_hidden), float(self.config.out_scale))
         return net.to(torch.device(self.device))
 
     def loss(self, net, sample: RefineSample) -> tuple[Any, dict[str, float]]:
@@ -209,10 +200,10 @@ class IsomapRefine(IsomapRetarget):
         feats, gp, bp = self.features(sample)
         dx = net(feats, gp, bp)
         v = torch.as_tensor(sample.x, device=dx.device) + dx
-        terms = refine_losses(v.cpu(), sample, margin=self.margin, use_joint_mask=self.use_joint_mask,
-                              k_extrapolate=self.k_extrapolate, k_place=self.k_place)
-        total = (self.w_length * terms["length"] + self.w_corres * terms["corres"]
-                 + self.w_bend * terms["bend"] + self.w_penetration * terms["penetration"])
+        terms = refine_losses(v.cpu(), sample, margin=self.config.margin, use_joint_mask=self.config.use_joint_mask,
+                              k_extrapolate=self.config.k_extrapolate, k_place=self.config.k_place)
+        total = (self.config.w_length * terms["length"] + self.config.w_corres * terms["corres"]
+                 + self.config.w_bend * terms["bend"] + self.config.w_penetration * terms["penetration"])
         return total, {k: float(t.detach()) for k, t in terms.items()}
 
     def fit(self, triplets, body_model, callback=None, val_triplets=None, wall_seconds: float | None = None,
@@ -263,7 +254,7 @@ class IsomapRefine(IsomapRetarget):
 
         if not samples:
             raise ValueError("samples: expected at least one prepared sample")
-        net, history = train_network(self, samples, val_samples, steps=int(self.steps),
+        net, history = train_network(self, samples, val_samples, steps=int(self.config.steps),
                                      wall_seconds=wall_seconds, val_every=val_every,
                                      checkpoint=checkpoint, checkpoint_every=checkpoint_every,
                                      callback=callback, until_converged=until_converged)
@@ -352,7 +343,7 @@ class IsomapRefine(IsomapRetarget):
         correspondence part (coarse placement and neighbour search) and the network.
         """
         self.ensure_network(body_model)
-        if not self.precompute:
+        if not self.config.precompute:
             sample = self.prepare(garment_V, garment_F, source, target, body_model)
             t0 = time.perf_counter()
             out = self.predict_sample(sample)

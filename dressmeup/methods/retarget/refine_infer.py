@@ -45,12 +45,12 @@ def retarget_prepared(method: Any, garment_V, garment_F, source, target, body_mo
     t3 = time.perf_counter()
     center = t.joints[0]
     TV = t.skin_vertices - center
-    x = (prep.with_offset(t.skin_vertices, t.skin_normals()) if method.carry_offset
+    x = (prep.with_offset(t.skin_vertices, t.skin_normals()) if method.config.carry_offset
          else prep.coarse(t.skin_vertices)) - center
-    if method.correspondence_noise:
-        x = x + np.random.default_rng(method.seed).normal(0.0, float(method.correspondence_noise), size=x.shape)
+    if method.config.correspondence_noise:
+        x = x + np.random.default_rng(method.config.seed).normal(0.0, float(method.config.correspondence_noise), size=x.shape)
     x = x.astype(np.float32)
-    k = int(min(method.k_neighbors, len(TV)))
+    k = int(min(method.config.k_neighbors, len(TV)))
     _, nb = cKDTree(TV).query(x, k=k)
     nb = np.asarray(nb).reshape(len(x), k)
     neighbors = (TV[nb].astype(np.float32) - x[:, None, :]).reshape(len(x), 3 * k)
@@ -58,7 +58,7 @@ def retarget_prepared(method: Any, garment_V, garment_F, source, target, body_mo
     dev = torch.device(method.device)
     net = method.network_
     with torch.no_grad():
-        body_pts = torch.as_tensor(subsample(TV, method.n_points, method.seed + 1).astype(np.float32), device=dev)
+        body_pts = torch.as_tensor(subsample(TV, method.config.n_points, method.config.seed + 1).astype(np.float32), device=dev)
         code = torch.cat([part["garment_code"], net.encoder_body(body_pts)])
         dx = decode_with_partial(net.decoder, torch.as_tensor(x, device=dev),
                                   torch.as_tensor(neighbors, device=dev), part["phi_term"], code)
@@ -73,16 +73,16 @@ def garment_partial(method: Any, prep: Any, V: np.ndarray, s: Any) -> dict:
     # heavy: torch (~1.1 s to import)
     import torch
 
-    key = (prep.key, id(method.network_), int(method.n_points), int(method.seed))
+    key = (prep.key, id(method.network_), int(method.config.n_points), int(method.config.seed))
     memo = method.__dict__.setdefault("_partial_memo", {})
     if key not in memo:
         if len(memo) >= 8:
             memo.pop(next(iter(memo)))
         dev = torch.device(method.device)
         net = method.network_
-        d = int(method.dim)
+        d = int(method.config.dim)
         with torch.no_grad():
-            gp = torch.as_tensor(subsample(V - s.joints[0], method.n_points, method.seed).astype(np.float32),
+            gp = torch.as_tensor(subsample(V - s.joints[0], method.config.n_points, method.config.seed).astype(np.float32),
                                  device=dev)
             W = net.decoder.layers[0].weight
             phi_term = torch.as_tensor(prep.phi.astype(np.float32), device=dev) @ W[:, 3:3 + d].T

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from dressmeup.methods.retarget.refine import WEIGHTS_DIR, IsomapRefine  # noqa: F401  (shipped weights)
+from dressmeup.methods.retarget.refine import IsomapRefine
 from dressmeup.methods.retarget.refine_config import SUP_PRESETS
 from dressmeup.methods.retarget.refine_losses import RefineSample
 
@@ -123,6 +123,6 @@ class IsomapRefineSup(IsomapRefine):
         feats, gp, bp = self.features(sample)
         dx = net(feats, gp, bp)
         v = (torch.as_tensor(sample.x, device=dx.device) + dx).cpu().double()
-        terms = supervised_losses(v, sample, self.flat_threshold)
-        total = self.w_l1 * terms["l1"] + self.w_normal * terms["normal"] + self.w_laplace * terms["laplace"]
+        terms = supervised_losses(v, sample, self.config.flat_threshold)
+        total = self.config.w_l1 * terms["l1"] + self.config.w_normal * terms["normal"] + self.config.w_laplace * terms["laplace"]
         return total, {k: float(t.detach()) for k, t in terms.items()}

@@ -18,13 +18,14 @@ from dressmeup.cache import hash_arrays
 from dressmeup.errors import InputError
 from dressmeup.executors import LocalExecutor, in_order
 from dressmeup.geometry.mesh import edges as mesh_edges
-from dressmeup.hyperparameters import parse_value  # noqa: F401 - re-exported (its home)
 from dressmeup.progress import progress
 
 log = logging.getLogger(__name__)
 
-__all__ = ["body_model_for", "predict_pairs", "RetargetPairJob", "training_triplets", "parse_value", "garment_fingerprints",
-           "check_split_leakage"]
+__all__ = [
+    "body_model_for", "predict_pairs", "RetargetPairJob", "training_triplets",
+    "garment_fingerprints", "check_split_leakage"
+]
 
 
 def body_model_for(params, cache: dict | None = None):

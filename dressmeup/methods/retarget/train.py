@@ -110,7 +110,7 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
     Parameters
     ----------
     method : IsomapRefine (or a subclass): supplies ``new_network()``, ``loss(net, sample)``,
-        ``features(sample)``, ``lr`` and ``seed``.
+        ``features(sample)`` and ``config.lr``, ``config.seed``.
     samples : list of RefineSample (training split).
     val_samples : list of RefineSample (validation split), optional.
     steps : int, total steps (a resumed run continues up to this count); with
@@ -137,11 +137,11 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
     if until_converged and not val_samples:
         raise ValueError("until_converged: give validation samples (the rule watches them)")
     net = method.new_network()
-    run = _Run(method, net, torch.optim.Adam(net.parameters(), lr=float(method.lr)),
+    run = _Run(method, net, torch.optim.Adam(net.parameters(), lr=float(method.config.lr)),
                Path(checkpoint) if checkpoint else None, val_samples)
     start = run.resume()
     history = run.history
-    rng = np.random.default_rng(int(method.seed))
+    rng = np.random.default_rng(int(method.config.seed))
     n_epochs = int(steps) // len(samples) + 1
     order = np.concatenate([rng.permutation(len(samples)) for _ in range(n_epochs)])
     run.start_clock()

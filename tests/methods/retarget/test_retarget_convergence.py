@@ -3,6 +3,8 @@ steps), not on a wall budget, and says so."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import pytest
 
 torch = pytest.importorskip("torch")
@@ -17,7 +19,7 @@ class _Sample:
 class _Plateau:
     """A one-weight model whose loss falls to a floor of 1 (a plateau the rule must see)."""
 
-    name, lr, seed = "plateau", 0.05, 0
+    name, config = "plateau", SimpleNamespace(lr=0.05, seed=0)
 
     def new_network(self):
         torch.manual_seed(0)

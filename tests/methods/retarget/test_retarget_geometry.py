@@ -8,7 +8,9 @@ import scipy.sparse as sp
 from scipy.spatial.distance import cdist
 
 from dressmeup.geometry.laplacian import cotan_laplacian, mass_matrix, uniform_laplacian
-from dressmeup.methods.retarget import isomap as iso
+from dressmeup.methods.retarget.correspondence import extrapolate, place
+from dressmeup.methods.retarget.embedding import geodesic_matrix, template_embedding
+from dressmeup.methods.retarget.mds import classical_mds, landmark_mds
 
 
 def grid(n=6):
@@ -49,20 +51,20 @@ def test_classical_and_landmark_mds_recover_euclidean_distances():
     rng = np.random.default_rng(1)
     X = rng.standard_normal((120, 3))
     D = cdist(X, X)
-    Y = iso.classical_mds(D, dim=3)
+    Y = classical_mds(D, dim=3)
     assert np.allclose(cdist(Y, Y), D, atol=1e-4)
     # landmark MDS is exact for Euclidean data once the landmarks span the space
     lm = np.arange(0, 120, 6)
-    Z = iso.landmark_mds(D[lm], lm, dim=3)
+    Z = landmark_mds(D[lm], lm, dim=3)
     assert np.allclose(cdist(Z, Z), D, atol=1e-4)
     # extra dimensions carry nothing (zero eigenvalues)
-    Y8 = iso.classical_mds(D, dim=8)
+    Y8 = classical_mds(D, dim=8)
     assert np.allclose(cdist(Y8, Y8), D, atol=1e-4)
 
 
 def test_geodesics_on_plane_are_euclidean():
     V, F = grid(11)
-    D = iso.geodesic_matrix(V, F)
+    D = geodesic_matrix(V, F)
     assert np.allclose(D, D.T)
     E = cdist(V, V)
     # heat-method geodesics on a flat grid: within a few percent of the straight line
@@ -74,13 +76,13 @@ def test_extrapolate_is_exact_on_reference_points_and_interpolates():
     rng = np.random.default_rng(2)
     ref = rng.standard_normal((50, 3))
     emb = rng.standard_normal((50, 4)).astype(np.float32)
-    assert np.allclose(iso.extrapolate(emb, ref, ref[:10], k=8), emb[:10], atol=1e-6)
+    assert np.allclose(extrapolate(emb, ref, ref[:10], k=8), emb[:10], atol=1e-6)
     # eq. 4.1 by hand for one query
     q = np.array([[0.1, 0.2, 0.3]])
     d = np.linalg.norm(ref - q, axis=1)
     nn = np.argsort(d)[:5]
     w = (1 / d[nn]) / (1 / d[nn]).sum()
-    assert np.allclose(iso.extrapolate(emb, ref, q, k=5)[0], w @ emb[nn], atol=1e-5)
+    assert np.allclose(extrapolate(emb, ref, q, k=5)[0], w @ emb[nn], atol=1e-5)
 
 
 def test_place_matches_eq_4_4_by_hand():
@@ -88,7 +90,7 @@ def test_place_matches_eq_4_4_by_hand():
     T = rng.standard_normal((40, 3))
     E = rng.standard_normal((40, 6)).astype(np.float32)
     g = rng.standard_normal((5, 6)).astype(np.float32)
-    x = iso.place(g, E, T, k=7)
+    x = place(g, E, T, k=7)
     for i in range(5):
         d = np.linalg.norm(E - g[i], axis=1)
         nn = np.argsort(d)[:7]
@@ -101,9 +103,9 @@ def test_template_embedding_is_cached_and_deterministic(tmp_path, monkeypatch):
 
     monkeypatch.setenv("DRESSMEUP_CACHE", str(tmp_path))
     m = trimesh.creation.icosphere(subdivisions=2)
-    a = iso.template_embedding(m.vertices, m.faces, dim=8, method="full")
+    a = template_embedding(m.vertices, m.faces, dim=8, method="full")
     assert a.seconds > 0 and a.embedding.shape == (len(m.vertices), 8)
-    b = iso.template_embedding(m.vertices, m.faces, dim=8, method="full")
+    b = template_embedding(m.vertices, m.faces, dim=8, method="full")
     assert b.seconds == 0.0 and np.array_equal(a.embedding, b.embedding)
     assert len(list((tmp_path / "isomap").glob("*.npz"))) == 1
     # on a sphere the embedding distance tracks the geodesic (great-circle) distance

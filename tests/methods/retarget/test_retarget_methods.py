@@ -88,7 +88,7 @@ def test_refine_losses_at_rest(tiny, body_model):
     """On the coarse garment: the correspondence loss is small (x' re-places onto x)."""
     import torch
 
-    from dressmeup.methods.retarget.refine import refine_losses
+    from dressmeup.methods.retarget.refine_losses import refine_losses
 
     m = get_method("isomap-refine", **FAST)
     sample = m.prepare(tiny["V"], tiny["F"], tiny["source"], tiny["target"], body_model)

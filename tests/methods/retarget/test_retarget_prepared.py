@@ -79,7 +79,7 @@ def test_refine_prepared_path_matches_network_forward(tiny, body_model):
         m.network_.decoder.film.weight.normal_(0, 0.1)
     m.body_model_name_ = body_model.name
     fast = m.retarget(V, F, s, t, body_model)
-    m.precompute = False
+    m.set_params(precompute=False)
     general = m.retarget(V, F, s, t, body_model)
     assert ed(general, get_method("isomap", **FAST).retarget(V, F, s, t, body_model)) > 1e-3
     assert np.allclose(fast, general, atol=1e-4)
@@ -186,8 +186,8 @@ def test_fast_variant_is_narrower_and_looks_for_its_own_weights(tiny, body_model
     from dressmeup.methods.retarget import refine
 
     fast, full = get_method("isomap-refine-fast"), get_method("isomap-refine")
-    assert (fast.width, fast.code_dim, fast.pointnet_hidden) == (256, 64, 64)
-    assert (full.width, full.code_dim, full.pointnet_hidden) == (512, 128, 128)
+    assert (fast.config.width, fast.config.code_dim, fast.config.pointnet_hidden) == (256, 64, 64)
+    assert (full.config.width, full.config.code_dim, full.config.pointnet_hidden) == (512, 128, 128)
     monkeypatch.setattr(refine, "WEIGHTS_DIR", tmp_path)
     with pytest.raises(MissingModelError, match="isomap_refine_fast_procedural"):
         fast.retarget(tiny["V"], tiny["F"], tiny["source"], tiny["target"], body_model)

@@ -8,8 +8,8 @@ import pytest
 torch = pytest.importorskip("torch")
 
 from dressmeup.data.shapes import make_test_mesh  # noqa: E402
-from dressmeup.methods.nn.diffusion_net import (  # noqa: E402
-    DiffusionNet,
+from dressmeup.methods.nn.diffusion_net import DiffusionNet  # noqa: E402
+from dressmeup.methods.nn.diffusion_ops import (  # noqa: E402
     compute_operators,
     tangent_gradient_operators,
 )

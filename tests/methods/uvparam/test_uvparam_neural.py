@@ -70,7 +70,7 @@ def test_losses_decrease_on_a_tiny_run(tiny_model):
 def test_inference_on_another_resolution_and_checkpoint(tiny_model, tmp_path):
     from dressmeup.methods.uvparam import get_method
     from dressmeup.methods.uvparam.neural.infer import infer
-    from dressmeup.methods.uvparam.neural.train import save_model
+    from dressmeup.methods.uvparam.neural.model import save_model
     from dressmeup.metrics import qce, uv_validity
 
     path = tmp_path / "m.pt"
@@ -103,7 +103,7 @@ def test_neural_method_trains_when_no_checkpoint_and_open_mesh():
 
 
 def test_bad_config_is_rejected():
-    from dressmeup.methods.uvparam.neural.train import get_config
+    from dressmeup.methods.uvparam.neural.model import get_config
 
     with pytest.raises(ValueError, match="config"):
         get_config("huge")
@@ -141,7 +141,7 @@ def test_converged_rule():
 
 def test_training_on_a_set_and_half_checkpoint(tmp_path):
     from dressmeup.methods.uvparam.neural.infer import infer
-    from dressmeup.methods.uvparam.neural.train import load_model, save_model
+    from dressmeup.methods.uvparam.neural.model import load_model, save_model
     from dressmeup.methods.uvparam.neural.train_set import mesh_sha, train_on_set
 
     train = [make_test_mesh("blob-400"), make_test_mesh("sheet-300")]
@@ -200,7 +200,7 @@ def test_proxy_inference_agrees_with_full_inference(tiny_model):
 
 def test_pretrained_track_is_checked_not_declared(tmp_path):
     from dressmeup.methods.uvparam import get_method
-    from dressmeup.methods.uvparam.neural.train import save_model
+    from dressmeup.methods.uvparam.neural.model import save_model
     from dressmeup.methods.uvparam.neural.train_set import train_on_set
 
     seen = make_test_mesh("blob-400")

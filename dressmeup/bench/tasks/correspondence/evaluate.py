@@ -11,7 +11,6 @@ import numpy as np
 
 from dressmeup.bench.tasks.base import STATUS_OK
 from dressmeup.bench.tasks.common import load_npz_arrays, open_dataset
-from dressmeup.bench.tasks.sampletask import simple_jobs as jobs  # noqa: F401 - task API
 from dressmeup.geometry.geodesic import geodesic_distances
 from dressmeup.metrics import richness
 

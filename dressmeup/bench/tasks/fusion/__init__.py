@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from dressmeup.bench.tasks.base import assemble_task
 from dressmeup.bench.tasks.fusion import config, data, evaluate, render
+from dressmeup.bench.tasks.sampletask import simple_jobs
 
-TASK = assemble_task("fusion", config, data, evaluate, render)
+TASK = assemble_task("fusion", config, data, evaluate, render,
+                     jobs=simple_jobs)
 
 __all__ = ["TASK", "config", "data", "evaluate", "render"]

@@ -14,8 +14,6 @@ from dressmeup.bench.tasks.base import STATUS_OK
 from dressmeup.bench.tasks.common import open_dataset
 from dressmeup.bench.tasks.fusion.config import THRESHOLDS
 from dressmeup.bench.tasks.fusion.data import read_mesh
-from dressmeup.bench.tasks.sampletask import simple_jobs as jobs  # noqa: F401 - task API
-from dressmeup.data.sample_capture import fuse_synthetic_sample  # noqa: F401 - moved there
 from dressmeup.metrics import fusion_quality
 
 

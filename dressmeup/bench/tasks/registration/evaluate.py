@@ -13,7 +13,6 @@ import numpy as np
 
 from dressmeup.bench.tasks.base import STATUS_OK
 from dressmeup.bench.tasks.common import open_dataset
-from dressmeup.bench.tasks.sampletask import simple_jobs as jobs  # noqa: F401 - task API
 from dressmeup.body import BodyParams, get_body_model
 from dressmeup.geometry.sampling import sample_surface
 from dressmeup.metrics import p2s

@@ -42,7 +42,6 @@ from dressmeup.progress import progress
 # ------------------------------------------------------------------------ main process side
 def largest_component(F: np.ndarray, n_vertices: int) -> np.ndarray:
     """Faces ``(k, 3)`` of the largest connected component (by face count) of a mesh."""
-    # heavy: scipy (~0.5 s to import)
     F = np.asarray(F, dtype=np.int64)
     return F[largest_component_faces(F, n_vertices)]
 

@@ -17,12 +17,13 @@ from dressmeup.geometry.uv_atlas import orient_chart_uv, signed_uv_areas
 from dressmeup.geometry.uv_packing import pack_charts
 from dressmeup.methods.nn.diffusion_ops import compute_operators
 from dressmeup.methods.uvparam.base import UVResult
+from dressmeup.methods.uvparam.neural.model import NeuralUVModel
 from dressmeup.methods.uvparam.neural.patchnet import (
     assign_charts,
     normalize_vertices,
     patchnet_inputs,
 )
-from dressmeup.methods.uvparam.neural.train import NeuralUVModel, chart_codes, chart_rows
+from dressmeup.methods.uvparam.neural.train import chart_codes, chart_rows
 
 __all__ = ["infer", "chart_uvs", "cluster_decimate"]
 
@@ -157,7 +158,7 @@ def infer(model: NeuralUVModel, V, F, use_operator_cache: bool = True, pack: boo
         Vn = normalize_vertices(V)
         proxy = bool(proxy_vertices) and len(V) > 2 * int(proxy_vertices)
         if proxy:
-            # optional dependency (ImportError handled)
+            # heavy: scipy.spatial
             from scipy.spatial import cKDTree
 
             Vpn, Fp = _proxy(V, F, int(proxy_vertices))

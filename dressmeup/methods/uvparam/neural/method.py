@@ -88,8 +88,8 @@ class NeuralMethod:
         self.overrides = overrides
 
     def _load(self, path: Path):
-        # heavy: scipy (~0.5 s to import)
-        from dressmeup.methods.uvparam.neural.train import load_model
+        # heavy: scipy.sparse
+        from dressmeup.methods.uvparam.neural.model import load_model
 
         key = str(path)
         if key not in self._models:
@@ -113,9 +113,10 @@ class NeuralMethod:
             applied (the mesh's hash is not among the model's training meshes), otherwise
             ``"per-mesh"``; ``info["model"]`` names the model used.
         """
-        # heavy: scipy (~0.5 s to import)
+        # heavy: scipy.linalg, scipy.sparse
         from dressmeup.methods.uvparam.neural.infer import infer
-        from dressmeup.methods.uvparam.neural.train import get_config, save_model, train
+        from dressmeup.methods.uvparam.neural.model import get_config, save_model
+        from dressmeup.methods.uvparam.neural.train import train
         from dressmeup.methods.uvparam.neural.train_set import mesh_sha
 
         t0 = time.perf_counter()

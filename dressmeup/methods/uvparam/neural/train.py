@@ -22,14 +22,10 @@ from dressmeup.geometry.uv_atlas import split_charts
 from dressmeup.methods.nn.diffusion_ops import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
 from dressmeup.methods.uvparam.neural.model import (
-    CONFIGS,
     NeuralConfig,
     NeuralUVModel,
     build_modules,
     get_config,
-    load_model,
-    plain_values,
-    save_model,
 )
 from dressmeup.methods.uvparam.neural.patchnet import (
     assign_charts,
@@ -38,8 +34,7 @@ from dressmeup.methods.uvparam.neural.patchnet import (
 )
 from dressmeup.progress import progress as bar
 
-__all__ = ["NeuralConfig", "CONFIGS", "NeuralUVModel", "train", "get_config", "plain_values",
-           "chart_codes", "chart_rows", "save_model", "load_model"]
+__all__ = ["train", "chart_codes", "chart_rows"]
 
 log = logging.getLogger(__name__)
 

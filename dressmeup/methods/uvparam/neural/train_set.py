@@ -47,7 +47,7 @@ from dressmeup.methods.uvparam.neural.train import (
 )
 from dressmeup.progress import progress as bar
 
-__all__ = ["train_on_set", "converged", "mesh_sha"]
+__all__ = ["train_on_set", "mesh_sha"]
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +77,7 @@ class _PatchData:
 
 
 def _prepare(V, F, cfg: NeuralConfig, rng: np.random.Generator) -> _PatchData:
-    # heavy: torch (~1.1 s to import), igl (~0.4 s to import)
+    # heavy: torch, igl
     import torch
 
     from dressmeup.geometry.simplify import decimate
