@@ -430,10 +430,7 @@ def _function_import_problems() -> list[str]:
 
 # Modules whose reasons predate the vocabulary, with the most problems each may still have
 # (the numbers only go down).
-OLD_REASONS = {"dressmeup/data/synth/contact.py": 1, "dressmeup/data/synth/drape.py": 1,
-               "dressmeup/data/synth/garments.py": 4, "dressmeup/data/synth/generate.py": 1,
-               "dressmeup/data/synth/poses.py": 1, "dressmeup/data/synth/wardrobe.py": 3,
-               "dressmeup/fusion/icp.py": 4}
+OLD_REASONS = {"dressmeup/fusion/icp.py": 4}
 
 
 def test_imports_inside_functions_say_why():

@@ -48,7 +48,7 @@ def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.Argume
     for word in command.split():
         subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
         if not subs or word not in subs[0].choices:
-            raise ValueError(f"REPLACED_OPTIONS names command {command!r}, which has no "
+            raise RuntimeError(f"REPLACED_OPTIONS names command {command!r}, which has no "
                              f"subcommand {word!r}")
         parser = subs[0].choices[word]
     return parser
@@ -62,6 +62,6 @@ def add_replaced_options(parser: argparse.ArgumentParser,
     for row in rows:
         sub = _subparser(parser, row.command)
         if row.option in sub._option_string_actions:
-            raise ValueError(f"REPLACED_OPTIONS: {row.command} {row.option} still exists")
+            raise RuntimeError(f"REPLACED_OPTIONS: {row.command} {row.option} still exists")
         sub.add_argument(row.option, dest=f"replaced_{row.option.lstrip('-')}",
                          action=_ReplacedAction, by=row.by)

@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from dressmeup.bench.tasks.fusion.data import read_mesh
+from dressmeup.bench.tasks.retarget.data import open_dataset, read_prediction
+from dressmeup.bench.tasks.retarget.evaluate import posed_body_file
 from dressmeup.io.mesh import load_mesh
 from dressmeup.viz.result_images import penetrating_faces, render_error_pair, vertex_distances_mm
 from dressmeup.viz.site_viewer import ItemView
@@ -29,10 +31,6 @@ def _submission_file(sub: Path, item_id: str) -> Path | None:
 
 
 def _retarget_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
-    # heavy: scipy.sparse
-    from dressmeup.bench.tasks.retarget.data import open_dataset, read_prediction
-    from dressmeup.bench.tasks.retarget.evaluate import posed_body_file
-
     ds = open_dataset(str(root.resolve()))
     f = _submission_file(sub, row["sample_id"])
     if f is None:
@@ -53,9 +51,6 @@ def _retarget_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
 
 
 def _fusion_arrays(row: dict, sub: Path, root: Path, models: dict) -> dict:
-    # heavy: scipy.sparse
-    from dressmeup.bench.tasks.retarget.data import open_dataset
-
     f = _submission_file(sub, row["sample_id"])
     if f is None:
         raise FileNotFoundError(f"{row['sample_id']} not in {sub}")

@@ -44,9 +44,9 @@ def test_every_row_is_hidden_from_help_and_names_a_live_replacement():
 
 
 def test_a_row_may_not_shadow_a_live_option_or_name_an_unknown_command():
-    with pytest.raises(ValueError, match="still exists"):
+    with pytest.raises(RuntimeError, match="still exists"):
         add_replaced_options(build_parser(), (Replaced("register", "--preset", "x", "0.2.0"),))
-    with pytest.raises(ValueError, match="no subcommand 'nope'"):
+    with pytest.raises(RuntimeError, match="no subcommand 'nope'"):
         add_replaced_options(build_parser(), (Replaced("nope", "--x", "--y", "0.2.0"),))
 
 

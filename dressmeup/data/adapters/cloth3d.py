@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from dressmeup.body import get_body_model
 from dressmeup.body.params import BodyParams
@@ -166,9 +167,6 @@ def cloth3d_body(info: dict, t: int, body_model=None, source: str = "info.mat",
     ------
     MissingModelError : no SMPL model file (the message says where to put it).
     """
-    # heavy: scipy.spatial
-    from scipy.spatial.transform import Rotation
-
     poses = _frame_columns(info, "poses", 72, source)
     trans = _frame_columns(info, "trans", 3, source)
     pose = poses[:, t if poses.shape[1] > 1 else 0].reshape(24, 3).copy()

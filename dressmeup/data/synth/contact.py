@@ -16,6 +16,7 @@ Pairs are returned sorted, so that sums over them do not depend on the k-d tree'
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -236,8 +237,6 @@ _EDGE_FACES: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 def _edge_topology(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(fe (m, 3), ef (e, 2))``: edge id of each face's local edge ``k`` (corners ``k``,
     ``k + 1``) and the two faces of each edge (closed manifold surface), cached by faces."""
-    import hashlib  # reason: only this cache key needs it
-
     key = hashlib.blake2b(np.ascontiguousarray(F).tobytes(), digest_size=16).digest()
     if key not in _EDGE_FACES:
         m = len(F)

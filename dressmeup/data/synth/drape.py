@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from dressmeup.geometry.mesh import edges, face_areas, face_normals
 from dressmeup.geometry.proximity import closest_points
@@ -145,9 +146,6 @@ def drape(rest_V: np.ndarray, faces: np.ndarray, skinned: np.ndarray, support: n
 
 def _self_pairs(x: np.ndarray, rest_V: np.ndarray, thickness: float) -> np.ndarray:
     """Vertex pairs ``(k, 2)`` closer than ``2 thickness`` in ``x`` but far apart on the cloth."""
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial import cKDTree
-
     P = cKDTree(x).query_pairs(2.0 * thickness, output_type="ndarray")
     if len(P) == 0:
         return np.zeros((0, 2), np.int64)

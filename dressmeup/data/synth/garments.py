@@ -18,10 +18,14 @@ from importlib import resources
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from dressmeup.geometry.mesh import face_areas, face_normals
 from dressmeup.geometry.proximity import closest_points
 from dressmeup.geometry.sampling import sample_surface
+from dressmeup.geometry.topology import largest_component_faces
+from dressmeup.geometry.uv_packing import xatlas_atlas
 from dressmeup.geometry.winding import winding_number
 
 log = logging.getLogger(__name__)
@@ -128,10 +132,6 @@ def _grid_sdf(body_V, body_F, lo, hi, h, level):
     border. Grid points within ``2 h`` of the level set are then recomputed exactly: the
     distance by a k-d tree over the surface samples, the sign by the winding number.
     """
-    # heavy: scipy (~0.5 s to import)
-    from scipy import ndimage
-    from scipy.spatial import cKDTree
-
     area = face_areas(body_V, body_F).sum()
     n_samples = int(min(max(area / (h / 3) ** 2, 20000), 400000))
     pts, _, _ = sample_surface(body_V, body_F, n_samples, seed=0)
@@ -158,9 +158,6 @@ def _grid_sdf(body_V, body_F, lo, hi, h, level):
 
 
 def _largest_component(F: np.ndarray, n: int) -> np.ndarray:
-    # heavy: scipy (~0.5 s to import)
-    from dressmeup.geometry.topology import largest_component_faces
-
     return F[largest_component_faces(F, n)]
 
 
@@ -242,9 +239,6 @@ def _remesh(V, F, edge_length, iterations=6):
 
 
 def _uv(V, F):
-    # heavy: scipy (~0.5 s to import)
-    from dressmeup.geometry.uv_packing import xatlas_atlas
-
     # xatlas' defaults and raw (not square-texel) UVs: the released synthetic datasets were
     # made this way, so the garments' UVs and the dataset hashes stay as they are.
     atlas = xatlas_atlas(V, F, square_texels=False)
@@ -282,9 +276,6 @@ def build_garment(garment_type: str, params: dict[str, Any], body_V: np.ndarray,
     off = params["offset"]
     hip_h = 0.5 * (frame.h(J["left_hip"]) + frame.h(J["right_hip"]))
     ankle_h = 0.5 * (frame.h(J["left_ankle"]) + frame.h(J["right_ankle"]))
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial import cKDTree
-
     body_tree = cKDTree(body_V)
 
     def near_label(x):

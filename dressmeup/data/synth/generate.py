@@ -39,6 +39,9 @@ from dressmeup.data.synth.garments import (
     sample_params,
 )
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
+from dressmeup.data.synth.simulated import VERSION as V3
+from dressmeup.data.synth.simulated import generate_v4
+from dressmeup.data.synth.simulation import DressSettings
 from dressmeup.data.synth.stats import summarize_stats
 from dressmeup.data.synth.texture import procedural_texture
 from dressmeup.data.synth.wardrobe import VERSION, generate_v3
@@ -136,11 +139,6 @@ def generate_dataset(out: str | os.PathLike, config: SynthConfig | None = None, 
 
 def _generate_3x(out: str | os.PathLike, c: SynthConfig, workers: int, executor: Any) -> Path:
     """Generator 3.x with the settings it reads."""
-    # start-up time: generator 3.x's modules load when it runs
-    from dressmeup.data.synth.simulated import VERSION as V3
-    from dressmeup.data.synth.simulated import generate_v4
-    from dressmeup.data.synth.simulation import DressSettings
-
     if c.version != V3:
         raise InputError(f"version: this toolkit generates 3.x as {V3}, got {c.version!r}")
     if (c.pose_set, c.wear) != ("generator", "all"):

@@ -13,6 +13,7 @@ from importlib import resources
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from dressmeup.errors import InputError
 
@@ -79,9 +80,6 @@ def pose_axis_angle(name: str, joint_names: tuple[str, ...], frame: Any,
     rng : random generator for the jitter; None gives the exact library pose.
     jitter_deg : std of the per-rotation perturbation (default: the library's).
     """
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial.transform import Rotation
-
     if jitter_deg is None:
         jitter_deg = float(pose_library().get("jitter", 0.0))
     rots: dict[str, Rotation] = {}

@@ -151,8 +151,8 @@ def single_threaded():
     # heavy: torch (~1.1 s to import)
     import torch
 
-    try:  # optional: numpy's BLAS pool (its gemm results do not depend on it)
-        # optional dependency (ImportError handled)
+    try:
+        # optional: threadpoolctl holds numpy's BLAS pool (gemm results do not depend on it)
         from threadpoolctl import threadpool_limits
     except ImportError:
         threadpool_limits = None
@@ -614,7 +614,7 @@ def _init_worker(parent_pid: int, *setup) -> None:
     die_with_parent(parent_pid)  # a killed generation leaves no worker behind
     torch.set_num_threads(1)
     try:
-        # optional dependency (ImportError handled)
+        # optional: threadpoolctl holds numpy's BLAS pool at one thread
         from threadpoolctl import threadpool_limits
 
         threadpool_limits(limits=1)
