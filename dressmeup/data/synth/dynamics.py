@@ -315,10 +315,11 @@ class ClothDynamics:
         nrm = np.cross(b - a, c - a)
         nrm /= np.maximum(np.sqrt(np.sum(nrm * nrm, axis=1)), 1e-300)[:, None]
         idx = self._body_tree(body_from).query_ball_point(x[near], self.reach)
+        counts = np.fromiter((len(js) for js in idx), np.int64, len(idx))
+        flat = np.fromiter((j for js in idx for j in js), np.int64, int(counts.sum()))
+        row = np.repeat(np.arange(len(near)), counts)
         lift = np.zeros(len(near))
-        for i, js in enumerate(idx):
-            if js:
-                lift[i] = max(0.0, float(np.max((move[js] - u[i]) @ nrm[i])))
+        np.maximum.at(lift, row, np.einsum("ij,ij->i", move[flat] - u[row], nrm[row]))
         out[near] = w[near, None] * (u + lift[:, None] * nrm)
         return out
 
