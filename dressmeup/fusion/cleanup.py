@@ -4,6 +4,7 @@ and screened Poisson (pymeshlab)."""
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -413,41 +414,51 @@ def close_holes(V: np.ndarray, F: np.ndarray, max_edges: int, edges: tuple[np.nd
     on_hole[np.concatenate(holes)] = True
     near = F[on_hole[F].any(axis=1)]
     e = np.concatenate([near[:, [0, 1]], near[:, [1, 2]], near[:, [2, 0]]])
-    edge_keys = np.unique(e.min(axis=1) * n + e.max(axis=1))
+    edge_keys = set((e.min(axis=1) * n + e.max(axis=1)).tolist())
     new_faces: list[tuple[int, int, int]] = []
     for ring in holes:
         new_faces.extend(_ear_cut(V, ring, edge_keys, n))
     return np.concatenate([F, np.asarray(new_faces, dtype=np.int64)])
 
 
-def _ear_cut(V: np.ndarray, ring: list[int], edge_keys: np.ndarray, n: int) -> list[tuple[int, int, int]]:
-    """Triangles filling the polygon ``ring`` (vertex ids in the filling's orientation)."""
+def _ear_cut(V: np.ndarray, ring: list[int], edge_keys: set[int], n: int) -> list[tuple[int, int, int]]:
+    """Triangles filling the polygon ``ring`` (vertex ids in the filling's orientation).
+
+    Each corner's ear score is computed once and updated for the two neighbours of a cut ear
+    (holes are small: plain Python beats numpy's per-call cost here)."""
+    if len(ring) == 3:  # most holes of a fused scan: one missing triangle
+        return [(ring[0], ring[1], ring[2])]
     w = list(ring)
+    pos = {v: tuple(map(float, V[v])) for v in w}
     P = V[w]
-    normal = np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)
+    normal = tuple(map(float, np.cross(P, np.roll(P, -1, axis=0)).sum(axis=0)))
     added: set[int] = set()
 
-    def exists(i: int, j: int) -> bool:
-        k = min(i, j) * n + max(i, j)
-        pos = int(np.searchsorted(edge_keys, k))
-        return k in added or (pos < len(edge_keys) and int(edge_keys[pos]) == k)
+    def score(a: int, b: int, c: int) -> float:
+        pa, pb, pc = pos[a], pos[b], pos[c]
+        e1 = (pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2])
+        e2 = (pc[0] - pb[0], pc[1] - pb[1], pc[2] - pb[2])
+        n1, n2 = math.sqrt(e1[0] ** 2 + e1[1] ** 2 + e1[2] ** 2), math.sqrt(e2[0] ** 2 + e2[1] ** 2 + e2[2] ** 2)
+        cos = (e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / max(n1 * n2, 1e-30)
+        angle = math.acos(min(1.0, max(-1.0, cos)))
+        # convex when (b - a) x (c - b) = -(e1 x e2) points along the loop's normal
+        cr = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
+        convex = cr[0] * normal[0] + cr[1] * normal[1] + cr[2] * normal[2] < 0
+        k = min(a, c) * n + max(a, c)
+        return (angle if convex else 2 * math.pi - angle) + (4 * math.pi if k in edge_keys or k in added else 0.0)
 
+    k = len(w)
+    scores = [score(w[i - 1], w[i], w[(i + 1) % k]) for i in range(k)]
     out = []
     while len(w) > 3:
-        P = V[w]
-        prev, nxt = np.roll(P, 1, axis=0), np.roll(P, -1, axis=0)
-        e1, e2 = prev - P, nxt - P
-        cosang = np.einsum("ij,ij->i", e1, e2) / np.maximum(
-            np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), 1e-30)
-        angle = np.arccos(np.clip(cosang, -1.0, 1.0))
-        convex = np.cross(P - prev, nxt - P) @ normal > 0
-        score = np.where(convex, angle, 2 * np.pi - angle)
         k = len(w)
-        score += np.array([4 * np.pi if exists(w[i - 1], w[(i + 1) % k]) else 0.0 for i in range(k)])
-        i = int(np.argmin(score))
+        i = min(range(k), key=scores.__getitem__)
         pa, pb = w[i - 1], w[(i + 1) % k]
         out.append((pa, w[i], pb))
         added.add(min(pa, pb) * n + max(pa, pb))
-        del w[i]
+        del w[i], scores[i]
+        k -= 1
+        for j in ((i - 1) % k, i % k):
+            scores[j] = score(w[j - 1], w[j], w[(j + 1) % k])
     out.append((w[0], w[1], w[2]))
     return out
