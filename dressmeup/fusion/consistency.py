@@ -115,7 +115,7 @@ def depth_consistency(frames: list[RGBDFrame], config: ConsistencyConfig | None 
     serials = list(by_serial)
     points = [_points(by_serial[s], stride) for s in serials]
     label = np.repeat(np.arange(len(serials)), [len(p) for p in points])
-    P = np.concatenate(points)
+    P = np.concatenate(points) if points else np.zeros((0, 3))
     # one tree of every camera's points; each point's nearest point of another camera is among
     # its few nearest (its own camera's are a sampling step apart), else looked for further
     # unbalanced, without node shrinking: builds in about half the time, answers as fast here

@@ -56,3 +56,8 @@ def test_figures_are_nearest_point_medians_of_the_other_cameras(clean_frames):
         inside = d[d < cfg.overlap_radius]
         assert report.overlap[s] == len(inside) / len(q)
         assert abs(report.median_mm[s] - 1000 * np.median(inside)) < 1e-9
+
+
+def test_no_frames_no_figures():
+    report = depth_consistency([])
+    assert report.median_mm == {} and report.outliers == [] and report.reference_mm is None
