@@ -262,7 +262,7 @@ def _print_speed(frames, rig) -> None:
     print(f"\nSpeed, one 7-view frame ({n_pts} points), best of 3, load average {load:.1f} on "
           f"{os.cpu_count()} cores (wall s / CPU s):")
     print(f"| TSDF VoxelBlockGrid (integrate + mesh) | {tw:.2f} / {tc:.2f} |")
-    print(f"| whole fuse_frames (filter + TSDF + pymeshlab cleanup) | {fw:.2f} / {fc:.2f} |")
+    print(f"| whole fuse_frames (filter + consistency + TSDF + cleanup) | {fw:.2f} / {fc:.2f} |")
     print(f"| alternative: open3d screened Poisson, depth 9, same points | {pw:.2f} / {pc:.2f} |")
     print(f"| ratio Poisson / TSDF (wall) | {pw / tw:.1f}x |")
 

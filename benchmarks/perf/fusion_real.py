@@ -23,10 +23,18 @@ F@10mm and its precision / recall compare each dressmeup mesh with the Open3D me
 samples each). Run timings on a quiet machine (nothing else heavy running) and
 print the load beside them.
 
+Speed, side by side (``--speed-only`` runs only this): ``fuse_session`` with the defaults and
+Open3D's coloured integration of the same frames (``open3d_reference_mesh(color=True)``),
+alternated ``--repeats`` times in one run, best wall and CPU seconds of each, their ratio and
+the load average beside every figure; ``fuse_session``'s own step timings. ``--save-scan DIR``
+writes the default scan (``save_scan``); ``--previous DIR`` scores it against a scan written
+before (F@10mm, F@1mm: did a change of the pipeline change its output?).
+
 Usage::
 
     python benchmarks/perf/fusion_real.py [--frames 12] [--voxel 0.004] [--json out.json]
     python benchmarks/perf/fusion_real.py --session sessions/fr1-desk [--json out.json]
+    python benchmarks/perf/fusion_real.py --speed-only [--previous OLD_SCAN] [--save-scan NEW_SCAN]
 """
 
 from __future__ import annotations
@@ -78,6 +86,55 @@ def _truth(mesh, truth, samples):
     return {"accuracy_mm": round(1000 * q.accuracy, 2), "precision_vs_truth@10mm": round(q.precision[0.01], 4)}
 
 
+def _speed(session, frames, voxel, repeats):
+    """Best wall / CPU seconds of fuse_session and of Open3D's coloured integration, alternated."""
+    from dressmeup.fusion.evaluate import open3d_reference_mesh
+    from dressmeup.fusion.pipeline import FusionConfig, fuse_session
+
+    cfg = FusionConfig(voxel_size=voxel)
+    best = {"open3d": [np.inf, np.inf, 0.0], "dressmeup": [np.inf, np.inf, 0.0]}
+    steps: dict[str, float] = {}
+    result = None
+    for _ in range(repeats):
+        for name in ("open3d", "dressmeup"):
+            if name == "open3d":
+                _, wall, cpu = _timed(lambda: open3d_reference_mesh(frames, voxel, 5.0, 5.0, color=True))
+            else:
+                result, wall, cpu = _timed(lambda: fuse_session(session, cfg))
+                steps = {k: min(v, steps.get(k, np.inf)) for k, v in result.timings.items()}
+            load = os.getloadavg()[0]
+            print(f"{name}: {wall:.2f} s wall, {cpu:.2f} s CPU, load {load:.2f}", file=sys.stderr, flush=True)
+            b = best[name]
+            b[0], b[1] = min(b[0], wall), min(b[1], cpu)
+            b[2] = max(b[2], load)
+    return best, steps, result
+
+
+def _print_speed(best, steps, n_frames, args, previous):
+    o, d = best["open3d"], best["dressmeup"]
+    print(f"\nSpeed, {n_frames} frames, {1000 * args.voxel:g} mm voxels, best of {args.repeats} "
+          f"alternated runs, {os.cpu_count()} cores:")
+    print("| | wall s | CPU s | highest load average during its runs |")
+    print("|---|---|---|---|")
+    print(f"| Open3D VoxelBlockGrid, colour integrated | {o[0]:.2f} | {o[1]:.2f} | {o[2]:.2f} |")
+    print(f"| dressmeup fuse_session | {d[0]:.2f} | {d[1]:.2f} | {d[2]:.2f} |")
+    print(f"| ratio dressmeup / Open3D | {d[0] / o[0]:.2f} | {d[1] / o[1]:.2f} | |")
+    print("fuse_session steps (best, wall s): " + ", ".join(f"{k} {v:.2f}" for k, v in steps.items()))
+    if previous is not None:
+        print(f"against the previous scan: F@10mm {previous['F@10mm']}, F@1mm {previous['F@1mm']}, "
+              f"faces {previous['faces_before']} -> {previous['faces']}")
+
+
+def _against_previous(result, previous_dir, samples):
+    from dressmeup.fusion.pipeline import load_scan
+    from dressmeup.metrics import fusion_quality
+
+    V, F, _ = load_scan(previous_dir)
+    q = fusion_quality((result.vertices, result.faces), (V, F), thresholds=(0.001, 0.01), n_samples=samples, seed=0)
+    return {"F@10mm": round(q.fscore[0.01], 4), "F@1mm": round(q.fscore[0.001], 4),
+            "faces_before": len(F), "faces": len(result.faces)}
+
+
 def _fuse_row(name, session, cfg, ref, samples, truth=None, rig=None):
     from dressmeup.fusion.pipeline import fuse_frames, fuse_session
 
@@ -111,6 +168,10 @@ def main(argv=None) -> int:
     p.add_argument("--samples", type=int, default=200_000)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", default=None)
+    p.add_argument("--repeats", type=int, default=2, help="alternated speed runs (default 2)")
+    p.add_argument("--speed-only", action="store_true", help="only the side-by-side speed comparison")
+    p.add_argument("--save-scan", default=None, help="write the default scan into this folder")
+    p.add_argument("--previous", default=None, help="a scan folder written before: F-scores against it")
     args = p.parse_args(argv)
     os.environ.setdefault("DRESSMEUP_NO_PROGRESS", "1")
 
@@ -131,6 +192,20 @@ def main(argv=None) -> int:
     if (folder / "scene_truth.npz").is_file():
         z = np.load(folder / "scene_truth.npz")
         truth = (z["vertices"], z["faces"])
+    best, steps, result = _speed(session, frames, args.voxel, args.repeats)
+    previous = None if args.previous is None else _against_previous(result, args.previous, args.samples)
+    if args.save_scan:
+        from dressmeup.fusion.pipeline import save_scan
+
+        save_scan(result, args.save_scan)
+    if args.speed_only:
+        _print_speed(best, steps, len(frames), args, previous)
+        if args.json:
+            Path(args.json).write_text(json.dumps({"session": str(folder), "frames": len(frames), "speed": best,
+                                                   "steps": steps, "previous": previous}, indent=2))
+        if tmp is not None:
+            tmp.cleanup()
+        return 0
     ref, wall, cpu = _timed(lambda: open3d_reference_mesh(frames, args.voxel, 5.0, 5.0))
     rows = [{"case": "open3d (reference)", "wall_s": wall, "cpu_s": cpu, "faces": len(ref[1])}]
     if truth is not None:
@@ -157,8 +232,10 @@ def main(argv=None) -> int:
     print("|" + "---|" * len(keys))
     for r in rows:
         print("| " + " | ".join(str(r.get(k, "")) for k in keys) + " |")
+    _print_speed(best, steps, len(frames), args, previous)
     if args.json:
         Path(args.json).write_text(json.dumps({"session": str(folder), "frames": len(frames), "rows": rows,
+                                               "speed": best, "steps": steps, "previous": previous,
                                                "load": os.getloadavg()}, indent=2, default=str))
     if tmp is not None:
         tmp.cleanup()

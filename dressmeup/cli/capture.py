@@ -204,7 +204,7 @@ def _fusion_args(p: argparse.ArgumentParser) -> None:
                    help="decimate the scan to this many faces")
     p.add_argument("--no-cleanup", action="store_true",
                    help="keep the raw TSDF mesh: no component, non-manifold or hole repair (the cleanup "
-                        "took about 30 %% of fusing 12 VGA frames of a room)")
+                        "takes about a quarter of fusing 12 VGA frames of a room)")
 
 
 def _fusion_config(args: argparse.Namespace) -> Any:

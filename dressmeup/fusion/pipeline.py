@@ -21,6 +21,7 @@ from dressmeup.capture.rig import Rig, load_rig, save_rig
 from dressmeup.capture.session import Session, open_session
 from dressmeup.errors import InputError
 from dressmeup.fusion.cleanup import CleanupConfig, cleanup_mesh
+from dressmeup.fusion.consistency import ConsistencyConfig, ConsistencyReport, depth_consistency
 from dressmeup.fusion.filtering import DepthFilterConfig, filter_depth, undistort_frame
 from dressmeup.fusion.icp import ICPConfig
 from dressmeup.fusion.refine import ICPReport, refine_extrinsics
@@ -58,6 +59,8 @@ class FusionConfig:
     filter : DepthFilterConfig
     icp : ICPConfig
     cleanup : CleanupConfig or None (None: keep the raw TSDF mesh).
+    consistency : ConsistencyConfig or None, how each camera's depth is checked against the
+        other cameras' before fusing (a warning names an inconsistent camera); None: no check.
     frames : list of frame indices to fuse, or None for all frames of the session.
     """
 
@@ -69,6 +72,7 @@ class FusionConfig:
     filter: DepthFilterConfig = field(default_factory=DepthFilterConfig)
     icp: ICPConfig = field(default_factory=ICPConfig)
     cleanup: CleanupConfig | None = field(default_factory=CleanupConfig)
+    consistency: ConsistencyConfig | None = field(default_factory=ConsistencyConfig)
     frames: list[int] | None = None
 
 
@@ -85,6 +89,8 @@ class FusionResult:
         carrying the camera it was fused with.
     timings : dict of step -> seconds.
     icp : ICPReport or None.
+    consistency : ConsistencyReport or None, each camera's depth against the other cameras'
+        (with the cameras fused with).
     """
 
     vertices: np.ndarray
@@ -94,6 +100,7 @@ class FusionResult:
     frames: list[RGBDFrame]
     timings: dict[str, float] = field(default_factory=dict)
     icp: ICPReport | None = None
+    consistency: ConsistencyReport | None = None
 
 
 def prepare_frames(frames: list[RGBDFrame], config: DepthFilterConfig | None = None) -> list[RGBDFrame]:
@@ -148,6 +155,15 @@ def _fuse(frames: list[RGBDFrame], layout: Rig | None, cfg: FusionConfig) -> Fus
         cams, report = refine_extrinsics(list(firsts.values()), cfg.icp, reference)
         prepared = [replace(f, camera=cams[f.serial]) for f in prepared]
         timings["icp"] = time.perf_counter() - t0
+    consistency = None
+    if cfg.consistency is not None:
+        t0 = time.perf_counter()
+        consistency = depth_consistency(prepared, cfg.consistency)
+        for serial in consistency.outliers:
+            log.warning("camera %s: its depth lies %.1f mm from the other cameras' depth (median over the "
+                        "cameras %.1f mm); check its intrinsics and pose", serial,
+                        consistency.median_mm[serial], consistency.reference_mm)
+        timings["consistency"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     V, F, C = integrate_tsdf(prepared, cfg.voxel_size, cfg.trunc_voxels, depth_max=cfg.filter.max_depth,
                              min_weight=cfg.min_weight, device=cfg.device)
@@ -156,7 +172,7 @@ def _fuse(frames: list[RGBDFrame], layout: Rig | None, cfg: FusionConfig) -> Fus
         t0 = time.perf_counter()
         V, F, C = cleanup_mesh(V, F, C, cfg.cleanup)
         timings["cleanup"] = time.perf_counter() - t0
-    return FusionResult(V, F, C, _fused_rig(prepared, layout), prepared, timings, report)
+    return FusionResult(V, F, C, _fused_rig(prepared, layout), prepared, timings, report, consistency)
 
 
 def fuse_frames(frames: list[RGBDFrame], rig: Rig | None = None, config: FusionConfig | None = None
@@ -207,7 +223,7 @@ def fuse_session(session: Session | str | os.PathLike, config: FusionConfig | No
 
 def save_scan(result: FusionResult, out_dir: str | os.PathLike, extra: dict[str, Any] | None = None) -> Path:
     """Write a fused scan folder: ``scan.ply`` (coloured), ``rig.json`` (used calibration),
-    ``fusion.json`` (timings, ICP report, counts, ``extra``)."""
+    ``fusion.json`` (timings, ICP report, per-camera depth consistency, counts, ``extra``)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     write_ply(out / "scan.ply", result.vertices, result.faces, result.colors)
@@ -215,6 +231,7 @@ def save_scan(result: FusionResult, out_dir: str | os.PathLike, extra: dict[str,
     info = {"vertices": int(len(result.vertices)), "faces": int(len(result.faces)),
             "timings_s": result.timings,
             "icp": None if result.icp is None else result.icp.as_dict(),
+            "depth_consistency": None if result.consistency is None else result.consistency.as_dict(),
             **(extra or {})}
     atomic_write_text(out / "fusion.json", json.dumps(info, indent=2, default=json_default) + "\n")
     return out

@@ -75,9 +75,9 @@ def component_labels(F: np.ndarray, n_vertices: int) -> np.ndarray:
     """
 
     F = _faces(F)
-    i = np.concatenate([F[:, 0], F[:, 1], F[:, 2]])
-    j = np.concatenate([F[:, 1], F[:, 2], F[:, 0]])
-    graph = sp.coo_matrix((np.ones(len(i)), (i, j)), shape=(n_vertices, n_vertices))
+    # two edges of each face join its three vertices: the third edge adds no connection
+    i, j = F[:, :2].ravel(), F[:, 1:].ravel()
+    graph = sp.csr_matrix((np.ones(len(i), dtype=np.float64), (i, j)), shape=(n_vertices, n_vertices))
     _, labels = connected_components(graph, directed=False)
     return labels.astype(np.int64)
 

@@ -121,3 +121,27 @@ def test_multi_frame_session_fuses_every_frame(tmp_path, mannequin, small_rig):
     # averaging two noisy frames does not make the surface worse
     assert s2.accuracy < s1.accuracy * 1.1
     assert s2.chamfer_l1 < 0.01
+
+
+def test_vertex_colors_are_the_pixels_that_observed_the_vertex():
+    from dressmeup.capture.frame import RGBDFrame
+    from dressmeup.capture.rig import Camera
+    from dressmeup.fusion.tsdf import vertex_colors
+
+    cam = Camera("c", 40, 30, 50.0, 50.0, 19.5, 14.5)  # at the origin, looking along +z
+    color = np.zeros((30, 40, 3), np.uint8)
+    color[..., 0] = np.arange(40)[None, :] * 5
+    color[..., 1] = np.arange(30)[:, None] * 7
+    frames = [RGBDFrame("c", 0, color, np.full((30, 40), 2.0, np.float32), None, cam),
+              RGBDFrame("c", 1, np.full((30, 40, 3), 100, np.uint8), np.full((30, 40), 2.0, np.float32), None, cam)]
+    # on the wall at pixel (u, v) = (10, 20); 1 cm in front of it; 10 cm behind it; out of view
+    # and 50 cm in front of it (no frame within the band: the frames that see it)
+    pts = np.array([[(10 - 19.5) / 50 * 2, (20 - 14.5) / 50 * 2, 2.0], [0.0, 0.0, 1.99],
+                    [0.0, 0.0, 2.1], [5.0, 0.0, 2.0], [0.0, 0.0, 1.5]])
+    out = vertex_colors(pts, frames, trunc=0.02)
+    assert out[0].tolist() == [round((50 + 100) / 2), round((140 + 100) / 2), 50]
+    assert out[1].tolist() == [round((int(color[14, 20, 0]) + 100) / 2),
+                               round((int(color[14, 20, 1]) + 100) / 2), 50]
+    assert out[2].tolist() == [128, 128, 128]  # hidden behind the wall by more than the band
+    assert out[3].tolist() == [128, 128, 128]
+    assert out[4].tolist() == out[1].tolist()
