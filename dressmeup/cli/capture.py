@@ -187,9 +187,10 @@ def _fusion_args(p: argparse.ArgumentParser) -> None:
                         "every surface any frame saw, including surface seen by one view)")
     p.add_argument("--refine", action=argparse.BooleanOptionalAction, default=False,
                    help="refine the extrinsics before fusing: multiway ICP whose poses are kept only "
-                        "where they lower view-to-view residuals, within --refine-max-deg/-cm and "
-                        "--refine-seconds (default off: calibrated rigs and dataset poses are used "
-                        "as they are; turn it on for a drifted calibration)")
+                        "where they lower view-to-view residuals and the data determine the move, "
+                        "within --refine-max-deg/-cm and --refine-seconds (default off: calibrated "
+                        "rigs and dataset poses are used as they are; turn it on for a drifted "
+                        "calibration)")
     p.add_argument("--refine-max-deg", type=number(0.0, 180.0), default=3.0,
                    help="refinement may turn a camera by at most this many degrees (default 3)")
     p.add_argument("--refine-max-cm", type=number(0.0, 1000.0), default=5.0,

@@ -54,6 +54,9 @@ class ICPConfig:
     min_improvement_mm, min_improvement_rel : a camera's refined pose is kept only when its
         robust view-to-view residual falls by more than ``max(min_improvement_mm,
         min_improvement_rel * before)``.
+    min_shift_sigma : float, and only when the move is determined by the data: it must shift
+        the camera's overlaps with its neighbours, along their normals (RMS), by at least this
+        many times the spread of their residuals (see :mod:`dressmeup.fusion.refine`).
     max_rotation_deg, max_translation_m : a refined pose that moves a camera further than
         this from its calibration is refused.
     residual_radius : float, metres, points further than this from the other view have no
@@ -73,6 +76,7 @@ class ICPConfig:
     time_limit_s: float = 60.0
     min_improvement_mm: float = 0.1
     min_improvement_rel: float = 0.05
+    min_shift_sigma: float = 1.0
     max_rotation_deg: float = 3.0
     max_translation_m: float = 0.05
     residual_radius: float = 0.04

@@ -4,17 +4,31 @@ Multiway ICP (:mod:`dressmeup.fusion.icp`) proposes a pose per camera. A proposa
 only when
 
 - it moves the camera less than ``max_rotation_deg`` / ``max_translation_m`` from the pose
-  it came with (a calibrated rig or a tracker is trusted to that extent), and
+  it came with (a calibrated rig or a tracker is trusted to that extent),
 - it lowers the camera's robust view-to-view residual by a margin: the residual of a pair of
   views is the median point-to-plane distance from each view's finest cloud to the other's,
   over the points that have a counterpart within ``residual_radius``; a camera's residual is
   the median over the pairs it belongs to. The margin is ``max(min_improvement_mm,
-  min_improvement_rel * before)``.
+  min_improvement_rel * before)``; and
+- the data determine the move: the change of a pair's relative pose shifts the pair's
+  overlap (the points with a counterpart at the starting poses) along the counterparts'
+  normals by ``shift`` (RMS; ``shift^2 = d^T (H / N) d`` for the change ``d``, with ``H`` the
+  pair's 6x6 point-to-plane information matrix over its ``N`` correspondences, evaluated
+  exactly rather than linearised). A camera's significance is the median over its pairs
+  of ``shift / sigma``, ``sigma`` the robust spread of the pair's residuals
+  (1.4826 x their median absolute value at the judged poses); it must reach
+  ``min_shift_sigma``. Depth sensors err coherently over a view (a structured-light
+  sensor's disparity steps and radial depth distortion), so the effective number of
+  independent residuals is small and a move that shifts the surfaces by less than their
+  noise can be ICP fitting that error: on walls, floors and shelves it does, and it lowers
+  the residual a little while turning the camera by up to a degree. A move along a
+  direction the overlap does not constrain (sliding along a wall) shifts nothing and is
+  refused too.
 
-Proposals are judged together (a camera's residual depends on its neighbours' poses): the
-worst failing proposal is withdrawn and the others judged again, until every proposal left
-passes. Flat walls and floors let ICP slide a view along them without lowering its residual;
-such moves are withdrawn.
+Proposals are judged together (a camera's residual and significance depend on its
+neighbours' poses): every proposal that is not significant is withdrawn, otherwise the one
+that misses the residual margin the most, and the others are judged again, until every
+proposal left passes.
 """
 
 from __future__ import annotations
@@ -56,6 +70,8 @@ class ICPReport:
     proposed : dict serial -> (rotation_deg, translation_m) that ICP proposed.
     refused : dict serial -> why a proposal was not kept.
     residual_before_mm, residual_after_mm : dict serial -> robust view-to-view residual (mm).
+    significance : dict serial -> the proposal's shift / sigma when it was last judged (kept
+        or withdrawn; see the module docstring), for the cameras whose proposal was judged.
     seconds : float, wall-clock time.
     """
 
@@ -65,6 +81,7 @@ class ICPReport:
     refused: dict[str, str] = field(default_factory=dict)
     residual_before_mm: dict[str, float] = field(default_factory=dict)
     residual_after_mm: dict[str, float] = field(default_factory=dict)
+    significance: dict[str, float] = field(default_factory=dict)
     seconds: float = 0.0
 
     def as_dict(self) -> dict:
@@ -74,7 +91,8 @@ class ICPReport:
                 "proposed_deg_m": {k: list(v) for k, v in self.proposed.items()},
                 "refused": dict(self.refused),
                 "residual_before_mm": dict(self.residual_before_mm),
-                "residual_after_mm": dict(self.residual_after_mm), "seconds": self.seconds}
+                "residual_after_mm": dict(self.residual_after_mm),
+                "significance": dict(self.significance), "seconds": self.seconds}
 
 
 def _pair_residual(views: Sequence[ViewClouds], trees: Sequence[NearestTree], poses: Sequence[np.ndarray],
@@ -94,6 +112,22 @@ def _pair_residual(views: Sequence[ViewClouds], trees: Sequence[NearestTree], po
     return float(np.median(np.concatenate(dists)))
 
 
+def _pair_residuals(views: Sequence[ViewClouds], trees: Sequence[NearestTree], poses: Sequence[np.ndarray],
+                    pairs: Sequence[tuple[int, int]], radius: float) -> dict[tuple[int, int], float]:
+    """Residual of every pair (metres, NaN without counterparts)."""
+    return {(i, j): _pair_residual(views, trees, poses, i, j, radius) for i, j in pairs}
+
+
+def _per_view(per_pair: dict[tuple[int, int], float], n: int) -> np.ndarray:
+    """Median over the pairs each view belongs to (NaN for a view in no pair)."""
+    per_view: list[list[float]] = [[] for _ in range(n)]
+    for (i, j), r in per_pair.items():
+        if np.isfinite(r):
+            per_view[i].append(r)
+            per_view[j].append(r)
+    return np.array([np.median(r) if r else np.nan for r in per_view])
+
+
 def view_residuals(views: Sequence[ViewClouds], poses: Sequence[np.ndarray],
                    pairs: Sequence[tuple[int, int]], radius: float = 0.04,
                    trees: Sequence[NearestTree] | None = None) -> np.ndarray:
@@ -110,13 +144,57 @@ def view_residuals(views: Sequence[ViewClouds], poses: Sequence[np.ndarray],
     (n_views,) float64 metres; NaN for a view in no pair.
     """
     trees = trees or [NearestTree(v.points()) for v in views]
-    per_view: list[list[float]] = [[] for _ in views]
+    return _per_view(_pair_residuals(views, trees, poses, pairs, radius), len(views))
+
+
+@dataclass
+class _Overlap:
+    """Correspondences of one pair at the starting poses: view ``a``'s finest points ``src``
+    have their nearest counterparts ``dst`` in view ``b`` within the residual radius."""
+
+    a: int
+    b: int
+    src: np.ndarray
+    dst: np.ndarray
+
+
+def _overlaps(views: Sequence[ViewClouds], trees: Sequence[NearestTree], poses: Sequence[np.ndarray],
+              pairs: Sequence[tuple[int, int]], radius: float) -> dict[tuple[int, int], list[_Overlap]]:
+    """Both directions' correspondences of every pair at ``poses``."""
+    out = {}
     for i, j in pairs:
-        r = _pair_residual(views, trees, poses, i, j, radius)
-        if np.isfinite(r):
-            per_view[i].append(r)
-            per_view[j].append(r)
-    return np.array([np.median(r) if r else np.nan for r in per_view])
+        out[(i, j)] = []
+        for a, b in ((i, j), (j, i)):
+            rel = np.linalg.inv(poses[b]) @ poses[a]
+            d, idx = trees[b].query(views[a].points() @ rel[:3, :3].T + rel[:3, 3], distance_upper_bound=radius)
+            ok = np.isfinite(d)
+            out[(i, j)].append(_Overlap(a, b, np.nonzero(ok)[0], np.asarray(idx)[ok]))
+    return out
+
+
+def _shift(views: Sequence[ViewClouds], overlaps: Sequence[_Overlap], start: Sequence[np.ndarray],
+           poses: Sequence[np.ndarray]) -> float:
+    """RMS displacement along the counterparts' normals (metres) of a pair's overlap when
+    the cameras go from ``start`` to ``poses`` (NaN without correspondences)."""
+    disp = []
+    for ov in overlaps:
+        change = np.linalg.inv(poses[ov.b]) @ poses[ov.a] - np.linalg.inv(start[ov.b]) @ start[ov.a]
+        p = views[ov.a].points()[ov.src]
+        disp.append(np.einsum("ij,ij->i", p @ change[:3, :3].T + change[:3, 3], views[ov.b].normals()[ov.dst]))
+    d = np.concatenate(disp) if disp else np.zeros(0)
+    return float(np.sqrt(np.mean(d ** 2))) if len(d) else float("nan")
+
+
+def _significance(views, overlaps, start, poses, per_pair, n: int) -> np.ndarray:
+    """Per view: median over its pairs of shift / sigma (NaN for a view in no usable pair)."""
+    per_view: list[list[float]] = [[] for _ in range(n)]
+    for (i, j), ovs in overlaps.items():
+        sigma = 1.4826 * per_pair.get((i, j), np.nan)
+        z = _shift(views, ovs, start, poses) / sigma if sigma > 0 else np.nan
+        if np.isfinite(z):
+            per_view[i].append(z)
+            per_view[j].append(z)
+    return np.array([np.median(z) if z else np.nan for z in per_view])
 
 
 def _plausible(r, poses: Sequence[np.ndarray], cfg: ICPConfig) -> bool:
@@ -129,17 +207,35 @@ def _plausible(r, poses: Sequence[np.ndarray], cfg: ICPConfig) -> bool:
 
 
 def _judge(views, trees, pairs, start, proposed, keep, cfg, before):
-    """Withdraw failing proposals one at a time (the worst first) until all left pass."""
+    """Withdraw failing proposals until all left pass (see the module docstring).
+
+    Returns the poses, the residuals after, each judged view's last significance and why
+    each withdrawn proposal was withdrawn.
+    """
+    overlaps = _overlaps(views, trees, start, pairs, cfg.residual_radius)
+    margin = np.maximum(cfg.min_improvement_mm / 1000.0, cfg.min_improvement_rel * before)
+    judged: dict[int, float] = {}
+    why: dict[int, str] = {}
     while True:
         poses = [proposed[k] if keep[k] else start[k] for k in range(len(start))]
-        after = view_residuals(views, poses, pairs, cfg.residual_radius, trees)
-        margin = np.maximum(cfg.min_improvement_mm / 1000.0, cfg.min_improvement_rel * before)
+        per_pair = _pair_residuals(views, trees, poses, pairs, cfg.residual_radius)
+        after = _per_view(per_pair, len(start))
+        sig = _significance(views, overlaps, start, poses, per_pair, len(start))
+        judged.update((k, float(sig[k])) for k in range(len(start)) if keep[k])
+        vague = [k for k in range(len(start)) if keep[k] and not sig[k] >= cfg.min_shift_sigma]
+        for k in vague:  # all at once: one by one, the others' moves would stand out against them
+            keep[k] = False
+            why[k] = (f"not determined by the data: it shifts the overlaps by {sig[k]:.2f} x their "
+                      f"noise, under {cfg.min_shift_sigma:g}")
+        if vague:
+            continue
         excess = after - (before - margin)  # > 0: not enough improvement
         failing = [k for k in range(len(start)) if keep[k] and not excess[k] < 0]
         if not failing:
-            return poses, after
+            return poses, after, judged, why
         worst = max(failing, key=lambda k: excess[k] if np.isfinite(excess[k]) else np.inf)
         keep[worst] = False
+        why[worst] = "does not lower the view-to-view residual by the margin"
 
 
 def refine_extrinsics(frames: Sequence[RGBDFrame], config: ICPConfig | None = None,
@@ -207,13 +303,14 @@ def refine_extrinsics(frames: Sequence[RGBDFrame], config: ICPConfig | None = No
             report.refused[s] = (f"moves the camera {deg:.2f} deg / {1000 * m:.0f} mm, more than "
                                  f"{cfg.max_rotation_deg:g} deg / {1000 * cfg.max_translation_m:.0f} mm")
     proposals = list(keep)
-    final, after = _judge(views, trees, pairs, start, poses, keep, cfg, before)
+    final, after, judged, why = _judge(views, trees, pairs, start, poses, keep, cfg, before)
     out = {}
     for k, s in enumerate(serials):
         if proposals[k] and not keep[k]:
-            report.refused[s] = ("does not lower the view-to-view residual by the margin"
-                                 if max(report.proposed[s]) > 0 else
+            report.refused[s] = (why[k] if max(report.proposed[s]) > 0 else
                                  "no reliable registration links it to the reference camera")
+        if k in judged:
+            report.significance[s] = judged[k]
         out[s] = replace(cams[s], camera_to_world=final[k]) if keep[k] else cams[s]
         report.corrections[s] = pose_difference(start[k], final[k]) if keep[k] else (0.0, 0.0)
         report.residual_before_mm[s] = float(1000 * before[k])

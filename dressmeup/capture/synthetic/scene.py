@@ -2,7 +2,8 @@
 
 The scene is what makes real RGB-D sequences hard for extrinsic refinement: a floor and
 walls (large planes ICP can slide along) around a few boxes and the mannequin, with a
-procedural texture. The sensor is a Kinect v1-like VGA camera (525 px focal length) moving
+procedural texture; the kitchen adds the repetitive geometry of real rooms (a counter, a
+wall of shelves, a table on thin legs, a tall cupboard) and has no mannequin. The sensor is a Kinect v1-like VGA camera (525 px focal length) moving
 on an arc while looking at the middle of the room; each frame is one camera of the rig, as
 an imported dataset session has it.
 """
@@ -17,7 +18,7 @@ from dressmeup.capture.camera import Camera
 from dressmeup.capture.rig import Rig, look_at
 from dressmeup.capture.synthetic.subject import SyntheticSubject, make_mannequin
 
-__all__ = ["make_room", "walk_rig"]
+__all__ = ["make_kitchen", "make_room", "walk_rig"]
 
 
 def _box(lo: np.ndarray, hi: np.ndarray, inward: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -76,6 +77,46 @@ def make_room(size: tuple[float, float, float] = (4.0, 2.6, 4.0), seed: int = 0)
     labels.append(man.face_labels)
     return SyntheticSubject(np.concatenate(Vs), np.concatenate(Fs), np.concatenate(labels), man.garments,
                             color_fn=_texture, subject_id="room", pose_id="P0")
+
+
+def _mesh(parts: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """One mesh of boxes, subdivided to 25 cm edges (the renderer's rays hit small triangles)."""
+    Vs, Fs, off = [], [], 0
+    for V, F in parts:
+        V, F = _subdivide(V, F, 0.25)
+        Vs.append(V)
+        Fs.append(F + off)
+        off += len(V)
+    return np.concatenate(Vs), np.concatenate(Fs)
+
+
+def make_kitchen(size: tuple[float, float, float] = (4.0, 2.6, 4.0)) -> SyntheticSubject:
+    """A kitchen (floor, ceiling, four walls, seen from inside): a counter and a wall of four
+    shelves along the back wall, a table on four legs, a tall cupboard; no mannequin.
+
+    Parameters
+    ----------
+    size : (x, y, z) metres; y is up, the floor at y = 0, the room centred on x = z = 0
+        (the furniture stands at fixed places near the back wall, z = -size[2] / 2).
+
+    Returns
+    -------
+    SyntheticSubject (face label 1 everywhere, no garments).
+    """
+    sx, sy, sz = size
+    back = -sz / 2
+    box = _box
+    parts = [box(np.array([-sx / 2, 0, back]), np.array([sx / 2, sy, sz / 2]), inward=True),
+             box(np.array([-1.9, 0, back]), np.array([1.0, 0.9, back + 0.6])),  # counter
+             box(np.array([1.4, 0, -1.0]), np.array([1.9, 2.0, 0.2])),  # cupboard
+             box(np.array([-0.4, 0.72, -0.9]), np.array([0.8, 0.76, -0.1]))]  # table top
+    parts += [box(np.array([x, 1.2, back]), np.array([x + 0.02, 2.2, back + 0.3])) for x in (-1.5, -0.3)]
+    parts += [box(np.array([-1.5, y, back]), np.array([-0.28, y + 0.02, back + 0.3])) for y in (1.2, 1.5, 1.8, 2.1)]
+    parts += [box(np.array([x, 0, z]), np.array([x + 0.05, 0.72, z + 0.05]))
+              for x in (-0.35, 0.7) for z in (-0.85, -0.2)]  # table legs
+    V, F = _mesh(parts)
+    return SyntheticSubject(V, F, np.ones(len(F), np.uint8), [], color_fn=_texture,
+                            subject_id="kitchen", pose_id="P0")
 
 
 def walk_rig(n_frames: int = 12, radius: float = 1.6, height: float = 1.4, sweep_deg: float = 60.0,
