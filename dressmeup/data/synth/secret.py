@@ -27,7 +27,7 @@ import struct
 from dressmeup.errors import InputError
 
 __all__ = ["SECRET_BYTES", "commitment", "derive_seed", "new_secret", "parse_secret",
-           "read_secret"]
+           "read_secret", "write_new_secret"]
 
 #: bytes of a secret (its text form is twice as many hex characters)
 SECRET_BYTES = 32
@@ -40,6 +40,39 @@ def new_secret() -> str:
     """A new secret: :data:`SECRET_BYTES` bytes from :mod:`secrets`, as 64 lowercase hex
     characters."""
     return secrets.token_hex(SECRET_BYTES)
+
+
+def write_new_secret(path: str | os.PathLike) -> str:
+    """Write a new secret (:func:`new_secret`, and a newline) to the new file ``path``,
+    readable and writable by its owner only (mode 0600); return its :func:`commitment`.
+
+    Raises
+    ------
+    InputError
+        ``path`` exists (a secret is never overwritten: an edition may commit to it) or
+        cannot be created.
+    """
+    text = new_secret()
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    except FileExistsError:
+        raise InputError(f"{path} already exists: a secret is never overwritten (an edition "
+                         "may commit to it); choose another file") from None
+    except OSError as exc:
+        raise InputError(f"cannot create the secret file {path} ({exc.strerror or exc}); "
+                         "does its folder exist?") from exc
+    try:
+        if hasattr(os, "fchmod"):
+            os.fchmod(fd, 0o600)  # whatever the umask
+        with os.fdopen(fd, "w", encoding="ascii") as f:
+            fd = -1
+            f.write(text + "\n")
+    except BaseException:
+        if fd >= 0:
+            os.close(fd)
+        os.unlink(path)  # no half-written secret left behind
+        raise
+    return commitment(bytes.fromhex(text))
 
 
 def parse_secret(text: str, where: str) -> bytes:
