@@ -8,7 +8,8 @@ sample counts and seed, size limit of a submission file, ...). Reference edition
 
 The edition hash is the sha256 of the edition's canonical JSON (keys sorted, no spaces,
 defaults filled in, ``description`` left out so that rewording the text does not change the
-protocol). Every result records it, and leaderboards refuse to mix hashes.
+protocol, and so is a published test-split secret: publishing it changes no protocol). Every
+result records it, and leaderboards refuse to mix hashes.
 
 An edition is checked when it is loaded, before any work: every field, and what its options
 and pairs would make against the resource policy (:mod:`dressmeup.limits`: surface samples
@@ -30,6 +31,7 @@ from typing import Any
 
 from dressmeup.bench.edition_pin import DatasetPin, parse_pin
 from dressmeup.bench.tasks import Task, get_task
+from dressmeup.data.synth.secret import commitment, read_secret
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.jsonio import parse_json_file
@@ -118,13 +120,15 @@ class Edition:
     sensitivity: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self, include_description: bool = True) -> dict[str, Any]:
-        """Serialise to the JSON structure of the edition file (defaults filled in)."""
+        """Serialise to the JSON structure of the edition file (defaults filled in);
+        ``include_description=False`` is the hashed form: no description and no published
+        secret (``dataset.test_split.secret``)."""
         d: dict[str, Any] = {
             "schema": SCHEMA,
             "name": self.name,
             "version": self.version,
             "task": self.task,
-            "dataset": self.dataset.to_dict(),
+            "dataset": self.dataset.to_dict(include_secret=include_description),
             "split": self.split,
             "metrics": list(self.metrics),
             "options": copy.deepcopy(self.options),
@@ -210,6 +214,62 @@ def load_edition(name_or_path: str | os.PathLike | Edition) -> Edition:
     except json.JSONDecodeError as exc:
         raise InputError(f"edition {source}: invalid JSON ({exc})") from exc
     return edition_from_dict(data, source=source)
+
+
+#: the splits a generated edition's data are made of
+ALL_SPLITS = ("train", "val", "test")
+
+
+def edition_secret(edition: Edition, secret_file: str | os.PathLike | None = None
+                   ) -> bytes | None:
+    """The secret that seeds ``edition``'s test split, when it is known: the one in
+    ``secret_file``, else the one the edition publishes, else None (the test split is not
+    generated; a participant fetches its public part).
+
+    Call it before any work: a secret that does not match the edition's commitment is
+    refused here.
+
+    Raises
+    ------
+    InputError
+        ``secret_file`` is not a secret (:func:`~dressmeup.data.synth.secret.read_secret`),
+        does not match the edition's commitment, or is given for an edition whose test split
+        is seeded publicly.
+    """
+    pin = edition.dataset
+    com = pin.test_split_commitment if pin is not None else None
+    if secret_file is None:
+        return pin.published_secret if com else None
+    where = edition.source or edition.name
+    if com is None:
+        raise InputError(f"--secret {secret_file}: edition {edition.name} ({where}) has no "
+                         "secret test split (no dataset.test_split: its test split is seeded by "
+                         "the public seed); drop --secret")
+    secret = read_secret(secret_file)
+    if commitment(secret) != com:
+        raise InputError(f"secret file {secret_file} is not the secret of edition "
+                         f"{edition.name} ({where}): its sha256 differs from the edition's "
+                         "dataset.test_split.commitment; check which secret file the edition "
+                         "was made with")
+    return secret
+
+
+def splits_to_generate(edition: Edition, secret: bytes | None) -> tuple[str, ...]:
+    """The splits of ``edition``'s data that can be generated knowing ``secret``: every one,
+    or only train and val when the test split is seeded by a secret not known
+    (:func:`edition_secret` gave None)."""
+    pin = edition.dataset
+    if pin is not None and pin.test_split_commitment and secret is None:
+        return ("train", "val")
+    return ALL_SPLITS
+
+
+def secret_test_split_note(edition: Edition) -> str:
+    """The one line that says where the test split of ``edition`` comes from when its secret
+    is not known (:func:`splits_to_generate` gave train and val only)."""
+    return (f"the test split of {edition.name} is seeded by a secret (the edition publishes "
+            "its commitment only): generated train and val; fetch the test split's public part "
+            f"with `dressmeup edition fetch {edition.name} --from URL --out DIR`")
 
 
 def edition_from_dict(data: dict[str, Any], source: str = "<dict>") -> Edition:

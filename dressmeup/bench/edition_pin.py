@@ -2,7 +2,9 @@
 
 A generated dataset is pinned by generator, generator version, parameters and seed (and,
 optionally, the sha256 of the manifest that generator writes); a real one by the sha256 of
-its manifest (:mod:`dressmeup.bench.edition`).
+its manifest (:mod:`dressmeup.bench.edition`). A generated dataset may have a secret test
+split (``test_split``: the commitment to the secret that seeds it and, once published, the
+secret; :mod:`dressmeup.data.synth.secret`).
 """
 
 from __future__ import annotations
@@ -11,6 +13,9 @@ import copy
 import re
 from dataclasses import dataclass, field
 from typing import Any
+
+from dressmeup.data.synth.secret import commitment, parse_secret
+from dressmeup.errors import InputError
 
 __all__ = ["DatasetPin", "parse_pin"]
 
@@ -32,6 +37,10 @@ class DatasetPin:
     expected_manifest_sha256 : generated only, optional (v3 editions): the sha256 of the
         manifest the pinned generator writes; scoring refuses data whose manifest differs
         unless asked to score it as "not comparable".
+    test_split : generated only, optional: the test split is seeded by a secret,
+        ``{"commitment": sha256 hex of the secret, "secret": None or the published secret
+        (64 hex)}``. The published secret is not part of the edition's hash: publishing it
+        (a small local edition, or the reveal of a retired one) changes no protocol.
     """
 
     kind: str
@@ -42,20 +51,37 @@ class DatasetPin:
     manifest_sha256: str | None = None
     name: str | None = None
     expected_manifest_sha256: str | None = None
+    test_split: dict[str, str | None] | None = None
+
+    @property
+    def test_split_commitment(self) -> str | None:
+        """The commitment to the secret seeding the test split, or None (seeded publicly)."""
+        return self.test_split["commitment"] if self.test_split else None
+
+    @property
+    def published_secret(self) -> bytes | None:
+        """The test split's secret when the edition publishes it, else None."""
+        text = self.test_split.get("secret") if self.test_split else None
+        return bytes.fromhex(text) if text else None
 
     @property
     def pinned_manifest_sha256(self) -> str | None:
         """The manifest sha256 the data must have (real pin or generated expectation)."""
         return self.manifest_sha256 if self.kind == "real" else self.expected_manifest_sha256
 
-    def to_dict(self) -> dict[str, Any]:
-        """Serialise (only the fields that apply to ``kind``)."""
+    def to_dict(self, include_secret: bool = True) -> dict[str, Any]:
+        """Serialise (only the fields that apply to ``kind``); ``include_secret=False`` leaves
+        the published secret out (the hashed form)."""
         if self.kind == "generated":
             d: dict[str, Any] = {"kind": "generated", "generator": self.generator,
                                  "generator_version": self.generator_version,
                                  "params": copy.deepcopy(self.params), "seed": self.seed}
             if self.expected_manifest_sha256:
                 d["expected_manifest_sha256"] = self.expected_manifest_sha256
+            if self.test_split:
+                d["test_split"] = {"commitment": self.test_split["commitment"]}
+                if include_secret:
+                    d["test_split"]["secret"] = self.test_split.get("secret")
         else:
             d = {"kind": "real", "manifest_sha256": self.manifest_sha256}
         if self.name:
@@ -80,18 +106,23 @@ def parse_pin(d: Any) -> tuple[DatasetPin | None, list[str]]:
         if "seed" in d and (not isinstance(d["seed"], int) or isinstance(d["seed"], bool)):
             problems.append(f"dataset.seed must be an integer, got {d['seed']!r}")
         extra = set(d) - {"kind", "generator", "generator_version", "params", "seed", "name",
-                          "expected_manifest_sha256"}
+                          "expected_manifest_sha256", "test_split"}
         problems += [f"unknown field dataset.{k}" for k in sorted(extra)]
         exp = d.get("expected_manifest_sha256")
         if exp is not None and (not isinstance(exp, str) or not re.fullmatch(r"[0-9a-f]{64}", exp)):
             problems.append(f"dataset.expected_manifest_sha256 must be a sha256 hex digest, "
                             f"got {exp!r}")
+        for key in ("secret", "splits"):
+            if isinstance(d.get("params"), dict) and key in d["params"]:
+                problems.append(f"dataset.params.{key}: not a generator parameter of an edition "
+                                "(a secret test split is dataset.test_split)")
+        test_split = _parse_test_split(d.get("test_split"), problems)
         if problems:
             return None, problems
         return DatasetPin(kind="generated", generator=str(d["generator"]),
                           generator_version=str(d["generator_version"]),
                           params=dict(d["params"]), seed=int(d["seed"]), name=name,
-                          expected_manifest_sha256=exp), []
+                          expected_manifest_sha256=exp, test_split=test_split), []
     if kind == "real":
         sha = d.get("manifest_sha256")
         if not isinstance(sha, str) or not re.fullmatch(r"[0-9a-f]{64}", sha):
@@ -102,3 +133,30 @@ def parse_pin(d: Any) -> tuple[DatasetPin | None, list[str]]:
             return None, problems
         return DatasetPin(kind="real", manifest_sha256=sha, name=name), []
     return None, [f"dataset.kind must be 'generated' or 'real', got {kind!r}"]
+
+
+def _parse_test_split(d: Any, problems: list[str]) -> dict[str, str | None] | None:
+    """``dataset.test_split`` (absent: None); a published secret must match the commitment
+    (appends problems)."""
+    if d is None:
+        return None
+    if not isinstance(d, dict) or set(d) - {"commitment", "secret"} or "commitment" not in d:
+        problems.append("dataset.test_split must be {\"commitment\": SHA256_HEX, \"secret\": "
+                        f"null or 64 hex}}, got {d!r}")
+        return None
+    com, text = d["commitment"], d.get("secret")
+    if not isinstance(com, str) or not re.fullmatch(r"[0-9a-f]{64}", com):
+        problems.append(f"dataset.test_split.commitment must be a sha256 hex digest, got {com!r}")
+        return None
+    if text is not None:
+        try:
+            secret = parse_secret(text, "dataset.test_split.secret")
+        except InputError as exc:
+            problems.append(str(exc))
+            return None
+        if commitment(secret) != com:
+            problems.append("dataset.test_split.secret does not match dataset.test_split."
+                            "commitment (its sha256 differs): this is not the edition's secret")
+            return None
+        text = secret.hex()
+    return {"commitment": com, "secret": text}

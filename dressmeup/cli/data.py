@@ -53,6 +53,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--allow-other-data", action="store_true",
                    help="with --edition: generate even where this machine writes other data "
                         "than the edition pins (its scores are then not comparable)")
+    p.add_argument("--secret", default=None, metavar="FILE",
+                   help="with --edition: the secret that seeds the edition's test split "
+                        "(its maintainers'); checked against the edition's commitment before "
+                        "any work. Without it, an edition whose test split is secret is "
+                        "generated without its test split (docs/benchmark.md, 'Secret test "
+                        "splits')")
     add_executor_args(p, default_workers=1,
                       what="garment of generators 2.x and 3.x (--edition ...-v3, ...-v4; the "
                            "data do not depend on where they run)")
@@ -112,21 +118,37 @@ def _generator_1_is_serial(args: argparse.Namespace) -> None:
 
 def _synth_edition(args: argparse.Namespace) -> int:
     # start-up: the stage loads when the command runs
-    from dressmeup.bench.edition import load_edition
+    from dressmeup.bench.edition import (
+        ALL_SPLITS,
+        edition_secret,
+        load_edition,
+        secret_test_split_note,
+        splits_to_generate,
+    )
     from dressmeup.bench.tasks.common import manifest_sha256
-    from dressmeup.data.synth import generate_dataset
+    from dressmeup.data.synth import generate_dataset, synth_config
+    from dressmeup.data.synth.config import check_secret_support
 
     ed = load_edition(args.edition)
     pin = ed.dataset
     if pin.kind != "generated":
         raise InputError(f"--edition {ed.name} is scored on a real dataset; it cannot be generated")
+    secret = edition_secret(ed, args.secret)  # a wrong secret is refused before any work
+    splits = splits_to_generate(ed, secret)
+    config = None
+    if ed.task != "uvparam":
+        try:
+            config = synth_config(**pin.params, seed=pin.seed, secret=secret, splits=splits)
+            check_secret_support(config)
+        except InputError as exc:
+            raise InputError(f"edition {ed.name}: {exc}") from exc
     if not args.allow_other_data:
         _probe_machine(ed)
-    if ed.task == "uvparam":  # a mesh set, not a garment dataset
+    if config is None:  # uvparam: a mesh set, not a garment dataset
         # start-up: the stage loads when the command runs
         from dressmeup.runs import build_data
 
-        root = build_data(ed, args.out)
+        root = build_data(ed, args.out, secret_file=args.secret)
     else:
         kw: dict = {}
         if not str(pin.params.get("version", "")).startswith(("2.", "3.")):
@@ -135,7 +157,10 @@ def _synth_edition(args: argparse.Namespace) -> int:
             kw["executor"] = executor_from_args(args, default_workers=1)
         else:
             kw["workers"] = args.workers or 1
-        root = generate_dataset(args.out, seed=pin.seed, **pin.params, **kw)
+        root = generate_dataset(args.out, config, **kw)
+    if splits != ALL_SPLITS:  # the edition pins the whole data: no manifest to compare
+        sys.stdout.write(secret_test_split_note(ed) + "\n")
+        return 0
     sha = manifest_sha256(root)
     sys.stdout.write(f"wrote the data of edition {ed.name} to {root}\nmanifest sha256 {sha}\n")
     expected = pin.expected_manifest_sha256
@@ -171,6 +196,8 @@ def _synth(args: argparse.Namespace) -> int:
         return _synth_edition(args)
     if args.allow_other_data:
         raise InputError("--allow-other-data goes with --edition (data the edition pins)")
+    if args.secret:
+        raise InputError("--secret goes with --edition (the secret of the edition's test split)")
     _generator_1_is_serial(args)
     SAMPLES.check(args.subjects * args.garments * args.poses,
                   "--subjects x --garments x --poses", "samples to generate")

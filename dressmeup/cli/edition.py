@@ -1,4 +1,4 @@
-"""``dressmeup edition``: editions and their data (create, export, pack, fetch, verify)."""
+"""``dressmeup edition``: editions and their data (create, secret, export, pack, fetch, verify)."""
 
 from __future__ import annotations
 
@@ -17,15 +17,17 @@ from dressmeup.io.outlock import output_lock
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Register the ``edition`` subcommands."""
     p = subparsers.add_parser(
-        "edition", help="an edition's data: create, export, pack, fetch, verify",
+        "edition", help="an edition's data: create, secret, export, pack, fetch, verify",
         description="Editions and their data. 'create' writes an edition for a dataset you "
-                    "built (pinned by its manifest sha256); 'export' splits an edition's data "
+                    "built (pinned by its manifest sha256); 'secret' makes the secret that "
+                    "seeds a generated edition's test split; 'export' splits an edition's data "
                     "into the public part (what a method receives) and the private part "
                     "(the withheld answers scoring needs); 'pack' writes the parts as "
                     "checksummed archives with an index; 'fetch' downloads and verifies a "
                     "part; 'verify' re-checks a data folder (docs/benchmark.md, 'Data').")
     esub = p.add_subparsers(dest="edition_command", metavar="ACTION", required=True)
     _add_create(esub)
+    _add_secret(esub)
     _add_export(esub)
     _add_pack(esub)
     _add_fetch(esub)
@@ -55,6 +57,20 @@ def _add_create(esub: argparse._SubParsersAction) -> None:
                    help="edition file (default: NAME.json)")
     c.add_argument("--overwrite", action="store_true", help="replace an existing file")
     c.set_defaults(func=_edition_create)
+
+
+def _add_secret(esub: argparse._SubParsersAction) -> None:
+    """``edition secret``: a new secret for a secret test split."""
+    c = esub.add_parser(
+        "secret", help="write a new secret that seeds a generated edition's test split",
+        description="Write 32 random bytes as 64 hex characters to a new file, readable by "
+                    "its owner only (0600; an existing file is never overwritten), and print "
+                    "its commitment (sha256), which the edition publishes as "
+                    "dataset.test_split.commitment. Keep the file: whoever holds it generates "
+                    "the test split (dressmeup synth --edition E --secret FILE); publishing it "
+                    "reveals the test split (docs/benchmark.md, 'Secret test splits').")
+    c.add_argument("--out", "-o", required=True, type=output_file, help="new secret file")
+    c.set_defaults(func=_secret)
 
 
 def _add_export(esub: argparse._SubParsersAction) -> None:
@@ -142,6 +158,16 @@ def _edition_create(args: argparse.Namespace) -> int:
                      f"{ed.dataset.manifest_sha256}\n  edition hash {ed.hash}\n"
                      f"score with: dressmeup score SUBMISSION --edition {out} --data "
                      f"{args.data} --out RESULTS\n")
+    return 0
+
+
+def _secret(args: argparse.Namespace) -> int:
+    # start-up: the stage loads when the command runs
+    from dressmeup.data.synth.secret import write_new_secret
+
+    com = write_new_secret(args.out)
+    sys.stdout.write(f"secret written to {args.out} (mode 0600; keep it, never commit it)\n"
+                     f"commitment {com}\n")
     return 0
 
 

@@ -8,7 +8,7 @@ part of it, since the output does not depend on it.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from dressmeup.data.synth.drape import DrapeSettings
@@ -37,6 +37,13 @@ class SynthConfig:
     ``uncovered``); 2.x also ``pose_steps``, ``pose_set`` (``generator``, ``registration``
     or ``all``), ``wear`` (``all`` or ``rotate``) and ``drape_settings``; 3.x ``dress``
     (overrides of :class:`dressmeup.data.synth.simulation.DressSettings`).
+
+    ``splits`` (the splits to build; default all) and ``secret`` (the 32 bytes that seed the
+    test split, :mod:`dressmeup.data.synth.secret`; None: the public ``seed`` seeds every
+    split) are read only by the generator versions in :data:`SECRET_VERSIONS`; every other
+    version refuses a secret or fewer splits. ``secret`` is not shown by ``repr`` and is never
+    written anywhere (dataset.json, stats, logs): a generator records its
+    :func:`~dressmeup.data.synth.secret.commitment` instead.
     """
 
     version: str = GENERATOR_VERSION
@@ -60,9 +67,32 @@ class SynthConfig:
     wear: str = "all"
     scan_body: str = "whole"
     dress: dict[str, Any] | None = None
+    splits: tuple[str, ...] = ("train", "val", "test")
+    secret: bytes | None = field(default=None, repr=False)
 
 
 FIELDS = tuple(f.name for f in dataclasses.fields(SynthConfig))
+#: generator versions that seed a test split from a secret and can build a subset of the
+#: splits (``SynthConfig.splits``, ``SynthConfig.secret``)
+SECRET_VERSIONS: frozenset[str] = frozenset()
+
+
+def check_secret_support(c: SynthConfig) -> None:
+    """Refuse (:class:`~dressmeup.errors.InputError`) a secret or a subset of the splits asked
+    of a generator version that does not read them (not in :data:`SECRET_VERSIONS`)."""
+    if set(c.splits) - {"train", "val", "test"} or not c.splits:
+        raise InputError(f"splits: a non-empty subset of train, val, test, got {c.splits!r}")
+    if c.secret is not None and (not isinstance(c.secret, bytes) or len(c.secret) != 32):
+        raise InputError("secret: 32 bytes (dressmeup.data.synth.secret.read_secret)")
+    if c.version in SECRET_VERSIONS:
+        return
+    if c.secret is not None or set(c.splits) != {"train", "val", "test"}:
+        supported = ", ".join(sorted(SECRET_VERSIONS)) or "none yet"
+        raise InputError(f"generator {c.version} cannot build a secret test split (a test "
+                         "split seeded by a secret, or train and val without it): its test "
+                         "split comes from the public seed. An edition with "
+                         "dataset.test_split needs a generator that does (versions: "
+                         f"{supported})")
 
 
 def synth_config(config: SynthConfig | None = None, **settings: Any) -> SynthConfig:

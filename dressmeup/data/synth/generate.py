@@ -29,7 +29,12 @@ import numpy as np
 from dressmeup.body import BodyParams, get_body_model
 from dressmeup.body.skinning import lbs
 from dressmeup.data.splits import split_by_garment
-from dressmeup.data.synth.config import GENERATOR_VERSION, SynthConfig, synth_config
+from dressmeup.data.synth.config import (
+    GENERATOR_VERSION,
+    SynthConfig,
+    check_secret_support,
+    synth_config,
+)
 from dressmeup.data.synth.drape import DrapeSettings, drape
 from dressmeup.data.synth.dressing import garment_weights
 from dressmeup.data.synth.garments import (
@@ -121,13 +126,16 @@ def generate_dataset(out: str | os.PathLike, config: SynthConfig | None = None, 
     below (the ``*-v2`` editions' data): each subject wears its own garments in jittered
     poses, splits by garment (stratified by category or random, recorded in
     ``dataset.json``), and it refuses a ``pose_set``, ``wear`` or ``scan_body`` other than
-    the default. Which settings each version reads: ``SynthConfig``.
+    the default. Which settings each version reads: ``SynthConfig``; a version that does not
+    read ``secret`` and ``splits`` (:data:`~dressmeup.data.synth.config.SECRET_VERSIONS`)
+    refuses a secret or fewer than every split before any work.
 
     Returns
     -------
     Path of the dataset root.
     """
     c = synth_config(config, **settings)
+    check_secret_support(c)
     if str(c.version).startswith("3."):
         return _generate_3x(out, c, workers, executor)
     if c.dress:
