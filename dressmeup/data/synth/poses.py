@@ -82,16 +82,45 @@ def pose_axis_angle(name: str, joint_names: tuple[str, ...], frame: Any,
     """
     if jitter_deg is None:
         jitter_deg = float(pose_library().get("jitter", 0.0))
-    rots: dict[str, Rotation] = {}
+    rotations = []
     for joint, axis, deg in pose_rotations(name):
-        if joint not in joint_names:
-            raise InputError(f"pose {name!r}: joint {joint!r} not in the model's joints")
-        if axis not in _AXES:
-            raise InputError(f"pose {name!r}: axis {axis!r} not in {_AXES}")
         if rng is not None and jitter_deg > 0:
             deg = deg + rng.normal(0.0, jitter_deg)
+        rotations.append([joint, axis, deg])
+    return rotations_axis_angle(rotations, joint_names, frame, what=f"pose {name!r}")
+
+
+def rotations_axis_angle(rotations: list, joint_names: tuple[str, ...], frame: Any,
+                         what: str = "pose",
+                         max_angle_deg: dict[str, float] | None = None) -> np.ndarray:
+    """Axis-angle pose ``(j, 3) float64`` of a ``[joint, axis, degrees]`` list.
+
+    The rule of :func:`pose_axis_angle` for any rotation list: rotations of one joint compose
+    in list order about the rest frame's anatomical axes, then the upper arms and thighs are
+    aligned onto the canonical rest directions (see :func:`pose_axis_angle`).
+
+    Parameters
+    ----------
+    rotations : ``[joint, axis, degrees]`` entries (axis in ``left``, ``up``, ``forward``).
+    joint_names, frame : as for :func:`pose_axis_angle`.
+    what : the pose's name in error messages.
+    max_angle_deg : optional joint -> largest total rotation (degrees) of that joint's
+        composed rotation, which is scaled down to it (before the alignment).
+    """
+    rots: dict[str, Rotation] = {}
+    for joint, axis, deg in rotations:
+        if joint not in joint_names:
+            raise InputError(f"{what}: joint {joint!r} not in the model's joints")
+        if axis not in _AXES:
+            raise InputError(f"{what}: axis {axis!r} not in {_AXES}")
         r = Rotation.from_rotvec(np.deg2rad(deg) * np.asarray(getattr(frame, axis)))
         rots[joint] = r * rots[joint] if joint in rots else r
+    for j, limit in (max_angle_deg or {}).items():
+        if j in rots:
+            v = rots[j].as_rotvec()
+            ang = np.linalg.norm(v)
+            if ang > np.deg2rad(limit):
+                rots[j] = Rotation.from_rotvec(v * (np.deg2rad(limit) / ang))
     joints = getattr(frame, "joints", None) or {}
     for j, (child, axis, sign) in _ALIGN.items():
         if j not in joints or child not in joints or j not in joint_names:
