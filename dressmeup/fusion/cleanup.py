@@ -8,6 +8,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from dressmeup.geometry.topology import large_components
 
 __all__ = ["CleanupConfig", "cleanup_mesh", "largest_components", "merge_duplicate_vertices",
            "repair_non_manifold_edges", "split_non_manifold_vertices", "close_holes"]
@@ -49,9 +53,6 @@ def largest_components(faces: np.ndarray, n_vertices: int, min_fraction: float) 
     -------
     (m,) bool
     """
-    # heavy: scipy.sparse
-    from dressmeup.geometry.topology import large_components
-
     return large_components(faces, n_vertices, min_fraction)
 
 
@@ -309,10 +310,6 @@ def split_non_manifold_vertices(V: np.ndarray, F: np.ndarray, C: np.ndarray | No
     -------
     V : (n + s, 3) float64, F : (m, 3) int64, C or None (copies carry their vertex's colour).
     """
-    # heavy: scipy (~0.5 s to import)
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import connected_components
-
     n, m = len(V), len(F)
     order, key, start, count = edges if edges is not None else _edges(F, n)
     odd = count != 2

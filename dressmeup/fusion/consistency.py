@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from dressmeup.capture.frame import RGBDFrame, frame_camera
 
@@ -103,9 +104,6 @@ def depth_consistency(frames: list[RGBDFrame], config: ConsistencyConfig | None 
     -------
     ConsistencyReport (no figures when fewer than two cameras have depth).
     """
-    # heavy: scipy (~0.5 s to import)
-    from scipy.spatial import cKDTree
-
     cfg = config or ConsistencyConfig()
     by_serial: dict[str, list[RGBDFrame]] = {}
     for fr in frames:

@@ -168,7 +168,7 @@ def pose_difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
 
 def view_clouds(frame: RGBDFrame, config: ICPConfig) -> ViewClouds:
     """Coarse-to-fine clouds of one view in its camera frame (see :class:`ViewClouds`)."""
-    import open3d as o3d  # reason: heavy optional dependency
+    import open3d as o3d  # heavy: open3d
 
     h, w = frame.depth.shape
     stride = max(1, round(math.sqrt(h * w / 80_000)))  # VGA: every 2nd pixel, enough for 5 mm voxels
@@ -223,7 +223,7 @@ def candidate_pairs(views: Sequence[ViewClouds], poses: Sequence[np.ndarray], co
 
 def _icp_step(clouds: Sequence[Sequence], pair: PairResult, s: int, config: ICPConfig) -> None:
     """One scale of ICP for one pair, updating ``pair.T`` (here: in the common frame) in place."""
-    import open3d as o3d  # reason: heavy optional dependency
+    import open3d as o3d  # heavy: open3d
 
     reg = o3d.pipelines.registration
     src, tgt = clouds[pair.i][s], clouds[pair.j][s]
@@ -269,7 +269,7 @@ def register_pairs(views: Sequence[ViewClouds], poses: Sequence[np.ndarray],
     matrix of the last scale run.
     """
 
-    import open3d as o3d  # reason: heavy optional dependency
+    import open3d as o3d  # heavy: open3d
 
     reg = o3d.pipelines.registration
     centre = np.mean([views[k].points(0).mean(axis=0) @ poses[k][:3, :3].T + poses[k][:3, 3]
@@ -316,7 +316,7 @@ def optimize_pose_graph(poses: Sequence[np.ndarray], results: Sequence[PairResul
     -------
     list of (4, 4) float64 camera-to-world poses, rotations orthonormal.
     """
-    import open3d as o3d  # reason: heavy optional dependency
+    import open3d as o3d  # heavy: open3d
 
     reg = o3d.pipelines.registration
     nodes = _connected(len(poses), [(r.i, r.j) for r in results], reference)
