@@ -107,8 +107,8 @@ class Scene:
         tree = cKDTree(x)
         keep = np.zeros(len(body_F), bool)
         for V in body_Vs:
-            # a face with a point within crop of a cloth vertex has its centroid within crop
-            # plus its circumradius about the centroid of that vertex
+            # a face with a point within crop of a cloth vertex has its centroid within
+            # crop + (its largest corner distance from the centroid) of that vertex
             tri = V[body_F]
             centre = tri.mean(axis=1)
             radius = np.sqrt(np.max(np.sum((tri - centre[:, None]) ** 2, axis=2), axis=1))
