@@ -81,8 +81,7 @@ def _run_sample(item: dict, edge: float, sensitivity: bool, out: str) -> dict:
     with single_threaded():
         kit = load_body_kit("anny")
         g = build(kit, item["type"], item["params"], _shape(item["design"]), edge)
-        frame0 = kit.rest(_shape(item["design"]))[1]
-        pose = pose_axis_angle(item["pose"], kit.joint_names, frame0, rng=None)
+        pose = pose_axis_angle(item["pose"], kit.joint_names, g.frame, rng=None)
         base_settings = Gen4Settings(edge_length=edge)
         t0 = time.process_time()
         base = dress(kit, g, _shape(item["target"]), pose, base_settings,

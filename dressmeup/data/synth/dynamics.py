@@ -207,14 +207,15 @@ class ClothDynamics:
             e += 0.5 * np.sum(self.anchor_k[:, None] * da * da)
         return float(e)
 
-    def energy(self, scene: Scene, y, body_V, c, z, anchors) -> float:
-        """``Phi(y)`` (J) of a collision-free ``y``."""
+    def energy(self, scene: Scene, y, body_V, c, z, anchors):
+        """``(Phi(y) (J), the collision set at y)`` of a collision-free ``y``."""
         col = scene.collisions(y, body_V, self.settings.dhat)
         return self._smooth_energy(y, c, z, anchors) + float(
-            self.barrier(col, scene.mesh, scene.stack(y, body_V)))
+            self.barrier(col, scene.mesh, scene.stack(y, body_V))), col
 
-    def _system(self, scene: Scene, y, body_V, c, z, anchors):
-        """``(Phi, gradient (3n,), Hessian (3n, 3n) csc, contacts)`` at ``y``."""
+    def _system(self, scene: Scene, y, body_V, c, z, anchors, col=None):
+        """``(Phi, gradient (3n,), Hessian (3n, 3n) csc, contacts)`` at ``y`` (``col``: the
+        collision set at ``y`` when already built)."""
         n = self.n
         e_s, g_s, K = spring_terms(self.model, y)
         d = y - z
@@ -229,7 +230,8 @@ class ClothDynamics:
         Kv = np.concatenate([K, K, K, K]) * self._sign[:, None, None]
         H = sp.csc_matrix((np.concatenate([Kv.ravel(), dvals]), (self._rows, self._cols)),
                           shape=(3 * n, 3 * n))
-        col = scene.collisions(y, body_V, self.settings.dhat)
+        if col is None:
+            col = scene.collisions(y, body_V, self.settings.dhat)
         if col.empty():
             return float(e), g.ravel(), H, 0
         V_all = scene.stack(y, body_V)
@@ -256,9 +258,9 @@ class ClothDynamics:
         y = np.array(start, np.float64)
         enough = self.n * self.model.weight_mean * s.tolerance  # J
         converged, it, n_col = False, 0, 0
-        lu, factored, alpha = None, 0, 1.0
+        lu, factored, alpha, col = None, 0, 1.0, None
         while True:
-            e, g, H, n_col = self._system(scene, y, body_V, c, z, anchors)
+            e, g, H, n_col = self._system(scene, y, body_V, c, z, anchors, col)
             if it >= s.max_iterations:
                 break
             # a fresh factorisation at the start, after a cut-back step and every few
@@ -280,8 +282,8 @@ class ClothDynamics:
             d = d.reshape(-1, 3)
             alpha = scene.free_fraction(y, body_V, y + d, body_V)
             while alpha > 1e-8:
-                if self.energy(scene, y + alpha * d, body_V, c, z, anchors) <= (
-                        e + 1e-4 * alpha * slope):
+                trial, col = self.energy(scene, y + alpha * d, body_V, c, z, anchors)
+                if trial <= e + 1e-4 * alpha * slope:
                     break
                 alpha *= 0.5
             if alpha <= 1e-8:
@@ -351,10 +353,13 @@ class ClothDynamics:
         done, frac, body_now, stalled = 0.0, 1.0, body_from, 0
         while done < 1.0:
             frac = min(frac, 1.0 - done)
+            # the carry is linear in the body's move: computed once to the frame's end and
+            # scaled to each trial sub-step
+            u_rest = self.carried(x, body_now, body_to)
             while True:
                 reach = 1.0 if done + frac >= 1.0 else done + frac
                 target = body_to if reach >= 1.0 else body_from + reach * (body_to - body_from)
-                u = self.carried(x, body_now, target)
+                u = u_rest if reach >= 1.0 else u_rest * ((reach - done) / (1.0 - done))
                 free = scene.free_fraction(x, body_now, x + u, target)
                 if free >= 1.0 or frac <= s.min_substep:
                     break

@@ -104,6 +104,7 @@ class BuiltGarment:
     uv : (k, 2) float64 and uv_faces : (m, 3) int64 or None.
     support : (n,) float64 in [0, 1], anchor strength per vertex.
     design_shape : (s,) float64 phenotype of the design body.
+    frame : the design body's :class:`BodyFrame` at rest (up, left, forward, joints).
     """
 
     garment_type: str
@@ -114,6 +115,7 @@ class BuiltGarment:
     uv_faces: np.ndarray | None
     support: np.ndarray
     design_shape: np.ndarray
+    frame: BodyFrame
 
 
 def build(kit: BodyKit, garment_type: str, params: dict, design_shape: np.ndarray,
@@ -127,7 +129,7 @@ def build(kit: BodyKit, garment_type: str, params: dict, design_shape: np.ndarra
     np.maximum.at(support, vmap, np.asarray(g.support, np.float64))
     uv_faces = None if g.uv_faces is None else np.asarray(g.uv_faces)[kept]
     return BuiltGarment(g.garment_type, g.category, V0, F, g.uv, uv_faces, support,
-                        np.asarray(design_shape, np.float64))
+                        np.asarray(design_shape, np.float64), frame)
 
 
 @dataclass
@@ -158,11 +160,9 @@ def dress(kit: BodyKit, garment: BuiltGarment, target_shape: np.ndarray,
     t0 = time.process_time()
     states = body_states(s.motion, garment.design_shape, target_shape, target_pose)
     bodies = frame_bodies(states, kit.surface)
-    design_V = bodies[0]
-    up = kit.rest(garment.design_shape)[1].up
-    anchors = BodyAnchors(garment.vertices, garment.support, design_V, kit.faces,
+    anchors = BodyAnchors(garment.vertices, garment.support, bodies[0], kit.faces,
                           gap=s.anchor_gap)
-    dyn = ClothDynamics(garment.vertices, garment.faces, kit.faces, up, s.dynamics,
+    dyn = ClothDynamics(garment.vertices, garment.faces, kit.faces, garment.frame.up, s.dynamics,
                         anchor_weight=garment.support)
     x, sim = simulate(dyn, garment.vertices, bodies, s.motion.dt, anchors.points, on_frame)
     V = quantize(x, STORE_DECIMALS)
