@@ -21,7 +21,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from dressmeup.geometry.mesh import face_areas, face_normals
+from dressmeup.geometry.mesh import face_areas, face_normals, weld_coincident
 from dressmeup.geometry.proximity import closest_points
 from dressmeup.geometry.sampling import sample_surface
 from dressmeup.geometry.topology import largest_component_faces
@@ -110,6 +110,24 @@ class RestGarment:
     uv: np.ndarray
     uv_faces: np.ndarray
     support: np.ndarray
+
+
+def welded(garment: RestGarment, vertices: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+    """The garment ready to simulate: coincident ``vertices (n, 3)`` (the garment's, on the
+    storage grid) welded and the faces that collapse dropped (two coincident vertices would
+    make springs of zero rest length).
+
+    Returns
+    -------
+    ``(V (k, 3), F (f, 3) int64, uv_faces (f, 3) or None, support (k,))``; a welded
+    vertex keeps the largest support of the vertices merged into it.
+    """
+    V, F, vmap, kept = weld_coincident(vertices, garment.faces)
+    uv_faces = None if garment.uv_faces is None else np.asarray(garment.uv_faces)[kept]
+    support = np.zeros(len(V))
+    np.maximum.at(support, vmap, np.asarray(garment.support, np.float64))
+    return V, F, uv_faces, support
 
 
 def sample_params(garment_type: str, rng: np.random.Generator) -> dict[str, Any]:

@@ -26,11 +26,10 @@ import numpy as np
 
 from dressmeup.body import BodyParams, get_body_model
 from dressmeup.data.synth.dynamics import ClothDynamics, DynamicsSettings, simulate
-from dressmeup.data.synth.garments import BodyFrame, build_garment
+from dressmeup.data.synth.garments import BodyFrame, build_garment, welded
 from dressmeup.data.synth.motion import MotionSpec, body_states, frame_bodies
 from dressmeup.data.synth.simulation import BodyAnchors
 from dressmeup.data.synth.wardrobe import BODY_DECIMALS, STORE_DECIMALS, drape_stats, quantize
-from dressmeup.geometry.mesh import weld_coincident
 
 VERSION = "4.0.0"
 
@@ -124,10 +123,7 @@ def build(kit: BodyKit, garment_type: str, params: dict, design_shape: np.ndarra
     body_V, frame = kit.rest(np.asarray(design_shape, np.float64))
     g = build_garment(garment_type, params, body_V, kit.faces, kit.labels, frame,
                       edge_length=edge_length)
-    V0, F, vmap, kept = weld_coincident(quantize(g.vertices, STORE_DECIMALS), g.faces)
-    support = np.zeros(len(V0))
-    np.maximum.at(support, vmap, np.asarray(g.support, np.float64))
-    uv_faces = None if g.uv_faces is None else np.asarray(g.uv_faces)[kept]
+    V0, F, uv_faces, support = welded(g, quantize(g.vertices, STORE_DECIMALS))
     return BuiltGarment(g.garment_type, g.category, V0, F, g.uv, uv_faces, support,
                         np.asarray(design_shape, np.float64), frame)
 

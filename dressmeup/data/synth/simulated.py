@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from dressmeup.body import BodyParams
-from dressmeup.data.synth.garments import build_garment
+from dressmeup.data.synth.garments import build_garment, welded
 from dressmeup.data.synth.scans import SCAN_BODY, clothed_scan
 from dressmeup.data.synth.simulation import BodyAnchors, Dresser, DressSettings, path_bodies
 from dressmeup.data.synth.stats import summarize_dress_stats
@@ -52,7 +52,6 @@ from dressmeup.data.synth.wardrobe import (
     quantize,
     write_plan,
 )
-from dressmeup.geometry.mesh import weld_coincident
 
 VERSION = "3.0.0"
 #: the solver figures copied to the top of every sample's stats (from the pose path's end)
@@ -143,13 +142,7 @@ def _dress_job(job) -> dict[str, Any]:
     design = bodies[g["design_subject"]]
     garment = build_garment(g["type"], g["params"], design.rest_V, skin_F, S["labels"],
                             design.frame, edge_length=S["edge"])
-    # coincident vertices (a remeshing artefact, or two within the 1 µm storage grid) would
-    # make springs of zero rest length: weld them and drop the faces that collapse
-    V0, F, vmap, kept = weld_coincident(quantize(garment.vertices, STORE_DECIMALS),
-                                        garment.faces)
-    uv_faces = None if garment.uv_faces is None else np.asarray(garment.uv_faces)[kept]
-    support = np.zeros(len(V0))
-    np.maximum.at(support, vmap, np.asarray(garment.support, np.float64))
+    V0, F, uv_faces, support = welded(garment, quantize(garment.vertices, STORE_DECIMALS))
     tex, pattern = procedural_texture(np.random.default_rng([S["seed"], 7919, int(gid[1:])]),
                                       S["texture_size"])
     res: dict[str, Any] = {"gid": gid, "g": g, "V0": V0, "F": F, "uv": garment.uv,
