@@ -17,6 +17,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from dressmeup.capture.frame import RGBDFrame, frame_camera
+from dressmeup.fusion.icp import backproject
 
 __all__ = ["ConsistencyConfig", "ConsistencyReport", "depth_consistency"]
 
@@ -79,16 +80,7 @@ class ConsistencyReport:
 
 def _points(frames: list[RGBDFrame], stride: int) -> np.ndarray:
     """World points of the frames' depth at every ``stride``-th pixel: (k, 3) float64."""
-    out = [np.zeros((0, 3))]
-    for fr in frames:
-        cam = frame_camera(fr)
-        d = np.asarray(fr.depth)[::stride, ::stride]
-        v, u = np.nonzero(d > 0)
-        z = d[v, u].astype(np.float64)
-        pc = np.stack([(u * stride - cam.cx) / cam.fx * z, (v * stride - cam.cy) / cam.fy * z, z], axis=1)
-        E = cam.camera_to_world
-        out.append(pc @ E[:3, :3].T + E[:3, 3])
-    return np.concatenate(out)
+    return np.concatenate([np.zeros((0, 3))] + [backproject(fr, stride)[0] for fr in frames])
 
 
 def depth_consistency(frames: list[RGBDFrame], config: ConsistencyConfig | None = None) -> ConsistencyReport:
