@@ -232,7 +232,7 @@ def main() -> None:
     ap.add_argument("--newton-frame", type=float, default=0.1)
     ap.add_argument("--json", default=None)
     args = ap.parse_args()
-    from dressmeup.data.synth.wardrobe import single_threaded
+    from dressmeup.data.synth.jobs import single_threaded
 
     rows = []
     with single_threaded():

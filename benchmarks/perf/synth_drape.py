@@ -51,6 +51,7 @@ def main() -> None:
     from dressmeup.body import BodyParams, get_body_model
     from dressmeup.data.synth.dressing import garment_weights
     from dressmeup.data.synth.garments import BodyFrame, build_garment, sample_params
+    from dressmeup.data.synth.jobs import single_threaded
     from dressmeup.data.synth.poses import pose_axis_angle
     from dressmeup.data.synth.wardrobe import (
         BODY_DECIMALS,
@@ -61,7 +62,6 @@ def main() -> None:
         drape,
         drape_stats,
         quantize,
-        single_threaded,
         transfer_to_body,
     )
 

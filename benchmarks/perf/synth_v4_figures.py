@@ -89,8 +89,9 @@ def redress(root: Path, samples: list[tuple[str, str, str]], settings, workers: 
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
+    from dressmeup.data.synth.jobs import canonical_numerics
     from dressmeup.data.synth.simulated import _dress_job
-    from dressmeup.data.synth.wardrobe import _init_worker, canonical_numerics
+    from dressmeup.data.synth.wardrobe import _init_worker
 
     info = json.loads((root / "dataset.json").read_text())
     p = info["generator"]["params"]

@@ -111,12 +111,12 @@ def test_the_probe_predicts_whether_the_data_reproduce_the_pin(other_data):
 def test_the_probe_sees_other_float_kernels(monkeypatch):
     """torch's AVX2 kernels instead of the canonical portable ones change v3 data on the
     pinning machine (docs/synthetic-data.md): the probe's digest changes with them."""
-    from dressmeup.data.synth import wardrobe
+    from dressmeup.data.synth import jobs
 
     if "avx2" not in open("/proc/cpuinfo").read():
         pytest.skip("needs an x86 CPU with AVX2")
     ed = load_edition(TINY_V3)
-    monkeypatch.setitem(wardrobe.CANONICAL_ENV, "ATEN_CPU_CAPABILITY", "avx2")
+    monkeypatch.setitem(jobs.CANONICAL_ENV, "ATEN_CPU_CAPABILITY", "avx2")
     res = probe_v3(ed.dataset.params, ed.dataset.seed)
     assert res.sample == load_probe_pin(ed)["sample"]
     assert res.sha256 != load_probe_pin(ed)["sha256"]

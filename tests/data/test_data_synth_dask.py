@@ -54,7 +54,7 @@ class KillingExecutor(DaskExecutor):
 def canon_cluster():
     """A 2-worker LocalCluster whose workers start with the generator's canonical numerics
     (the session's shared cluster does not: its scoring must match this process)."""
-    from dressmeup.data.synth.wardrobe import CANONICAL_ENV
+    from dressmeup.data.synth.jobs import CANONICAL_ENV
 
     with DaskExecutor(2, worker_env=CANONICAL_ENV, log=None) as ex:
         yield ex

@@ -9,7 +9,7 @@ solve (bodies, rest garments, a garment on its own design body) is the same ever
 first garment fitted to *another* body is where machines part.
 
 :func:`probe_v3` computes exactly that, the way the generator does (a fresh worker process
-with the canonical numerics, :data:`~dressmeup.data.synth.wardrobe.CANONICAL_ENV`): the first
+with the canonical numerics, :data:`~dressmeup.data.synth.jobs.CANONICAL_ENV`): the first
 sample the generator writes whose subject is not the garment's designer, i.e. that garment
 built, fitted to the subject and draped in the pose (its pose path), with its scan, and hashes
 the stored arrays. Comparing the digest with the one computed on the pinning machine tells,
@@ -31,10 +31,10 @@ import numpy as np
 
 from dressmeup.data.synth.config import synth_config
 from dressmeup.data.synth.generate import v3_arguments
+from dressmeup.data.synth.jobs import canonical_numerics
 from dressmeup.data.synth.wardrobe import (
     _garment_job,
     _init_worker,
-    canonical_numerics,
     prepare_v3,
     wearers,
 )

@@ -19,7 +19,7 @@ weight), ``grad_max``, ``energy_change``, ``converged``, ``iterations`` (settlin
 and pose path together) and per stage (``settle``, ``fit``, ``dress``) the same figures.
 
 Reproducibility: the workers start with the canonical numerics of 2.x
-(:data:`dressmeup.data.synth.wardrobe.CANONICAL_ENV`), and the cloth solver does its
+(:data:`dressmeup.data.synth.jobs.CANONICAL_ENV`), and the cloth solver does its
 arithmetic in numpy and scipy (no torch, no MKL: the code branch MKL picks by CPU maker does
 not reach it); bodies are rounded to 1e-9 m and every stored vertex to 1 micrometre.
 """

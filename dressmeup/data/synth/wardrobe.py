@@ -42,7 +42,6 @@ with its portable kernels) changes them; not fixed in 2.1.0.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import logging
 import multiprocessing
@@ -60,13 +59,13 @@ from dressmeup.body.skinning import lbs
 from dressmeup.data.synth.drape import DrapeSettings, drape
 from dressmeup.data.synth.dressing import garment_weights
 from dressmeup.data.synth.garments import BodyFrame, build_garment, sample_params
+from dressmeup.data.synth.jobs import CANONICAL_ENV, canonical_numerics, init_worker
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
 from dressmeup.data.synth.scans import SCAN_BODY, clothed_scan
 from dressmeup.data.synth.stats import summarize_stats
 from dressmeup.data.synth.texture import procedural_texture
 from dressmeup.data.writer import DatasetWriter
 from dressmeup.executors import LocalExecutor, in_order
-from dressmeup.executors.local import die_with_parent
 from dressmeup.geometry.mesh import edges, face_areas
 from dressmeup.geometry.proximity import barycentric, closest_points
 from dressmeup.geometry.winding import winding_number
@@ -114,55 +113,6 @@ def v3_drape_settings() -> DrapeSettings:
     cut into its curved surface between their vertices)."""
     return DrapeSettings(self_stiffness=2.0e5, self_thickness=0.010, margin=0.006,
                          clearance=0.003)
-
-
-#: Environment of the generator's worker processes, set before numpy, torch and their BLAS
-#: load: one thread everywhere, and the portable kernels of every library (torch's scalar
-#: "default" capability instead of AVX2/AVX-512, MKL's conditional numerical reproducibility,
-#: OpenBLAS's generic core, numpy without its AVX2/AVX-512 loops). Float results then do not
-#: depend on the CPU's vector extensions or the thread count (docs/synthetic-data.md,
-#: "Reproducibility"): torch's AVX-512 and AVX2 kernels round sums differently, and the cloth
-#: solver turns such last-bit differences into centimetres.
-CANONICAL_ENV = {
-    "ATEN_CPU_CAPABILITY": "default", "MKL_CBWR": "COMPATIBLE",
-    "OPENBLAS_CORETYPE": "Prescott", "NPY_DISABLE_CPU_FEATURES": "X86_V3 X86_V4 AVX512_ICL "
-    "AVX512_SPR", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
-}
-
-
-@contextlib.contextmanager
-def canonical_numerics():
-    """Set :data:`CANONICAL_ENV` in ``os.environ`` (inherited by processes started inside)."""
-    old = {k: os.environ.get(k) for k in CANONICAL_ENV}
-    os.environ.update(CANONICAL_ENV)
-    try:
-        yield
-    finally:
-        for k, v in old.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
-@contextlib.contextmanager
-def single_threaded():
-    """Hold torch (and numpy's BLAS when threadpoolctl is installed) at one thread."""
-    # heavy: torch (~1.1 s to import)
-    import torch
-
-    try:
-        # optional: threadpoolctl holds numpy's BLAS pool (gemm results do not depend on it)
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        threadpool_limits = None
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        with threadpool_limits(limits=1) if threadpool_limits else contextlib.nullcontext():
-            yield
-    finally:
-        torch.set_num_threads(before)
 
 
 @dataclass
@@ -608,18 +558,7 @@ def _run_on(executor: Any, setup: tuple, todo: list, writer: Any, out: Path, bar
 
 
 def _init_worker(parent_pid: int, *setup) -> None:
-    # heavy: torch (~1.1 s to import)
-    import torch
-
-    die_with_parent(parent_pid)  # a killed generation leaves no worker behind
-    torch.set_num_threads(1)
-    try:
-        # optional: threadpoolctl holds numpy's BLAS pool at one thread
-        from threadpoolctl import threadpool_limits
-
-        threadpool_limits(limits=1)
-    except ImportError:
-        pass
+    init_worker(parent_pid)
     _setup(*setup)
 
 
