@@ -43,13 +43,13 @@ from dressmeup.data.synth.garments import (
     garment_types,
     sample_params,
 )
+from dressmeup.data.synth.generator2 import VERSION, generate_2x
+from dressmeup.data.synth.generator3 import VERSION as V3
+from dressmeup.data.synth.generator3 import generate_3x
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
-from dressmeup.data.synth.simulated import VERSION as V3
-from dressmeup.data.synth.simulated import generate_v4
-from dressmeup.data.synth.simulation import DressSettings
+from dressmeup.data.synth.quasistatic import DressSettings
 from dressmeup.data.synth.stats import summarize_stats
 from dressmeup.data.synth.texture import procedural_texture
-from dressmeup.data.synth.wardrobe import VERSION, generate_v3
 from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
@@ -119,9 +119,9 @@ def generate_dataset(out: str | os.PathLike, config: SynthConfig | None = None, 
     **settings : fields of ``SynthConfig`` replacing those of ``config``, e.g.
         ``generate_dataset(out, version="2.1.0", subjects=4, poses=3)``.
 
-    ``version="3.0.0"`` runs generator 3.0.0 (:func:`dressmeup.data.synth.simulated.generate_v4`:
+    ``version="3.0.0"`` runs generator 3.0.0 (:func:`dressmeup.data.synth.generator3.generate_3x`:
     the plan of 2.1.0, every garment dressed by simulation from its design body at rest);
-    ``version="2.1.0"`` runs generator 2.1.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
+    ``version="2.1.0"`` runs generator 2.1.0 (:func:`dressmeup.data.synth.generator2.generate_2x`:
     every garment worn by every subject, identical poses); ``"1.1.0"`` runs the generator
     below (the ``*-v2`` editions' data): each subject wears its own garments in jittered
     poses, splits by garment (stratified by category or random, recorded in
@@ -152,7 +152,7 @@ def _generate_3x(out: str | os.PathLike, c: SynthConfig, workers: int, executor:
     if (c.pose_set, c.wear) != ("generator", "all"):
         raise InputError(f"pose_set={c.pose_set!r}, wear={c.wear!r}: generator {V3} dresses "
                          "every garment on every subject in the generator poses")
-    return generate_v4(out, subjects=c.subjects, poses=c.poses,
+    return generate_3x(out, subjects=c.subjects, poses=c.poses,
                        garments_per_split=c.garments_per_split or (6, 2, 4), seed=c.seed,
                        body_model=c.body_model, categories=c.categories,
                        edge_length=c.edge_length, write_scan=c.write_scan,
@@ -168,13 +168,14 @@ def _generate_2x(out: str | os.PathLike, c: SynthConfig, workers: int, executor:
                    "docs/synthetic-data.md, Reproducibility)" if c.version == "2.0.0" else "")
         raise InputError(f"version: this toolkit generates 2.x as {VERSION}, got "
                          f"{c.version!r}{retired}")
-    return generate_v3(out, **v3_arguments(c), workers=workers,
+    return generate_2x(out, **arguments_2x(c), workers=workers,
                        **({"executor": executor} if executor is not None else {}))
 
 
-def v3_arguments(c: SynthConfig) -> dict[str, Any]:
-    """The keyword arguments of generator 2.x (:func:`~dressmeup.data.synth.wardrobe.generate_v3`
-    and :func:`~dressmeup.data.synth.wardrobe.prepare_v3`) that config ``c`` sets."""
+def arguments_2x(c: SynthConfig) -> dict[str, Any]:
+    """The keyword arguments of generator 2.x
+    (:func:`~dressmeup.data.synth.generator2.generate_2x` and
+    :func:`~dressmeup.data.synth.generator2.prepare_2x`) that config ``c`` sets."""
     return dict(subjects=c.subjects, poses=c.poses,
                 garments_per_split=c.garments_per_split or (6, 2, 4), seed=c.seed,
                 body_model=c.body_model, categories=c.categories, edge_length=c.edge_length,
