@@ -35,6 +35,7 @@ from dressmeup.body import BodyParams, get_body_model
 from dressmeup.data.synth.garments import BodyFrame, RestGarment, build_garment, sample_params
 from dressmeup.data.synth.jobs import run_jobs
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
+from dressmeup.data.synth.scans import SCAN_BODY
 from dressmeup.data.synth.texture import procedural_texture
 from dressmeup.data.writer import DatasetWriter
 from dressmeup.executors import LocalExecutor
@@ -180,6 +181,20 @@ def _rotate_wearers(plan: dict[str, Any]) -> None:
     if idle:
         raise ValueError(f"wear='rotate': garments {idle} are worn by no (subject, pose): "
                          f"{len(gids)} garments for {len(sids) * len(pids)} samples")
+
+
+def dataset_arguments(garments_per_split: tuple[int, int, int] | list[int], scan_body: str,
+                      body_model: str, edge_length: float | None
+                      ) -> tuple[tuple[int, int, int], float]:
+    """The (train, val, test) garment counts and the garment edge length (metres; default
+    :data:`DEFAULT_EDGE_LENGTH` of the body model) of a generator-2.x or -3.x dataset,
+    checked before anything is written (``ValueError``)."""
+    gps = tuple(int(x) for x in garments_per_split)
+    if len(gps) != 3:
+        raise ValueError(f"garments_per_split: expected (train, val, test), got {gps!r}")
+    if scan_body not in SCAN_BODY:
+        raise ValueError(f"scan_body: expected one of {SCAN_BODY}, got {scan_body!r}")
+    return gps, float(edge_length or DEFAULT_EDGE_LENGTH.get(body_model, 0.02))
 
 
 def wearers(plan: dict[str, Any], gid: str) -> list[tuple[str, str]]:

@@ -60,7 +60,6 @@ from dressmeup.body.skinning import lbs
 from dressmeup.data.synth.common import (
     BODY_DECIMALS,
     CATEGORY_TYPES,
-    DEFAULT_EDGE_LENGTH,
     STORE_DECIMALS,
     Body,
     GarmentItem,
@@ -68,6 +67,7 @@ from dressmeup.data.synth.common import (
     PlanBodies,
     PlanJob,
     SampleResult,
+    dataset_arguments,
     dataset_info,
     drape_stats,
     generator_params,
@@ -78,7 +78,7 @@ from dressmeup.data.synth.common import (
 from dressmeup.data.synth.drape import DrapeResult, DrapeSettings, drape
 from dressmeup.data.synth.dressing import garment_weights
 from dressmeup.data.synth.garments import RestGarment
-from dressmeup.data.synth.scans import SCAN_BODY, clothed_scan
+from dressmeup.data.synth.scans import clothed_scan
 from dressmeup.data.synth.stats import summarize_stats
 from dressmeup.geometry.proximity import barycentric, closest_points
 
@@ -296,13 +296,8 @@ def prepare_2x(subjects: int = 4, poses: int = 4,
     """What :func:`generate_2x` computes before any garment (arguments as there): the plan,
     the ``dataset.json`` record and the garment job. Nothing is written; bad arguments raise
     ``ValueError``."""
-    gps = tuple(int(x) for x in garments_per_split)
-    if len(gps) != 3:
-        raise ValueError(f"garments_per_split: expected (train, val, test), got {gps!r}")
-    if scan_body not in SCAN_BODY:  # before anything is written
-        raise ValueError(f"scan_body: expected one of {SCAN_BODY}, got {scan_body!r}")
+    gps, edge = dataset_arguments(garments_per_split, scan_body, body_model, edge_length)
     plan = plan_2x(subjects, poses, gps, seed, categories, pose_set=pose_set, wear=wear)
-    edge = float(edge_length or DEFAULT_EDGE_LENGTH.get(body_model, 0.02))
     settings = drape_settings or drape_settings_2x()
     params = generator_params(VERSION, subjects=subjects, poses=poses,
                               garments_per_split=list(gps), seed=seed, body_model=body_model,

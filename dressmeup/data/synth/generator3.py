@@ -36,7 +36,6 @@ import numpy as np
 
 from dressmeup.data.synth.common import (
     CATEGORY_TYPES,
-    DEFAULT_EDGE_LENGTH,
     STORE_DECIMALS,
     Body,
     BodyAnchors,
@@ -44,6 +43,7 @@ from dressmeup.data.synth.common import (
     GarmentResult,
     PlanJob,
     SampleResult,
+    dataset_arguments,
     dataset_info,
     drape_stats,
     generator_params,
@@ -53,7 +53,7 @@ from dressmeup.data.synth.common import (
 )
 from dressmeup.data.synth.garments import welded
 from dressmeup.data.synth.quasistatic import Dresser, DressSettings, path_bodies
-from dressmeup.data.synth.scans import SCAN_BODY, clothed_scan
+from dressmeup.data.synth.scans import clothed_scan
 from dressmeup.data.synth.stats import summarize_dress_stats
 
 VERSION = "3.0.0"
@@ -92,13 +92,8 @@ def generate_3x(out: str | os.PathLike, subjects: int = 4, poses: int = 3,
     -------
     Path of the dataset root.
     """
-    gps = tuple(int(x) for x in garments_per_split)
-    if len(gps) != 3:
-        raise ValueError(f"garments_per_split: expected (train, val, test), got {gps!r}")
-    if scan_body not in SCAN_BODY:
-        raise ValueError(f"scan_body: expected one of {SCAN_BODY}, got {scan_body!r}")
+    gps, edge = dataset_arguments(garments_per_split, scan_body, body_model, edge_length)
     plan = plan_2x(subjects, poses, gps, seed, categories)
-    edge = float(edge_length or DEFAULT_EDGE_LENGTH.get(body_model, 0.02))
     settings = dress_settings or DressSettings()
     params = generator_params(VERSION, subjects=subjects, poses=poses,
                               garments_per_split=list(gps), seed=seed, body_model=body_model,
