@@ -35,14 +35,15 @@ import time
 def make(out: str, subjects: int = 6, poses: int = 3, seed: int = 1, workers: int = 1,
          pose_set: str = "generator") -> str:
     """Generate (or resume) the tuning dataset in ``out``; returns its path."""
+    from dressmeup.data.synth.common import plan_2x
     from dressmeup.data.synth.generate import generate_dataset
-    from dressmeup.data.synth.wardrobe import plan_v3, pose_names
+    from dressmeup.data.synth.poses import pose_names
 
     tuning = {"a-pose", "walking", "arms-raised", "sitting"} | \
         set(pose_names("registration-tuning"))
     if pose_set not in ("generator", "registration-tuning"):
         raise SystemExit(f"--pose-set: {pose_set!r} is not a tuning set")
-    plan = plan_v3(subjects, poses, (0, 0, 2), seed, pose_set=pose_set, wear="rotate")
+    plan = plan_2x(subjects, poses, (0, 0, 2), seed, pose_set=pose_set, wear="rotate")
     bad = [p for p in plan["poses"].values() if p not in tuning]
     if bad:
         raise SystemExit(f"poses {bad} are not tuning poses: use --poses <= 3")

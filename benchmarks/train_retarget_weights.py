@@ -29,13 +29,13 @@ PRESETS = {"thesis": dict(width=512, depth=6, code_dim=128, pointnet_hidden=128)
 def _plan(params: dict, seed: int) -> dict:
     """The generator's plan of a dataset (garment ids -> type, params, split); 1.x and 2.x."""
     from dressmeup.data.splits import split_by_garment
+    from dressmeup.data.synth.common import plan_2x
     from dressmeup.data.synth.garments import garment_types
     from dressmeup.data.synth.generate import plan_dataset
-    from dressmeup.data.synth.wardrobe import plan_v3
 
     q = {"subjects": 3, "garments": 4, "poses": 5, **params}
     if str(q.get("version", "1")).startswith("2."):
-        plan = plan_v3(q["subjects"], q["poses"], tuple(q["garments_per_split"]), seed, q.get("categories"))
+        plan = plan_2x(q["subjects"], q["poses"], tuple(q["garments_per_split"]), seed, q.get("categories"))
         return {g: {"key": json.dumps([v["type"], v["params"]], sort_keys=True), "split": v["split"]}
                 for g, v in plan["garments"].items()}
     types = sorted(q.get("types") or garment_types())

@@ -62,13 +62,13 @@ def pytest_runtest_protocol(item, nextitem):
         _RUNNING.pop()
 
 
-def _guard_generator_2(generate_v3):
-    """``generate_v3`` failing the running test unless it is marked ``cpu_kernels``: generator
+def _guard_generator_2(generate_2x):
+    """``generate_2x`` failing the running test unless it is marked ``cpu_kernels``: generator
     2.x's bytes depend on the CPU's float kernels (an Intel Xeon writes other v3 data than the
     AMD EPYC that pinned them), so only a test of that dependence may build such data; any
     other uses a v4 edition (generator 3.x: the same bytes on every x86 CPU)."""
 
-    @functools.wraps(generate_v3)
+    @functools.wraps(generate_2x)
     def guarded(*args, **kwargs):
         item = _RUNNING[-1] if _RUNNING else None
         if item is not None and item.get_closest_marker("cpu_kernels") is None:
@@ -77,18 +77,18 @@ def _guard_generator_2(generate_v3):
                         "a v4 edition (e.g. synth-retarget-tiny-v4, generator 3.x), or mark "
                         "the test @pytest.mark.cpu_kernels if it tests that dependence",
                         pytrace=False)
-        return generate_v3(*args, **kwargs)
+        return generate_2x(*args, **kwargs)
 
-    guarded.unguarded = generate_v3
+    guarded.unguarded = generate_2x
     return guarded
 
 
 def pytest_configure(config):
     # after the environment above is set: the package loads numpy and its settings
-    from dressmeup.data.synth import generate, wardrobe
+    from dressmeup.data.synth import generate, generator2
 
-    # generate_dataset calls generate's own name; tests may import wardrobe's
-    wardrobe.generate_v3 = generate.generate_v3 = _guard_generator_2(wardrobe.generate_v3)
+    # generate_dataset calls generate's own name; tests may import generator2's
+    generator2.generate_2x = generate.generate_2x = _guard_generator_2(generator2.generate_2x)
 
 
 @pytest.fixture(scope="session")

@@ -3,7 +3,7 @@
 A garment is made on the slim tall woman (S01) and worn by the heavy short older man (S02),
 the largest shape change of the subject table; the body goes from S01 at rest to S02 at rest
 (shape path) and then to the pose (pose path), with the same intermediate bodies for both
-solvers (:func:`dressmeup.data.synth.simulation.path_bodies`), and the cloth follows from its
+solvers (:func:`dressmeup.data.synth.quasistatic.path_bodies`), and the cloth follows from its
 designed shape. Per garment, pose and solver: share of the garment's area inside the body
 (face centroids, winding number), self-intersecting faces (pymeshlab), edge strain
 |l/L - 1| (mean, 99th percentile), CPU seconds; for the sensitivity, the median and mean
@@ -51,8 +51,8 @@ class Scene:
 
     def __init__(self) -> None:
         from dressmeup.body import BodyParams, get_body_model
+        from dressmeup.data.synth.common import SUBJECTS
         from dressmeup.data.synth.garments import BodyFrame
-        from dressmeup.data.synth.wardrobe import SUBJECTS
 
         self.BodyParams = BodyParams
         self.model = get_body_model("anny")
@@ -68,15 +68,15 @@ class Scene:
         self.frame = BodyFrame.from_joints(rest.rest_joints, self.names)
 
     def body(self, shape: np.ndarray, pose: np.ndarray | None = None) -> np.ndarray:
-        from dressmeup.data.synth.wardrobe import BODY_DECIMALS, quantize
+        from dressmeup.data.synth.common import BODY_DECIMALS, quantize
 
         pose = np.zeros((len(self.names), 3)) if pose is None else pose
         out = self.model.posed(self.BodyParams(model=self.model.name, shape=shape, pose=pose))
         return quantize(np.asarray(out.vertices)[self.keep], BODY_DECIMALS)
 
     def garment(self, gtype: str):
+        from dressmeup.data.synth.common import quantize
         from dressmeup.data.synth.garments import build_garment, sample_params
-        from dressmeup.data.synth.wardrobe import quantize
 
         params = sample_params(gtype, np.random.default_rng([0, 3, GARMENT_ROW[gtype], 0]))
         g = build_garment(gtype, params, self.body(self.shapes[0]), self.skin_F, self.labels,
@@ -86,7 +86,7 @@ class Scene:
     def paths(self, gtype: str, pose_name: str, garment_V: np.ndarray, settings):
         """Intermediate bodies: the design body at rest, the shape path, the pose path."""
         from dressmeup.data.synth.poses import pose_axis_angle
-        from dressmeup.data.synth.simulation import path_bodies
+        from dressmeup.data.synth.quasistatic import path_bodies
 
         s0, s1 = self.shapes
         rest = self.body(s0)
@@ -104,7 +104,8 @@ def perturbed(V: np.ndarray, amount: float = 0.005, seed: int = 1) -> np.ndarray
 
 
 def run_ours(scene: Scene, gtype: str, pose_name: str, run: str) -> dict:
-    from dressmeup.data.synth.simulation import BodyAnchors, Dresser, DressSettings
+    from dressmeup.data.synth.common import BodyAnchors
+    from dressmeup.data.synth.quasistatic import Dresser, DressSettings
 
     g, V0 = scene.garment(gtype)
     settings = DressSettings().longer(2.0) if run == "longer" else DressSettings()
@@ -125,7 +126,8 @@ def run_ours(scene: Scene, gtype: str, pose_name: str, run: str) -> dict:
 
 
 def run_newton(scene: Scene, gtype: str, pose_name: str, run: str, frame_s: float) -> dict:
-    from dressmeup.data.synth.simulation import BodyAnchors, DressSettings
+    from dressmeup.data.synth.common import BodyAnchors
+    from dressmeup.data.synth.quasistatic import DressSettings
 
     g, V0 = scene.garment(gtype)
     settings = DressSettings()
@@ -215,7 +217,7 @@ def newton_follow(start, rest_V, faces, anchors, bodies, body_F, up, frame_s=0.1
 
 
 def figures(res: dict) -> dict:
-    from dressmeup.data.synth.wardrobe import drape_stats
+    from dressmeup.data.synth.common import drape_stats
 
     return drape_stats(res["x"], res["faces"], res["rest"], res["body"],
                        Scene_cache["scene"].skin_F)

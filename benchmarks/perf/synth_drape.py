@@ -29,9 +29,9 @@ POSES = ("sitting", "arms-raised")
 
 def variants():
     from dressmeup.data.synth.drape import DrapeSettings
-    from dressmeup.data.synth.wardrobe import v3_drape_settings
+    from dressmeup.data.synth.generator2 import drape_settings_2x
 
-    v3 = v3_drape_settings()
+    v3 = drape_settings_2x()
     return {
         "v2": (DrapeSettings(), 1),
         "v3": (v3, 3),
@@ -49,21 +49,19 @@ def main() -> None:
     args = ap.parse_args()
 
     from dressmeup.body import BodyParams, get_body_model
-    from dressmeup.data.synth.dressing import garment_weights
-    from dressmeup.data.synth.garments import BodyFrame, build_garment, sample_params
-    from dressmeup.data.synth.jobs import single_threaded
-    from dressmeup.data.synth.poses import pose_axis_angle
-    from dressmeup.data.synth.wardrobe import (
+    from dressmeup.data.synth.common import (
         BODY_DECIMALS,
         DEFAULT_EDGE_LENGTH,
         SUBJECTS,
-        FittedGarment,
-        PoseDraper,
-        drape,
         drape_stats,
         quantize,
-        transfer_to_body,
     )
+    from dressmeup.data.synth.drape import drape
+    from dressmeup.data.synth.dressing import garment_weights
+    from dressmeup.data.synth.garments import BodyFrame, build_garment, sample_params
+    from dressmeup.data.synth.generator2 import FittedGarment, PoseDraper, transfer_to_body
+    from dressmeup.data.synth.jobs import single_threaded
+    from dressmeup.data.synth.poses import pose_axis_angle
 
     chosen = {k: v for k, v in variants().items() if k in args.variants.split(",")}
     edge = args.edge_length or DEFAULT_EDGE_LENGTH.get(args.body_model, 0.02)

@@ -33,13 +33,13 @@ from pathlib import Path
 
 import numpy as np
 
+from dressmeup.data.synth.common import SUBJECTS
 from dressmeup.data.synth.dynamics import DynamicsSettings
 from dressmeup.data.synth.garments import sample_params
 from dressmeup.data.synth.generator4 import Gen4Settings, build, dress, load_body_kit
 from dressmeup.data.synth.jobs import single_threaded
 from dressmeup.data.synth.motion import MotionSpec
 from dressmeup.data.synth.poses import pose_axis_angle
-from dressmeup.data.synth.wardrobe import SUBJECTS
 
 TYPES = ("t-shirt", "skirt", "dress", "trousers", "long-sleeve", "shorts", "tank-top")
 POSES = ("sitting", "arms-raised", "walking", "one-arm-up", "bent-knees", "arms-forward")

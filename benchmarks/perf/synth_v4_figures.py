@@ -86,34 +86,28 @@ def chosen_samples(root: Path, n_garments: int, seed: int = 0) -> list[tuple[str
 def redress(root: Path, samples: list[tuple[str, str, str]], settings, workers: int) -> dict:
     """The chosen samples dressed again with ``settings`` (generator workers, canonical
     numerics): sample id -> vertices ``(n, 3)``."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    from dressmeup.data.synth.jobs import canonical_numerics
-    from dressmeup.data.synth.simulated import _dress_job
-    from dressmeup.data.synth.wardrobe import _init_worker
+    from dressmeup.data.synth.common import GarmentItem, PlanJob
+    from dressmeup.data.synth.generator3 import DressJob
+    from dressmeup.data.synth.jobs import run_jobs
 
     info = json.loads((root / "dataset.json").read_text())
     p = info["generator"]["params"]
     plan = {"subjects": info["subjects"], "poses": info["poses"], "garments": info["garments"]}
-    setup = (p["body_model"], plan, p["edge_length"], settings, 0, info["generator"]["seed"],
-             p["texture_size"], False, p.get("scan_body", "whole"))
-    jobs = [(g, info["garments"][g], [(s, q)]) for g, s, q in samples]
+    job = DressJob(body_model=p["body_model"], **PlanJob.of_plan(plan), edge=p["edge_length"],
+                   seed=info["generator"]["seed"], texture_size=p["texture_size"],
+                   write_scan=False, scan_body=p.get("scan_body", "whole"), settings=settings)
+    items = [GarmentItem(g, info["garments"][g], ((s, q),)) for g, s, q in samples]
     out = {}
-    ctx = multiprocessing.get_context("spawn")
-    with canonical_numerics(), ProcessPoolExecutor(
-            max(1, min(workers, len(jobs))), mp_context=ctx, initializer=_init_worker,
-            initargs=(os.getpid(), *setup)) as pool:
-        for res in pool.map(_dress_job, jobs):
-            for smp in res["samples"]:
-                out[f"{smp['sid']}-{res['gid']}-{smp['pid']}"] = smp["V"]
+    for res in run_jobs(job, items, workers):
+        for smp in res.samples:
+            out[f"{smp.sid}-{res.gid}-{smp.pid}"] = smp.V
     return out
 
 
 def sensitivity(root: Path, n_garments: int, workers: int) -> dict:
     """Per-vertex moves of the chosen samples under each variant (module docstring, item 2)."""
     from dressmeup.data import Dataset
-    from dressmeup.data.synth.simulation import DressSettings
+    from dressmeup.data.synth.quasistatic import DressSettings
 
     info = json.loads((root / "dataset.json").read_text())
     base = DressSettings.from_dict(info["generator"]["params"].get("dress", {}))

@@ -7,7 +7,7 @@ the toolkit's own generator operators to public files. Each such shortcut below 
 closer to the ground truth (mean P2S over the edition's pairs) than the best reference method
 scored the same way (the ``rigid``, ``skinning`` and ``transfer`` baselines; ``transfer`` is
 itself the generator-2.x operator that carries the source garment by the body's displacement
-at its closest point, :func:`dressmeup.data.synth.wardrobe.transfer_to_body`: this test found
+at its closest point, :func:`dressmeup.data.synth.generator2.transfer_to_body`: this test found
 it closer than ``skinning`` on tiny v4, so it became a reference method):
 
 - the source garment unchanged;
@@ -16,7 +16,7 @@ it closer than ``skinning`` on tiny v4, so it became a reference method):
   lengths);
 - generator 3.0.0's own simulation run from the source garment: the source body unposed to
   rest, morphed into the target's shape and posed into the target's pose
-  (:mod:`dressmeup.data.synth.simulation`, anchors from the source garment's top rows).
+  (:mod:`dressmeup.data.synth.quasistatic`, anchors from the source garment's top rows).
 """
 
 from __future__ import annotations
@@ -83,7 +83,7 @@ class _Public:
 
 
 def _transfer(pub: _Public) -> np.ndarray:
-    from dressmeup.data.synth.wardrobe import transfer_to_body
+    from dressmeup.data.synth.generator2 import transfer_to_body
 
     return transfer_to_body(pub.V, pub.posed(pub.src_params), pub.posed(pub.tgt_params),
                             pub.body_F)
@@ -91,15 +91,16 @@ def _transfer(pub: _Public) -> np.ndarray:
 
 def _relaxed(pub: _Public) -> np.ndarray:
     from dressmeup.data.synth.drape import drape
-    from dressmeup.data.synth.wardrobe import v3_drape_settings
+    from dressmeup.data.synth.generator2 import drape_settings_2x
 
     start = _transfer(pub)
     return drape(pub.V, pub.F, start, np.zeros(len(pub.V)), pub.posed(pub.tgt_params),
-                 pub.body_F, pub.up, v3_drape_settings(), exact_faces=True).vertices
+                 pub.body_F, pub.up, drape_settings_2x(), exact_faces=True).vertices
 
 
 def _simulated(pub: _Public) -> np.ndarray:
-    from dressmeup.data.synth.simulation import BodyAnchors, Dresser, DressSettings, path_bodies
+    from dressmeup.data.synth.common import BodyAnchors
+    from dressmeup.data.synth.quasistatic import Dresser, DressSettings, path_bodies
 
     settings = DressSettings()
     up = pub.up

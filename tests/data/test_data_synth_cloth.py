@@ -1,4 +1,4 @@
-"""The cloth solver of generator 3.x (synth.cloth, synth.contact, synth.simulation) on small
+"""The cloth solver of generator 3.x (synth.cloth, synth.contact, synth.quasistatic) on small
 generated primitives: gradients against finite differences, contact detection against
 brute force, convergence to the tolerance, and the path settings."""
 
@@ -10,7 +10,7 @@ import trimesh
 
 from dressmeup.data.synth import cloth
 from dressmeup.data.synth.contact import BodySurface, self_contacts
-from dressmeup.data.synth.simulation import DressSettings, path_bodies
+from dressmeup.data.synth.quasistatic import DressSettings, path_bodies
 
 
 def _sheet(n: int = 6, size: float = 0.1, z: float = 0.0):

@@ -4,6 +4,7 @@ with exactly the pinned manifest of synth-retarget-tiny-v3."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import sys
@@ -69,22 +70,22 @@ def test_interrupted_synth_resumes_on_dask_to_the_pinned_manifest(canon_cluster,
     ed = load_edition(TINY)
     pin = ed.dataset
     out = tmp_path / "tiny"
-    from dressmeup.data.synth import wardrobe
+    from dressmeup.data.synth import common
 
-    write = wardrobe._write_garment
+    write = common._write_garment
     calls = []
 
     def write_then_interrupt(writer, out, res, bar):
-        calls.append(res["gid"])
+        calls.append(res.gid)
         if len(calls) == 2:  # Ctrl-C after the second garment's first sample
-            write(writer, out, {**res, "samples": res["samples"][:1]}, bar)
+            write(writer, out, dataclasses.replace(res, samples=res.samples[:1]), bar)
             raise KeyboardInterrupt
         write(writer, out, res, bar)
 
-    monkeypatch.setattr(wardrobe, "_write_garment", write_then_interrupt)
+    monkeypatch.setattr(common, "_write_garment", write_then_interrupt)
     with pytest.raises(KeyboardInterrupt):
         generate_dataset(out, seed=pin.seed, **pin.params, executor=canon_cluster)
-    monkeypatch.setattr(wardrobe, "_write_garment", write)
+    monkeypatch.setattr(common, "_write_garment", write)
     first = pd.read_parquet(out / "manifest.parquet")
     n_first = len(first)
     assert n_first == 5 and first["garment_id"].nunique() == 2  # 4 + 1 samples written

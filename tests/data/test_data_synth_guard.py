@@ -21,19 +21,19 @@ def test_an_unmarked_test_may_not_build_generator_2_data(tmp_path):
 
 
 def test_the_guard_holds_for_the_generator_called_directly(tmp_path):
-    from dressmeup.data.synth.wardrobe import generate_v3  # the guarded name, as tests import it
+    from dressmeup.data.synth.generator2 import generate_2x  # the guarded name, as tests import it
 
     with pytest.raises(pytest.fail.Exception, match="cpu_kernels"):
-        generate_v3(tmp_path / "d", subjects=1, poses=1, garments_per_split=(0, 0, 1))
+        generate_2x(tmp_path / "d", subjects=1, poses=1, garments_per_split=(0, 0, 1))
 
 
 @pytest.mark.cpu_kernels
 def test_a_marked_test_reaches_the_generator(tmp_path):
-    from dressmeup.data.synth.wardrobe import generate_v3  # the guarded name, as tests import it
+    from dressmeup.data.synth.generator2 import generate_2x  # the guarded name, as tests import it
 
     # past the guard, the generator itself answers (a bad argument, refused before any work)
     with pytest.raises(ValueError, match="scan_body"):
-        generate_v3(tmp_path / "d", subjects=1, poses=1, garments_per_split=(0, 0, 1),
+        generate_2x(tmp_path / "d", subjects=1, poses=1, garments_per_split=(0, 0, 1),
                     scan_body="nope")
 
 

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from dressmeup.bench import load_edition
+from dressmeup.data.synth.common import generator_params, plan_2x, wearers
 from dressmeup.data.synth.poses import pose_names
 from dressmeup.data.synth.scans import clothed_scan, covered_vertices
-from dressmeup.data.synth.wardrobe import generator_params, plan_v3, wearers
 from dressmeup.errors import InputError
 
 #: generator 2.1.0's registration data (its pose sets and wear modes exist only in 2.x)
@@ -35,7 +35,7 @@ PINNED_PLANS = {
 def _plan(name: str) -> dict:
     ed = load_edition(name)
     p = ed.dataset.params
-    return plan_v3(p["subjects"], p["poses"], tuple(p["garments_per_split"]), ed.dataset.seed,
+    return plan_2x(p["subjects"], p["poses"], tuple(p["garments_per_split"]), ed.dataset.seed,
                    p.get("categories"), **{k: p[k] for k in ("pose_set", "wear") if k in p})
 
 
@@ -50,9 +50,9 @@ def test_default_plans_are_unchanged(name):
 
 def test_default_parameters_are_not_recorded():
     base = dict(subjects=2, poses=2, pose_steps=2)
-    assert generator_params(**base, pose_set="generator", wear="all", scan_body="whole") == \
-        {"version": "2.1.0", **base}
-    rec = generator_params(**base, pose_set="registration", wear="rotate",
+    assert generator_params("2.1.0", **base, pose_set="generator", wear="all",
+                            scan_body="whole") == {"version": "2.1.0", **base}
+    rec = generator_params("2.1.0", **base, pose_set="registration", wear="rotate",
                            scan_body="uncovered")
     assert (rec["pose_set"], rec["wear"], rec["scan_body"]) == \
         ("registration", "rotate", "uncovered")
@@ -60,21 +60,21 @@ def test_default_parameters_are_not_recorded():
 
 def test_registration_pose_set_draws_the_hard_poses():
     assert pose_names("registration") == HARD_POSES
-    plan = plan_v3(2, 6, (0, 0, 1), 0, pose_set="registration")
+    plan = plan_2x(2, 6, (0, 0, 1), 0, pose_set="registration")
     assert list(plan["poses"].values()) == HARD_POSES
-    assert list(plan_v3(2, 3, (0, 0, 1), 0, pose_set="registration")["poses"].values()) == \
+    assert list(plan_2x(2, 3, (0, 0, 1), 0, pose_set="registration")["poses"].values()) == \
         HARD_POSES[:3]
     # 'all': the generator's order first, then the hard poses
     tuning = pose_names("registration-tuning")
-    every = list(plan_v3(1, 16 + len(tuning), (0, 0, 1), 0, pose_set="all")["poses"].values())
+    every = list(plan_2x(1, 16 + len(tuning), (0, 0, 1), 0, pose_set="all")["poses"].values())
     assert every[10:16] == HARD_POSES and every[:3] == ["sitting", "arms-raised", "walking"]
     assert every[16:] == tuning
     with pytest.raises(ValueError, match="poses"):
-        plan_v3(2, 7, (0, 0, 1), 0, pose_set="registration")
+        plan_2x(2, 7, (0, 0, 1), 0, pose_set="registration")
     with pytest.raises(ValueError, match="pose_set"):
-        plan_v3(2, 2, (0, 0, 1), 0, pose_set="hard")
+        plan_2x(2, 2, (0, 0, 1), 0, pose_set="hard")
     with pytest.raises(ValueError, match="wear"):
-        plan_v3(2, 2, (0, 0, 1), 0, wear="some")
+        plan_2x(2, 2, (0, 0, 1), 0, wear="some")
 
 
 def test_edition_plan_one_garment_per_sample():
@@ -101,9 +101,9 @@ def test_registration_poses_keep_the_arms_out_of_the_body():
     import pymeshlab
 
     from dressmeup.body import BodyParams, get_body_model
+    from dressmeup.data.synth.common import SUBJECTS
     from dressmeup.data.synth.garments import BodyFrame
     from dressmeup.data.synth.poses import pose_axis_angle
-    from dressmeup.data.synth.wardrobe import SUBJECTS
 
     model = get_body_model("anny")
     keep, F = model.skin()
@@ -136,10 +136,10 @@ def test_generator_1_refuses_the_new_parameters(tmp_path):
 
 
 def test_unknown_scan_body_is_refused_before_anything_is_written(tmp_path):
-    from dressmeup.data.synth.wardrobe import generate_v3
+    from dressmeup.data.synth.generator2 import generate_2x
 
     with pytest.raises(ValueError, match="scan_body"):
-        generate_v3(tmp_path / "d", subjects=1, poses=1, garments_per_split=(0, 0, 1),
+        generate_2x(tmp_path / "d", subjects=1, poses=1, garments_per_split=(0, 0, 1),
                     body_model="procedural", scan_body="naked")
     assert not (tmp_path / "d").exists()
 

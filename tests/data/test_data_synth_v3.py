@@ -17,7 +17,7 @@ from dressmeup import runs
 from dressmeup.bench import load_edition
 from dressmeup.bench.tasks.common import manifest_sha256
 from dressmeup.data import Dataset
-from dressmeup.data.synth.wardrobe import SUBJECTS, plan_v3
+from dressmeup.data.synth.common import SUBJECTS, plan_2x
 
 #: generator 2.1.0's data and their pins: what this module tests is that dependence on the
 #: CPU's float kernels (a known other machine's manifest is an expected failure)
@@ -37,7 +37,7 @@ def tiny():
 def test_plan_of_the_full_edition():
     ed = load_edition("synth-retarget-v3")
     p = ed.dataset.params
-    plan = plan_v3(p["subjects"], p["poses"], tuple(p["garments_per_split"]), ed.dataset.seed)
+    plan = plan_2x(p["subjects"], p["poses"], tuple(p["garments_per_split"]), ed.dataset.seed)
     by = {}
     for g in plan["garments"].values():
         by.setdefault(g["category"], []).append(g["split"])

@@ -156,18 +156,45 @@ def _self_pairs(x: np.ndarray, rest_V: np.ndarray, thickness: float) -> np.ndarr
 
 def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=None,
            exact_faces=False):
-    # heavy: torch (~1.1 s to import)
-    import torch
-
     s = settings or DrapeSettings()
     F = np.asarray(faces, np.int64)
     rest_V = np.asarray(rest_V, np.float64)
     x0 = np.asarray(skinned, np.float64)
     up = np.asarray(up, np.float64) / np.linalg.norm(up)
     E = edges(F)
+    L = np.linalg.norm(rest_V[E[:, 1]] - rest_V[E[:, 0]], axis=1)
+    energy = _energy(s, rest_V, F, E, L, x0, up, support)
+    x0_start = x0 if start is None else np.asarray(start, np.float64)
+    xf, e_start, e_end = _relax(energy, s, rest_V, body_V, body_F, x0_start, exact_faces)
+    sd, p, n = _body_query(body_V, body_F, xf, exact_faces)
+    fix = sd < s.clearance
+    xf[fix] = p[fix] + n[fix] * s.clearance
+    sd_final = _body_query(body_V, body_F, xf, exact_faces)[0]
+    le = np.linalg.norm(xf[E[:, 1]] - xf[E[:, 0]], axis=1)
+    dist = np.linalg.norm(xf - x0, axis=1)
+    stats = {"skinning_mean_m": float(dist.mean()), "skinning_max_m": float(dist.max()),
+             "min_signed_distance_m": float(sd_final.min()),
+             "projected_vertices": int(fix.sum()),
+             "stretch_mean": float(np.mean(np.abs(le / L - 1.0))),
+             "skinned_stretch_mean": float(np.mean(np.abs(
+                 np.linalg.norm(x0[E[:, 1]] - x0[E[:, 0]], axis=1) / L - 1.0))),
+             "skinned_min_signed_distance_m": float(
+                 _body_query(body_V, body_F, x0, exact_faces)[0].min()),
+             "energy_start": e_start, "energy_end": e_end}
+    return DrapeResult(xf, x0, stats)
+
+
+def _energy(s: DrapeSettings, rest_V: np.ndarray, F: np.ndarray, E: np.ndarray,
+            L: np.ndarray, x0: np.ndarray, up: np.ndarray, support: np.ndarray):
+    """The energy of the module docstring as a torch function ``energy(x, p, n, active,
+    pairs=None)`` of the vertices ``x`` (tensor), the closest body points ``p`` and outward
+    directions ``n``, the collision mask ``active`` and the self-collision pairs, divided by
+    the garment's weight x 1 cm (O(1) for the solver); ``E``, ``L``: edges and rest lengths."""
+    # heavy: torch (~1.1 s to import)
+    import torch
+
     H = hinge_pairs(F)
     A_v = _vertex_areas(rest_V, F)
-    L = np.linalg.norm(rest_V[E[:, 1]] - rest_V[E[:, 0]], axis=1)
     LH = np.linalg.norm(rest_V[H[:, 1]] - rest_V[H[:, 0]], axis=1)
     A_e = (A_v[E[:, 0]] + A_v[E[:, 1]]) * 0.5
     A_h = (A_v[H[:, 0]] + A_v[H[:, 1]]) * 0.5
@@ -178,7 +205,6 @@ def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=
     tE, tH = t(E, torch.int64), t(H, torch.int64)
     tL, tLH, tAe, tAh, tAv = t(L), t(LH), t(A_e), t(A_h), t(A_v)
     tm, tup, tsup, tx0 = t(mass), t(up), t(np.asarray(support, np.float64)), t(x0)
-    tpairs = t(np.zeros((0, 2), np.int64), torch.int64)
 
     def energy(x, p, n, active, pairs=None):
         e = x[tE[:, 1]] - x[tE[:, 0]]
@@ -200,8 +226,21 @@ def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=
             total = total + 0.5 * s.self_stiffness * (w * gap ** 2).sum()
         return norm * total
 
-    x0_start = x0 if start is None else np.asarray(start, np.float64)
-    x = t(x0_start).clone().requires_grad_(True)
+    return energy
+
+
+def _relax(energy, s: DrapeSettings, rest_V: np.ndarray, body_V: np.ndarray,
+           body_F: np.ndarray, x_start: np.ndarray, exact_faces: bool
+           ) -> tuple[np.ndarray, float, float]:
+    """Minimise ``energy`` from ``x_start``: ``outer_iterations`` L-BFGS runs, the body's
+    closest points (and the self-collision pairs) found again before each; returns the
+    vertices and the energy at the start and at the end."""
+    # heavy: torch (~1.1 s to import)
+    import torch
+
+    t = lambda a, dt=torch.float64: torch.as_tensor(a, dtype=dt)  # noqa: E731
+    tpairs = t(np.zeros((0, 2), np.int64), torch.int64)
+    x = t(x_start).clone().requires_grad_(True)
     e_start = e_end = float("nan")
     for it in range(max(1, s.outer_iterations)):
         xn = x.detach().numpy()
@@ -226,20 +265,4 @@ def _drape(rest_V, faces, skinned, support, body_V, body_F, up, settings, start=
         opt.step(closure)
         with torch.no_grad():
             e_end = float(energy(x, tp, tn, active, tpairs))
-    xf = x.detach().numpy().copy()
-    sd, p, n = _body_query(body_V, body_F, xf, exact_faces)
-    fix = sd < s.clearance
-    xf[fix] = p[fix] + n[fix] * s.clearance
-    sd_final = _body_query(body_V, body_F, xf, exact_faces)[0]
-    le = np.linalg.norm(xf[E[:, 1]] - xf[E[:, 0]], axis=1)
-    dist = np.linalg.norm(xf - x0, axis=1)
-    stats = {"skinning_mean_m": float(dist.mean()), "skinning_max_m": float(dist.max()),
-             "min_signed_distance_m": float(sd_final.min()),
-             "projected_vertices": int(fix.sum()),
-             "stretch_mean": float(np.mean(np.abs(le / L - 1.0))),
-             "skinned_stretch_mean": float(np.mean(np.abs(
-                 np.linalg.norm(x0[E[:, 1]] - x0[E[:, 0]], axis=1) / L - 1.0))),
-             "skinned_min_signed_distance_m": float(
-                 _body_query(body_V, body_F, x0, exact_faces)[0].min()),
-             "energy_start": e_start, "energy_end": e_end}
-    return DrapeResult(xf, x0, stats)
+    return x.detach().numpy().copy(), e_start, e_end

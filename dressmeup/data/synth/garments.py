@@ -289,40 +289,74 @@ def build_garment(garment_type: str, params: dict[str, Any], body_V: np.ndarray,
         raise ValueError(f"garment_type: expected one of {sorted(garment_types())}, got "
                          f"{garment_type!r}")
     spec = garment_types()[garment_type]
-    h = float(voxel or edge_length / 2)
-    J, up = frame.joints, frame.up
-    off = params["offset"]
-    hip_h = 0.5 * (frame.h(J["left_hip"]) + frame.h(J["right_hip"]))
-    ankle_h = 0.5 * (frame.h(J["left_ankle"]) + frame.h(J["right_ankle"]))
+    J = frame.joints
     body_tree = cKDTree(body_V)
 
     def near_label(x):
         return labels[body_tree.query(x)[1]]
 
+    c = _Cut(params=params, frame=frame, labels=labels, near_label=near_label,
+             is_top="neck_drop" in spec, has_skirt=bool(spec.get("skirt")),
+             hip_h=0.5 * (frame.h(J["left_hip"]) + frame.h(J["right_hip"])),
+             ankle_h=0.5 * (frame.h(J["left_ankle"]) + frame.h(J["right_ankle"])),
+             h=float(voxel or edge_length / 2))
+    planes = _cut_planes(c)
+    GV, S, n = _garment_sdf(c, planes, body_V, body_F)
+    V, F = _cut_surface(c, planes, GV, S, n, edge_length)
+    # orient outward (away from the body)
+    cen = V[F].mean(1)
+    _, p, _ = closest_points(body_V, body_F, cen)
+    if np.sum(face_normals(V, F) * (cen - p)) < 0:
+        F = F[:, [0, 2, 1]]
+    uv, uvf = _uv(V, F)
+    return RestGarment(garment_type, spec["category"], dict(params), V, F, uv, uvf,
+                       _support(c, V))
+
+
+@dataclass
+class _Cut:
+    """What the steps of :func:`build_garment` share: the garment's parameters, the body's
+    frame and joint labels, the kind of garment and the grid step."""
+
+    params: dict[str, Any]
+    frame: BodyFrame
+    labels: np.ndarray  # dominant joint of each body vertex
+    near_label: Any  # x (k, 3) -> label of the closest body vertex of each point
+    is_top: bool
+    has_skirt: bool
+    hip_h: float  # heights along the frame's up
+    ankle_h: float
+    h: float  # marching-cubes grid step
+
+
+def _cut_planes(c: _Cut) -> list[Plane]:
+    """The planes that cut the garment: neckline, waist, hem, leg and sleeve ends."""
+    frame, params = c.frame, c.params
+    J, up = frame.joints, frame.up
     planes: list[Plane] = []
-    is_top = "neck_drop" in spec
-    has_skirt = bool(spec.get("skirt"))
-    if is_top:
+    if c.is_top:
         neck_cut = frame.h(J["neck"]) - params["neck_drop"]
         r_neck = np.linalg.norm(J["left_collar"] - J["right_collar"]) * 0.5 + 0.06
 
         def neck_region(x, r=r_neck):
             d = x - J["neck"]
             radial = np.linalg.norm(d - np.outer(d @ up, up), axis=1)
-            return (radial < r) | np.isin(near_label(x), ("neck", "head"))
+            return (radial < r) | np.isin(c.near_label(x), ("neck", "head"))
 
         planes.append(Plane(up * neck_cut, -up, region=neck_region))
     if "waist_above_pelvis" in params:
         planes.append(Plane(up * (frame.h(J["pelvis"]) + params["waist_above_pelvis"]), -up))
-    if "hem_below_hip" in params and not has_skirt:
-        planes.append(Plane(up * (hip_h - params["hem_below_hip"]), up))
-    if has_skirt:
-        planes.append(Plane(up * (hip_h - params["skirt_hem_frac"] * (hip_h - ankle_h)), up))
+    if "hem_below_hip" in params and not c.has_skirt:
+        planes.append(Plane(up * (c.hip_h - params["hem_below_hip"]), up))
+    if c.has_skirt:
+        planes.append(Plane(up * (c.hip_h - params["skirt_hem_frac"] * (c.hip_h - c.ankle_h)),
+                            up))
     if "leg_frac" in params:
-        planes.append(Plane(up * (hip_h - params["leg_frac"] * (hip_h - ankle_h)), up))
+        planes.append(Plane(up * (c.hip_h - params["leg_frac"] * (c.hip_h - c.ankle_h)), up))
+
     def on_side(side):
         names = [f"{side}_{j}" for j in ("shoulder", "elbow", "wrist")]
-        return lambda x: np.isin(near_label(x), names)
+        return lambda x: np.isin(c.near_label(x), names)
 
     if params.get("sleeve_frac") is not None:
         for side in ("left", "right"):
@@ -330,38 +364,60 @@ def build_garment(garment_type: str, params: dict[str, Any], body_V: np.ndarray,
             a = (wr - sh) / np.linalg.norm(wr - sh)
             planes.append(Plane(sh + a * params["sleeve_frac"] * np.linalg.norm(wr - sh), -a,
                                 region=on_side(side)))
+    return planes
+
+
+def _garment_sdf(c: _Cut, planes: list[Plane], body_V: np.ndarray, body_F: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The garment's implicit surface on a grid around the body's region of interest: grid
+    points ``GV``, values ``S`` (zero on the garment, the body's offset surface united with
+    the skirt's cone) and the grid's shape ``n``."""
+    frame, params, h = c.frame, c.params, c.h
+    J, off = frame.joints, params["offset"]
     # region of interest: body vertices on the kept side of every plane (+ margin)
-    keep_body = ~np.isin(labels, ARM_JOINTS) if params.get("sleeve_frac") is None else \
+    keep_body = ~np.isin(c.labels, ARM_JOINTS) if params.get("sleeve_frac") is None else \
         np.ones(len(body_V), bool)
     for pl in planes:
         keep_body &= pl.value(body_V) > -0.03
-    if not is_top and not has_skirt:
+    if not c.is_top and not c.has_skirt:
         keep_body &= frame.h(body_V) < frame.h(J["spine2"])
-    if is_top:
-        keep_body &= frame.h(body_V) > hip_h - 0.25
+    if c.is_top:
+        keep_body &= frame.h(body_V) > c.hip_h - 0.25
     pad = off + 4 * h + 0.03
     lo, hi = body_V[keep_body].min(0) - pad, body_V[keep_body].max(0) + pad
-    if has_skirt:
-        drop = hip_h - ankle_h
+    if c.has_skirt:
+        drop = c.hip_h - c.ankle_h
         lo = np.minimum(lo, body_V[keep_body].min(0) - pad - params["flare"] * drop)
         hi = np.maximum(hi, body_V[keep_body].max(0) + pad + params["flare"] * drop)
     GV, S, n = _grid_sdf(body_V, body_F, lo, hi, h, level=off)
     S = S - off
-    if has_skirt:
-        # flared elliptic cone around both legs, from the hips down
-        c = J["pelvis"]
-        near_hip = (np.abs(frame.h(body_V) - hip_h) < 0.04) & ~np.isin(labels, ARM_JOINTS)
-        rel = body_V[near_hip] - c
-        a_lat = np.abs(rel @ frame.left).max() + off
-        a_fwd = np.abs(rel @ frame.forward).max() + off
-        d = GV - c
-        below = np.maximum(hip_h - frame.h(GV), 0.0)
-        grow = params["flare"] * below
-        ex, ez = d @ frame.left / (a_lat + grow), d @ frame.forward / (a_fwd + grow)
-        rr = np.sqrt(ex**2 + ez**2)
-        cone = (rr - 1.0) * np.minimum(a_lat, a_fwd)
-        cone = np.where(frame.h(GV) > hip_h + 0.02, np.inf, cone)
-        S = np.minimum(S, cone)
+    if c.has_skirt:
+        S = np.minimum(S, _skirt_cone(c, GV, body_V))
+    return GV, S, n
+
+
+def _skirt_cone(c: _Cut, GV: np.ndarray, body_V: np.ndarray) -> np.ndarray:
+    """The flared elliptic cone around both legs, from the hips down, at the grid points
+    ``GV`` (a signed distance, scaled; infinite above the hips)."""
+    frame, hip_h, off = c.frame, c.hip_h, c.params["offset"]
+    centre = frame.joints["pelvis"]
+    near_hip = (np.abs(frame.h(body_V) - hip_h) < 0.04) & ~np.isin(c.labels, ARM_JOINTS)
+    rel = body_V[near_hip] - centre
+    a_lat = np.abs(rel @ frame.left).max() + off
+    a_fwd = np.abs(rel @ frame.forward).max() + off
+    d = GV - centre
+    below = np.maximum(hip_h - frame.h(GV), 0.0)
+    grow = c.params["flare"] * below
+    ex, ez = d @ frame.left / (a_lat + grow), d @ frame.forward / (a_fwd + grow)
+    rr = np.sqrt(ex**2 + ez**2)
+    cone = (rr - 1.0) * np.minimum(a_lat, a_fwd)
+    return np.where(frame.h(GV) > hip_h + 0.02, np.inf, cone)
+
+
+def _cut_surface(c: _Cut, planes: list[Plane], GV: np.ndarray, S: np.ndarray, n: np.ndarray,
+                 edge_length: float) -> tuple[np.ndarray, np.ndarray]:
+    """The zero level of ``S`` meshed, cut by the planes (no arms for sleeveless garments,
+    never the feet), its largest piece with smoothed boundary, remeshed: ``(V, F)``."""
     # heavy: igl (~0.4 s to import)
     import igl
 
@@ -371,30 +427,27 @@ def build_garment(garment_type: str, params: dict[str, Any], body_V: np.ndarray,
     keep_v = np.ones(len(MV), bool)
     for pl in planes:
         keep_v &= pl.value(MV) > 0
-    if params.get("sleeve_frac") is None:  # sleeveless tops and all bottoms: no arms
-        keep_v &= ~np.isin(near_label(MV), ARM_JOINTS)
-    if not has_skirt:
-        keep_v &= frame.h(MV) > ankle_h  # never the feet
+    if c.params.get("sleeve_frac") is None:  # sleeveless tops and all bottoms: no arms
+        keep_v &= ~np.isin(c.near_label(MV), ARM_JOINTS)
+    if not c.has_skirt:
+        keep_v &= c.frame.h(MV) > c.ankle_h  # never the feet
     F = MF[keep_v[MF].all(1)]
     F = _largest_component(F, len(MV))
     V, F = _compact(MV, F)
-    V = _smooth_boundary(V, F, planes, h)
+    V = _smooth_boundary(V, F, planes, c.h)
     V, F = _remesh(V, F, edge_length)
     F = _largest_component(F, len(V))
-    V, F = _compact(V, F)
-    # orient outward (away from the body)
-    cen = V[F].mean(1)
-    _, p, _ = closest_points(body_V, body_F, cen)
-    if np.sum(face_normals(V, F) * (cen - p)) < 0:
-        F = F[:, [0, 2, 1]]
-    uv, uvf = _uv(V, F)
-    # support: where the garment hangs from the body
-    if is_top:
+    return _compact(V, F)
+
+
+def _support(c: _Cut, V: np.ndarray) -> np.ndarray:
+    """Where the garment ``V (n, 3)`` hangs from the body: 1 at the shoulders of a top, at
+    the waistband of a bottom, else 0."""
+    frame, J = c.frame, c.frame.joints
+    if c.is_top:
         top = frame.h(J["left_collar"]) - 0.03
         lateral = np.abs((V - J["neck"]) @ frame.left)
         reach = 0.5 * np.linalg.norm(J["left_shoulder"] - J["right_shoulder"])
-        support = ((frame.h(V) > top) & (lateral < reach)).astype(np.float64)
-    else:
-        waist = frame.h(J["pelvis"]) + params["waist_above_pelvis"]
-        support = (frame.h(V) > waist - 0.04).astype(np.float64)
-    return RestGarment(garment_type, spec["category"], dict(params), V, F, uv, uvf, support)
+        return ((frame.h(V) > top) & (lateral < reach)).astype(np.float64)
+    waist = frame.h(J["pelvis"]) + c.params["waist_above_pelvis"]
+    return (frame.h(V) > waist - 0.04).astype(np.float64)

@@ -21,6 +21,7 @@ import logging
 import os
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -43,13 +44,13 @@ from dressmeup.data.synth.garments import (
     garment_types,
     sample_params,
 )
+from dressmeup.data.synth.generator2 import VERSION, generate_2x
+from dressmeup.data.synth.generator3 import VERSION as V3
+from dressmeup.data.synth.generator3 import generate_3x
 from dressmeup.data.synth.poses import pose_axis_angle, pose_names
-from dressmeup.data.synth.simulated import VERSION as V3
-from dressmeup.data.synth.simulated import generate_v4
-from dressmeup.data.synth.simulation import DressSettings
+from dressmeup.data.synth.quasistatic import DressSettings
 from dressmeup.data.synth.stats import summarize_stats
 from dressmeup.data.synth.texture import procedural_texture
-from dressmeup.data.synth.wardrobe import VERSION, generate_v3
 from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
@@ -119,9 +120,9 @@ def generate_dataset(out: str | os.PathLike, config: SynthConfig | None = None, 
     **settings : fields of ``SynthConfig`` replacing those of ``config``, e.g.
         ``generate_dataset(out, version="2.1.0", subjects=4, poses=3)``.
 
-    ``version="3.0.0"`` runs generator 3.0.0 (:func:`dressmeup.data.synth.simulated.generate_v4`:
+    ``version="3.0.0"`` runs generator 3.0.0 (:func:`dressmeup.data.synth.generator3.generate_3x`:
     the plan of 2.1.0, every garment dressed by simulation from its design body at rest);
-    ``version="2.1.0"`` runs generator 2.1.0 (:func:`dressmeup.data.synth.wardrobe.generate_v3`:
+    ``version="2.1.0"`` runs generator 2.1.0 (:func:`dressmeup.data.synth.generator2.generate_2x`:
     every garment worn by every subject, identical poses); ``"1.1.0"`` runs the generator
     below (the ``*-v2`` editions' data): each subject wears its own garments in jittered
     poses, splits by garment (stratified by category or random, recorded in
@@ -152,7 +153,7 @@ def _generate_3x(out: str | os.PathLike, c: SynthConfig, workers: int, executor:
     if (c.pose_set, c.wear) != ("generator", "all"):
         raise InputError(f"pose_set={c.pose_set!r}, wear={c.wear!r}: generator {V3} dresses "
                          "every garment on every subject in the generator poses")
-    return generate_v4(out, subjects=c.subjects, poses=c.poses,
+    return generate_3x(out, subjects=c.subjects, poses=c.poses,
                        garments_per_split=c.garments_per_split or (6, 2, 4), seed=c.seed,
                        body_model=c.body_model, categories=c.categories,
                        edge_length=c.edge_length, write_scan=c.write_scan,
@@ -168,13 +169,14 @@ def _generate_2x(out: str | os.PathLike, c: SynthConfig, workers: int, executor:
                    "docs/synthetic-data.md, Reproducibility)" if c.version == "2.0.0" else "")
         raise InputError(f"version: this toolkit generates 2.x as {VERSION}, got "
                          f"{c.version!r}{retired}")
-    return generate_v3(out, **v3_arguments(c), workers=workers,
+    return generate_2x(out, **arguments_2x(c), workers=workers,
                        **({"executor": executor} if executor is not None else {}))
 
 
-def v3_arguments(c: SynthConfig) -> dict[str, Any]:
-    """The keyword arguments of generator 2.x (:func:`~dressmeup.data.synth.wardrobe.generate_v3`
-    and :func:`~dressmeup.data.synth.wardrobe.prepare_v3`) that config ``c`` sets."""
+def arguments_2x(c: SynthConfig) -> dict[str, Any]:
+    """The keyword arguments of generator 2.x
+    (:func:`~dressmeup.data.synth.generator2.generate_2x` and
+    :func:`~dressmeup.data.synth.generator2.prepare_2x`) that config ``c`` sets."""
     return dict(subjects=c.subjects, poses=c.poses,
                 garments_per_split=c.garments_per_split or (6, 2, 4), seed=c.seed,
                 body_model=c.body_model, categories=c.categories, edge_length=c.edge_length,
@@ -185,74 +187,31 @@ def v3_arguments(c: SynthConfig) -> dict[str, Any]:
 
 def _generate_1x(out: str | os.PathLike, c: SynthConfig) -> Path:
     """Generator 1.1.0 (module docstring)."""
-    version, subjects, garments, poses, seed = c.version, c.subjects, c.garments, c.poses, c.seed
-    body_model, registration_noise, edge_length = c.body_model, c.registration_noise, c.edge_length
-    write_scan, types, split_fractions = c.write_scan, c.types, c.split_fractions
-    drape_settings, texture_size, split_strategy = c.drape_settings, c.texture_size, c.split_strategy
-    pose_set, wear, scan_body = c.pose_set, c.wear, c.scan_body
-    if version != GENERATOR_VERSION:
-        raise InputError(f"version: expected {GENERATOR_VERSION!r}, '2.1.0' or '3.0.0', got "
-                         f"{version!r}")
-    if (pose_set, wear, scan_body) != ("generator", "all", "whole"):
-        raise InputError(f"pose_set={pose_set!r}, wear={wear!r}, scan_body={scan_body!r}: "
-                         f"generator {GENERATOR_VERSION} draws generator poses for every "
-                         f"garment and writes whole-body scans; use version='2.1.0'")
-    for v, n in ((subjects, "subjects"), (garments, "garments"), (poses, "poses")):
-        if not isinstance(v, (int, np.integer)) or v < 1:
-            raise InputError(f"{n}: expected a positive integer, got {v!r}")
-    if poses < 2:
-        log.warning("poses=1 gives no retargeting pairs")
-    if registration_noise < 0:
-        raise InputError(f"registration_noise: expected >= 0, got {registration_noise}")
-    all_types = sorted(garment_types())
-    types = sorted(types) if types else all_types
-    bad = [t for t in types if t not in all_types]
-    if bad:
-        raise InputError(f"types: unknown {bad}; known {all_types}")
-    edge = float(edge_length or DEFAULT_EDGE_LENGTH.get(body_model, 0.015))
-    settings = drape_settings or DrapeSettings()
+    types = _check_1x(c)
+    edge = float(c.edge_length or DEFAULT_EDGE_LENGTH.get(c.body_model, 0.015))
+    settings = c.drape_settings or DrapeSettings()
     t_start = time.perf_counter()
-    model = get_body_model(body_model)
+    model = get_body_model(c.body_model)
     keep, skin_F = _skin(model)
     names = tuple(model.joint_names)
     labels = np.array(names)[np.asarray(model.skinning_weights)[keep].argmax(1)]
     rest0 = model.posed(model.default_params())
     frame0 = BodyFrame.from_joints(rest0.rest_joints, names)
-    plan = plan_dataset(subjects, garments, poses, seed, types, model, frame0)
+    plan = plan_dataset(c.subjects, c.garments, c.poses, c.seed, types, model, frame0)
     categories = {g: v["category"] for g, v in plan["garments"].items()}
-    splits = split_by_garment(list(plan["garments"]), split_fractions, seed=seed,
-                              categories=categories, strategy=split_strategy)
-    params = {"subjects": subjects, "garments": garments, "poses": poses, "seed": seed,
-              "body_model": body_model, "registration_noise": registration_noise,
-              "edge_length": edge, "write_scan": write_scan, "types": types,
-              "split_fractions": list(split_fractions), "split_strategy": split_strategy,
-              "texture_size": texture_size,
-              "drape": settings.to_dict()}
-    info = {
-        "name": "dressmeup-synthetic",
-        "version": GENERATOR_VERSION,
-        "licence": "CC0-1.0 (generated data; anny body model data is CC0)",
-        "description": "Synthetic DressMeUp-style dataset: parametric garments draped by "
-                       "skinning + quasi-static cloth relaxation on posed bodies.",
-        "body_model": body_model,
-        "categories": sorted({garment_types()[t]["category"] for t in types}),
-        "citation": "dressmeup toolkit, synthetic generator " + GENERATOR_VERSION,
-        "generator": {"name": "dressmeup.data.synth", "version": GENERATOR_VERSION,
-                      "seed": seed, "params": params},
-        "subjects": plan["subjects"],
-        "garments": {g: {**v, "split": splits[g]} for g, v in plan["garments"].items()},
-    }
+    splits = split_by_garment(list(plan["garments"]), c.split_fractions, seed=c.seed,
+                              categories=categories, strategy=c.split_strategy)
     out = Path(out)
-    writer = DatasetWriter(out, info)
-    stats_dir = out / "generator" / "stats"
-    todo = [(g, gi) for g, gi in plan["garments"].items()]
-    jobs = [(g, f"P{k + 1}") for g, _ in todo for k in range(poses)]
-    bar = progress(range(len(jobs)), desc="synth", total=len(jobs))
+    run = _Run1x(c=c, model=model, keep=keep, skin_F=skin_F, names=names, labels=labels,
+                 edge=edge, settings=settings, splits=splits, out=out,
+                 writer=DatasetWriter(out, _info_1x(c, plan, splits, types, edge, settings)))
+    n_samples = len(plan["garments"]) * c.poses
+    bar = progress(range(n_samples), desc="synth", total=n_samples)
     body_cache: dict[str, Any] = {}
-    for gid, g in todo:
+    for gid, g in plan["garments"].items():
         sid = g["subject"]
-        sample_ids = [f"{sid}-{gid}-P{k + 1}" for k in range(poses)]
-        if all(writer.has_sample(x) for x in sample_ids):
+        sample_ids = [f"{sid}-{gid}-P{k + 1}" for k in range(c.poses)]
+        if all(run.writer.has_sample(x) for x in sample_ids):
             for _ in sample_ids:
                 next(bar, None)
             continue
@@ -263,57 +222,139 @@ def _generate_1x(out: str | os.PathLike, c: SynthConfig) -> Path:
                                           pose=np.zeros((len(names), 3)), gender=model.gender
                                           if hasattr(model, "gender") else "neutral"))
             body_cache = {sid: rest}
-        rest = body_cache[sid]
-        frame = BodyFrame.from_joints(rest.rest_joints, names)
-        rest_V = rest.rest_vertices[keep]
-        garment = build_garment(g["type"], g["params"], rest_V, skin_F, labels, frame,
-                                edge_length=edge)
-        W = garment_weights(garment, rest_V, skin_F, np.asarray(model.skinning_weights)[keep],
-                             names, frame)
-
-        save_mesh(out / "generator" / "rest" / f"{gid}.ply", garment.vertices, garment.faces,
-                  uv=garment.uv, uv_faces=garment.uv_faces)
-        tex, pattern = procedural_texture(np.random.default_rng([seed, 7919, int(gid[1:])]),
-                                          texture_size)
-        for k in range(poses):
-            pid = f"P{k + 1}"
-            sample_id = f"{sid}-{gid}-{pid}"
-            next(bar, None)
-            if writer.has_sample(sample_id):
-                continue
-            prng = np.random.default_rng([seed, int(sid[1:]), k, 1])
-            pose = pose_axis_angle(subj["poses"][pid], names, frame, rng=prng)
-            bp = BodyParams(model=model.name, shape=shape, pose=pose,
-                            gender=getattr(model, "gender", "neutral"))
-            posed = model.posed(bp)
-
-            skinned = lbs(garment.vertices, W, posed.transforms)
-            res = drape(garment.vertices, garment.faces, skinned, garment.support,
-                        posed.vertices[keep], skin_F, frame.up, settings)
-            stored = bp
-            if registration_noise > 0:
-                nrng = np.random.default_rng([seed, int(sid[1:]), k, 2])
-                stored = BodyParams(
-                    model=model.name, gender=bp.gender,
-                    shape=np.clip(shape + nrng.normal(0, registration_noise, shape.shape), 0, 1),
-                    pose=pose + nrng.normal(0, registration_noise, pose.shape))
-            scan = None
-            if write_scan:
-                BV = posed.vertices
-                scan = (np.vstack([BV, res.vertices]),
-                        np.vstack([np.asarray(model.faces, np.int64), garment.faces + len(BV)]))
-            # the stats file first: a sample is skipped on resume once its manifest row
-            # exists, so everything else of the sample must be on disk before that row
-            st = {**res.stats, "pose": subj["poses"][pid], "garment_type": g["type"],
-                  "texture": pattern}
-            atomic_write_text(stats_dir / f"{sample_id}.json", json.dumps(st, indent=1) + "\n")
-            writer.add_sample(subject_id=sid, garment_id=gid, pose_id=pid,
-                              category=garment.category, garment_type=garment.garment_type,
-                              split=splits[gid],
-                              garment=(res.vertices, garment.faces, garment.uv, garment.uv_faces),
-                              body=stored, scan=scan, texture=tex)
+        run.garment(gid, g, subj, shape, body_cache[sid], bar)
     for _ in bar:
         pass
-    report = summarize_stats(out, sample_ids=[r["sample_id"] for r in writer.rows])
-    return writer.finalize(report=report,
-                           timings={"last_run_s": round(time.perf_counter() - t_start, 2)})
+    report = summarize_stats(out, sample_ids=[r["sample_id"] for r in run.writer.rows])
+    return run.writer.finalize(report=report,
+                               timings={"last_run_s": round(time.perf_counter() - t_start, 2)})
+
+
+def _check_1x(c: SynthConfig) -> list[str]:
+    """The settings of generator 1.1.0 checked (``InputError``); the garment types to make."""
+    if c.version != GENERATOR_VERSION:
+        raise InputError(f"version: expected {GENERATOR_VERSION!r}, '2.1.0' or '3.0.0', got "
+                         f"{c.version!r}")
+    if (c.pose_set, c.wear, c.scan_body) != ("generator", "all", "whole"):
+        raise InputError(f"pose_set={c.pose_set!r}, wear={c.wear!r}, "
+                         f"scan_body={c.scan_body!r}: generator {GENERATOR_VERSION} draws "
+                         f"generator poses for every garment and writes whole-body scans; use "
+                         f"version='2.1.0'")
+    for v, n in ((c.subjects, "subjects"), (c.garments, "garments"), (c.poses, "poses")):
+        if not isinstance(v, (int, np.integer)) or v < 1:
+            raise InputError(f"{n}: expected a positive integer, got {v!r}")
+    if c.poses < 2:
+        log.warning("poses=1 gives no retargeting pairs")
+    if c.registration_noise < 0:
+        raise InputError(f"registration_noise: expected >= 0, got {c.registration_noise}")
+    all_types = sorted(garment_types())
+    types = sorted(c.types) if c.types else all_types
+    bad = [t for t in types if t not in all_types]
+    if bad:
+        raise InputError(f"types: unknown {bad}; known {all_types}")
+    return types
+
+
+def _info_1x(c: SynthConfig, plan: dict[str, Any], splits: dict[str, str], types: list[str],
+             edge: float, settings: DrapeSettings) -> dict[str, Any]:
+    """The ``dataset.json`` record of a generator-1.1.0 dataset (keys in written order)."""
+    params = {"subjects": c.subjects, "garments": c.garments, "poses": c.poses, "seed": c.seed,
+              "body_model": c.body_model, "registration_noise": c.registration_noise,
+              "edge_length": edge, "write_scan": c.write_scan, "types": types,
+              "split_fractions": list(c.split_fractions), "split_strategy": c.split_strategy,
+              "texture_size": c.texture_size,
+              "drape": settings.to_dict()}
+    return {
+        "name": "dressmeup-synthetic",
+        "version": GENERATOR_VERSION,
+        "licence": "CC0-1.0 (generated data; anny body model data is CC0)",
+        "description": "Synthetic DressMeUp-style dataset: parametric garments draped by "
+                       "skinning + quasi-static cloth relaxation on posed bodies.",
+        "body_model": c.body_model,
+        "categories": sorted({garment_types()[t]["category"] for t in types}),
+        "citation": "dressmeup toolkit, synthetic generator " + GENERATOR_VERSION,
+        "generator": {"name": "dressmeup.data.synth", "version": GENERATOR_VERSION,
+                      "seed": c.seed, "params": params},
+        "subjects": plan["subjects"],
+        "garments": {g: {**v, "split": splits[g]} for g, v in plan["garments"].items()},
+    }
+
+
+@dataclass
+class _Run1x:
+    """One run of generator 1.1.0: its settings, the body model's skin and the writer."""
+
+    c: SynthConfig
+    model: Any
+    keep: np.ndarray  # skin vertex indices
+    skin_F: np.ndarray
+    names: tuple[str, ...]  # joint names
+    labels: np.ndarray  # dominant joint of each skin vertex
+    edge: float
+    settings: DrapeSettings
+    splits: dict[str, str]
+    writer: DatasetWriter
+    out: Path
+
+    def garment(self, gid: str, g: dict[str, Any], subj: dict[str, Any], shape: np.ndarray,
+                rest: Any, bar: Any) -> None:
+        """Build garment ``gid`` on its subject's ``rest`` body, write it and its missing
+        samples."""
+        keep, skin_F, names = self.keep, self.skin_F, self.names
+        frame = BodyFrame.from_joints(rest.rest_joints, names)
+        rest_V = rest.rest_vertices[keep]
+        garment = build_garment(g["type"], g["params"], rest_V, skin_F, self.labels, frame,
+                                edge_length=self.edge)
+        W = garment_weights(garment, rest_V, skin_F,
+                             np.asarray(self.model.skinning_weights)[keep], names, frame)
+
+        save_mesh(self.out / "generator" / "rest" / f"{gid}.ply", garment.vertices,
+                  garment.faces, uv=garment.uv, uv_faces=garment.uv_faces)
+        tex, pattern = procedural_texture(np.random.default_rng([self.c.seed, 7919,
+                                                                 int(gid[1:])]),
+                                          self.c.texture_size)
+        for k in range(self.c.poses):
+            next(bar, None)
+            if self.writer.has_sample(f"{g['subject']}-{gid}-P{k + 1}"):
+                continue
+            self.sample(gid, g, subj, shape, frame, garment, W, (tex, pattern), k)
+
+    def sample(self, gid: str, g: dict[str, Any], subj: dict[str, Any], shape: np.ndarray,
+               frame: BodyFrame, garment: Any, W: np.ndarray, texture: tuple[np.ndarray, str],
+               k: int) -> None:
+        """Drape ``garment`` (skinning weights ``W``) on its subject in pose ``k`` and write
+        the sample."""
+        c, model, sid, pid = self.c, self.model, g["subject"], f"P{k + 1}"
+        prng = np.random.default_rng([c.seed, int(sid[1:]), k, 1])
+        pose = pose_axis_angle(subj["poses"][pid], self.names, frame, rng=prng)
+        bp = BodyParams(model=model.name, shape=shape, pose=pose,
+                        gender=getattr(model, "gender", "neutral"))
+        posed = model.posed(bp)
+
+        skinned = lbs(garment.vertices, W, posed.transforms)
+        res = drape(garment.vertices, garment.faces, skinned, garment.support,
+                    posed.vertices[self.keep], self.skin_F, frame.up, self.settings)
+        stored = bp
+        if c.registration_noise > 0:
+            nrng = np.random.default_rng([c.seed, int(sid[1:]), k, 2])
+            stored = BodyParams(
+                model=model.name, gender=bp.gender,
+                shape=np.clip(shape + nrng.normal(0, c.registration_noise, shape.shape), 0, 1),
+                pose=pose + nrng.normal(0, c.registration_noise, pose.shape))
+        scan = None
+        if c.write_scan:
+            BV = posed.vertices
+            scan = (np.vstack([BV, res.vertices]),
+                    np.vstack([np.asarray(model.faces, np.int64), garment.faces + len(BV)]))
+        # the stats file first: a sample is skipped on resume once its manifest row
+        # exists, so everything else of the sample must be on disk before that row
+        st = {**res.stats, "pose": subj["poses"][pid], "garment_type": g["type"],
+              "texture": texture[1]}
+        atomic_write_text(self.out / "generator" / "stats" / f"{sid}-{gid}-{pid}.json",
+                          json.dumps(st, indent=1) + "\n")
+        self.writer.add_sample(subject_id=sid, garment_id=gid, pose_id=pid,
+                               category=garment.category, garment_type=garment.garment_type,
+                               split=self.splits[gid],
+                               garment=(res.vertices, garment.faces, garment.uv,
+                                        garment.uv_faces),
+                               body=stored, scan=scan, texture=texture[0])

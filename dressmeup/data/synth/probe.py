@@ -9,7 +9,7 @@ solve (bodies, rest garments, a garment on its own design body) is the same ever
 first garment fitted to *another* body is where machines part.
 
 :func:`probe_v3` computes exactly that, the way the generator does (a fresh worker process
-with the canonical numerics, :data:`~dressmeup.data.synth.jobs.CANONICAL_ENV`): the first
+with the canonical numerics, :func:`~dressmeup.data.synth.jobs.run_jobs`): the first
 sample the generator writes whose subject is not the garment's designer, i.e. that garment
 built, fitted to the subject and draped in the pose (its pose path), with its scan, and hashes
 the stored arrays. Comparing the digest with the one computed on the pinning machine tells,
@@ -20,24 +20,17 @@ edition here would reproduce its pinned manifest.
 from __future__ import annotations
 
 import hashlib
-import multiprocessing
-import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from dressmeup.data.synth.common import GarmentItem, GarmentResult, wearers
 from dressmeup.data.synth.config import synth_config
-from dressmeup.data.synth.generate import v3_arguments
-from dressmeup.data.synth.jobs import canonical_numerics
-from dressmeup.data.synth.wardrobe import (
-    _garment_job,
-    _init_worker,
-    prepare_v3,
-    wearers,
-)
+from dressmeup.data.synth.generate import arguments_2x
+from dressmeup.data.synth.generator2 import prepare_2x
+from dressmeup.data.synth.jobs import run_jobs
 
 #: format of the probe pins shipped beside the editions (``bench/editions/probes/``)
 PROBE_FORMAT = "dressmeup-generator-probe/1"
@@ -64,16 +57,16 @@ def probe_sample(plan: dict[str, Any]) -> tuple[str, str, str]:
     return gid, sid, pid
 
 
-def sample_digest(res: dict[str, Any]) -> str:
+def sample_digest(res: GarmentResult) -> str:
     """sha256 of one garment job's stored arrays (float64 C order): each fitted garment, then
     per sample its garment and its scan's vertices and faces."""
     h = hashlib.sha256()
-    for sid in sorted(res["fitted"]):
-        h.update(np.ascontiguousarray(res["fitted"][sid], np.float64).tobytes())
-    for smp in res["samples"]:
-        h.update(np.ascontiguousarray(smp["V"], np.float64).tobytes())
-        if smp["scan"] is not None:
-            V, F = smp["scan"][0], smp["scan"][1]
+    for sid in sorted(res.fitted):
+        h.update(np.ascontiguousarray(res.fitted[sid], np.float64).tobytes())
+    for smp in res.samples:
+        h.update(np.ascontiguousarray(smp.V, np.float64).tobytes())
+        if smp.scan is not None:
+            V, F = smp.scan[0], smp.scan[1]
             h.update(np.ascontiguousarray(V, np.float64).tobytes())
             h.update(np.ascontiguousarray(F, np.int64).tobytes())
     return h.hexdigest()
@@ -92,13 +85,9 @@ def probe_v3(params: dict[str, Any], seed: int) -> ProbeResult:
     c = synth_config(seed=seed, **params)
     if not str(c.version).startswith("2."):
         raise ValueError(f"version: the probe is of generator 2.x, got {c.version!r}")
-    plan, _, setup = prepare_v3(**v3_arguments(c))
+    plan, _, job = prepare_2x(**arguments_2x(c))
     gid, sid, pid = probe_sample(plan)
     t0 = time.perf_counter()
-    ctx = multiprocessing.get_context("spawn")
-    with canonical_numerics(), ProcessPoolExecutor(
-            1, mp_context=ctx, initializer=_init_worker,
-            initargs=(os.getpid(), *setup)) as pool:
-        res = pool.submit(_garment_job, (gid, plan["garments"][gid], [(sid, pid)])).result()
+    [res] = run_jobs(job, [GarmentItem(gid, plan["garments"][gid], ((sid, pid),))])
     return ProbeResult(sample=f"{sid}-{gid}-{pid}", sha256=sample_digest(res),
                        seconds=time.perf_counter() - t0)

@@ -3,7 +3,7 @@
 Every body of the model shares its topology, so a point of the source body's surface (a skin
 face and barycentric coordinates) has its place on the target body; each garment vertex
 moves by the displacement of its closest point on the source body
-(:func:`dressmeup.data.synth.wardrobe.transfer_to_body`, the start of generator 2.x's fit to
+(:func:`dressmeup.data.synth.generator2.transfer_to_body`, the start of generator 2.x's fit to
 another subject). One closest-point query, no weights, no learning: the simplest operator that
 follows both shape and pose, and the reference a shortcut from the generator's operators must
 not beat (tests/bench/test_bench_retarget_v4_shortcut.py).
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dressmeup.data.synth.wardrobe import transfer_to_body
+from dressmeup.data.synth.generator2 import transfer_to_body
 from dressmeup.methods.retarget.base import RetargetMethod, body_context, check_garment
 
 __all__ = ["BodyTransfer"]

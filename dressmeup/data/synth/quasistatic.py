@@ -1,5 +1,5 @@
-"""Dressing by simulation: a garment follows its body from the design body at rest to a
-subject in a pose (generator 3.x, the ground truth of the v4 retargeting editions).
+"""The quasi-static dresser of generator 3.0.0 (the ground truth of the v4 retargeting
+editions): a garment follows its body from the design body at rest to a subject in a pose.
 
 The garment starts as designed, on its design body in the rest pose, and settles there
 under gravity. The body then changes gradually, **shape first** (the phenotype blends from
@@ -8,7 +8,7 @@ from zero to the target's, on the wearer's shape); each intermediate body is one
 solve (:func:`dressmeup.data.synth.cloth.solve`) that starts from the previous state. The
 cloth is moved only by the body's contact and by the anchors that hold its waistband or
 shoulders to the body surface; nothing of it is carried by skinning or by a transfer of the
-body's displacement.
+body's displacement (the anchors: :class:`dressmeup.data.synth.common.BodyAnchors`).
 
 The number of intermediate bodies of a path is chosen so that no body vertex near the
 garment moves more than ``body_step`` between two of them.
@@ -24,8 +24,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from dressmeup.data.synth.cloth import ClothModel, ClothSettings, Loads, solve
-from dressmeup.geometry.mesh import face_normals
-from dressmeup.geometry.proximity import barycentric, closest_points
+from dressmeup.data.synth.common import BodyAnchors
 
 
 @dataclass(frozen=True)
@@ -82,52 +81,6 @@ class DressSettings:
             return np.asarray(rest_V, np.float64)
         u = np.random.default_rng([self.start_seed, 5]).normal(size=np.shape(rest_V))
         return rest_V + self.start_jitter * u / np.linalg.norm(u, axis=1, keepdims=True)
-
-
-class BodyAnchors:
-    """Points of the body surface that hold the garment's supported vertices.
-
-    Each supported vertex is tied to its closest point on the design body at rest (face and
-    barycentric coordinates) and its offset along that face's normal; on any body of the same
-    topology the anchor is the same barycentric point pushed out by the same offset.
-
-    Parameters
-    ----------
-    garment_V : (n, 3) float64 garment on the design body at rest.
-    support : (n,) float64 in [0, 1], how firmly each vertex is held (0: free).
-    body_V : (b, 3) float64 design body at rest; body_F : (c, 3) int64.
-    gap : None (the vertex's own offset, generator 3.x) or a distance in metres: every anchor
-        is its closest body point pushed out along the face normal by ``gap`` (the band
-        grips the body; generator 4).
-    """
-
-    def __init__(self, garment_V: np.ndarray, support: np.ndarray, body_V: np.ndarray,
-                 body_F: np.ndarray, gap: float | None = None) -> None:
-        self.F = np.asarray(body_F, np.int64)
-        self.weight = np.asarray(support, np.float64)
-        body_V = np.asarray(body_V, np.float64)
-        _, p, self.face = closest_points(body_V, self.F, garment_V, exact_faces=True)
-        self.bary = barycentric(p, body_V[self.F[self.face]])
-        # the offset in the face's own frame, so the anchor is the vertex on the design body
-        self.offset = np.einsum("pij,pj->pi", self._frames(body_V),
-                                np.asarray(garment_V, np.float64) - p)
-        if gap is not None:
-            self.offset = np.zeros_like(self.offset)
-            self.offset[:, 2] = float(gap)
-
-    def _frames(self, body_V: np.ndarray) -> np.ndarray:
-        """Orthonormal frames ``(n, 3, 3)`` (rows: first edge, its normal in the face plane,
-        face normal) of the anchor faces of ``body_V``."""
-        tri = body_V[self.F[self.face]]
-        n = face_normals(body_V, self.F)[self.face]
-        e1 = tri[:, 1] - tri[:, 0]
-        e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-        return np.stack([e1, np.cross(n, e1), n], axis=1)
-
-    def points(self, body_V: np.ndarray) -> np.ndarray:
-        """Anchor points ``(n, 3)`` on the body ``body_V (b, 3)``."""
-        on = np.einsum("pk,pkd->pd", self.bary, body_V[self.F[self.face]])
-        return on + np.einsum("pij,pi->pj", self._frames(body_V), self.offset)
 
 
 def path_bodies(body_at: Callable[[float], np.ndarray], start_V: np.ndarray,
