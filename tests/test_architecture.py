@@ -279,7 +279,7 @@ HEAVY_MS = 100
 # measures and prints this table; 2-core CPU machine, the fastest of two runs).
 IMPORT_MS = {
     "alembic": 619, "anny": 4965, "cv2": 53, "ctypes": 0, "dask": 223, "distributed": 312,
-    "fastapi": 652, "hashlib": 5, "igl": 337, "jsonschema": 80, "matplotlib": 111,
+    "fastapi": 652, "hashlib": 5, "igl": 337, "ipctk": 169, "jsonschema": 80, "matplotlib": 111,
     "matplotlib.collections": 245, "matplotlib.pyplot": 527,
     "mpl_toolkits.mplot3d": 328, "open3d": 1925, "pandas": 521, "PIL": 9,
     "potpourri3d": 333, "pyarrow": 62, "pyarrow.parquet": 99, "pykdtree": 1, "pymeshlab": 174,

@@ -97,7 +97,7 @@ class Edition:
         smaller difference separated; empty when not measured.
     pairs : retarget pair sampling, ``{"seed": int, "per_track": {track: pairs per source
         garment}}``, optionally ``"categories"`` and ``"sources": {"pose": POSE_ID,
-        "subjects": N}`` (the sources disjoint from the targets: see
+        "subjects": N}`` or ``"sources": "dataset"`` (the sources disjoint from the targets: see
         :func:`dressmeup.bench.tasks.retarget.data.sample_pairs`); empty: every pair of the
         split.
     description : free text (not hashed).
@@ -438,12 +438,12 @@ def _parse_tracks(data: dict[str, Any], metrics: list, problems: list[str]
                                  or not all(isinstance(c, str) and c for c in vals)):
             problems.append(f"pairs.{key} must be a non-empty list of names, got {vals!r}")
     src = pairs.get("sources")
-    if src is not None and not (
+    if src is not None and src != "dataset" and not (
             isinstance(src, dict) and set(src) == {"pose", "subjects"}
             and isinstance(src["pose"], str) and isinstance(src["subjects"], int)
             and not isinstance(src["subjects"], bool) and src["subjects"] >= 1):
-        problems.append(f"pairs.sources must be {{\"pose\": POSE_ID, \"subjects\": N >= 1}}, "
-                        f"got {src!r}")
+        problems.append(f"pairs.sources must be {{\"pose\": POSE_ID, \"subjects\": N >= 1}} "
+                        f"or \"dataset\", got {src!r}")
     if pairs:
         seed = pairs.get("seed")
         if not isinstance(seed, int) or isinstance(seed, bool):

@@ -36,7 +36,15 @@ class SynthConfig:
     category; None: (6, 2, 4)), ``categories`` (None: all) and ``scan_body`` (``whole`` or
     ``uncovered``); 2.x also ``pose_steps``, ``pose_set`` (``generator``, ``registration``
     or ``all``), ``wear`` (``all`` or ``rotate``) and ``drape_settings``; 3.x ``dress``
-    (overrides of :class:`dressmeup.data.synth.simulation.DressSettings`).
+    (overrides of :class:`dressmeup.data.synth.quasistatic.DressSettings`).
+
+    Generator 4.0.0 (:mod:`dressmeup.data.synth.dataset4`) reads ``plan`` (overrides of
+    :class:`dressmeup.data.synth.plan4.PlanDesign`: bodies, poses per family and garments
+    per split, targets per track), ``motion`` (of
+    :class:`dressmeup.data.synth.motion.MotionSpec`), ``dynamics`` (of
+    :class:`dressmeup.data.synth.dynamics.DynamicsSettings`), ``edge_length`` (None: 15 mm),
+    ``body_model``, ``write_scan``, ``scan_body``, ``texture_size``, ``seed`` (train and val)
+    and ``secret`` (the test split).
 
     ``splits`` (the splits to build; default all) and ``secret`` (the 32 bytes that seed the
     test split, :mod:`dressmeup.data.synth.secret`; None: the public ``seed`` seeds every
@@ -67,6 +75,9 @@ class SynthConfig:
     wear: str = "all"
     scan_body: str = "whole"
     dress: dict[str, Any] | None = None
+    plan: dict[str, Any] | None = None
+    motion: dict[str, Any] | None = None
+    dynamics: dict[str, Any] | None = None
     splits: tuple[str, ...] = ("train", "val", "test")
     secret: bytes | None = field(default=None, repr=False)
 
@@ -74,7 +85,7 @@ class SynthConfig:
 FIELDS = tuple(f.name for f in dataclasses.fields(SynthConfig))
 #: generator versions that seed a test split from a secret and can build a subset of the
 #: splits (``SynthConfig.splits``, ``SynthConfig.secret``)
-SECRET_VERSIONS: frozenset[str] = frozenset()
+SECRET_VERSIONS: frozenset[str] = frozenset({"4.0.0"})
 
 
 def check_secret_support(c: SynthConfig) -> None:

@@ -11,7 +11,7 @@ so that ``v' = (y - x) / h`` (the inertia term with its target ``x + h v``, and 
 term pulling towards ``x``, combined into one quadratic). ``E`` is the cloth energy of
 generator 3.x (:mod:`dressmeup.data.synth.cloth`: edge and hinge springs, gravity) plus the
 anchors that hold the waistband and shoulders to the body (an elastic band's grip,
-:class:`dressmeup.data.synth.simulation.BodyAnchors`); ``B`` is the IPC log barrier
+:class:`dressmeup.data.synth.common.BodyAnchors`); ``B`` is the IPC log barrier
 (Li et al. 2020, ``ipctk``) over every pair of cloth-body and cloth-cloth primitives closer
 than ``dhat`` (the body does not collide with itself), with ``kappa`` set so that the barrier
 pushes with ``barrier_force`` mean vertex weights at ``dhat / 2``.
@@ -69,7 +69,12 @@ class DynamicsSettings:
     carry_full: float = 0.02  # m, cloth this close to the body moves with it before a solve
     carry: float = 0.06  # m, ... and from carry_full to here less and less
     crop: float = 0.05  # m, body faces this far from the cloth take part in a frame
+    pinch: float = 0.01  # m, body faces where two body parts came this close leave the
+    # contact (0: none) ...
+    pinch_rest: float = 0.05  # m, ... parts whose vertices are this far apart at rest
     min_substep: float = 1.0 / 256.0  # smallest sub-step, as a fraction of a frame
+    substep_budget: float = 3.0  # sub-steps a frame on average over a motion, at most
+    # (generator4.dress; a motion over it fails)
 
     def to_dict(self) -> dict:
         """The settings as a JSON-able dict."""
@@ -99,10 +104,16 @@ class Scene:
     body_Vs : body surfaces ``(b, 3)`` the frame moves between.
     x : (n, 3) float64 the cloth at the frame's start.
     crop : m.
+    pinch : optional ``(rest_V (b, 3), pinch, pinch_rest)``: body faces with a vertex within
+        ``pinch`` of a vertex ``pinch_rest`` or more away from it on the rest body ``rest_V``
+        (two body parts pressed together by the pose: an arm against the chest, the thighs
+        of a sitting body) are left out, in any of the frame's bodies. Cloth caught there
+        cannot be held off both parts by any contact force (the body is kinematic): it may
+        enter the body there, and the plausibility figures count it.
     """
 
     def __init__(self, model: ClothModel, body_F: np.ndarray, body_Vs: list[np.ndarray],
-                 x: np.ndarray, crop: float) -> None:
+                 x: np.ndarray, crop: float, pinch: tuple | None = None) -> None:
         n = model.n
         tree = cKDTree(x)
         keep = np.zeros(len(body_F), bool)
@@ -113,6 +124,8 @@ class Scene:
             centre = tri.mean(axis=1)
             radius = np.sqrt(np.max(np.sum((tri - centre[:, None]) ** 2, axis=2), axis=1))
             keep |= tree.query(centre)[0] <= crop + radius
+        if pinch is not None:
+            keep &= ~pinched(body_F, keep, body_Vs, *pinch)[body_F].any(axis=1)
         faces = body_F[keep]
         self.body_vertices = np.unique(faces)
         remap = np.full(len(body_Vs[0]), -1, np.int64)
@@ -141,6 +154,25 @@ class Scene:
             narrow_phase_ccd=_CCD))
 
 
+def pinched(body_F: np.ndarray, keep: np.ndarray, body_Vs: list[np.ndarray],
+            rest_V: np.ndarray, pinch: float, pinch_rest: float) -> np.ndarray:
+    """(b,) bool: body vertices of the faces ``keep`` that are within ``pinch`` (m) of another
+    such vertex in one of ``body_Vs`` while ``pinch_rest`` (m) or more from it in ``rest_V``
+    (see :class:`Scene`)."""
+    out = np.zeros(len(rest_V), bool)
+    cand = np.unique(body_F[keep])
+    if len(cand) < 2 or pinch <= 0:
+        return out
+    for V in body_Vs:
+        pairs = cKDTree(V[cand]).query_pairs(pinch, output_type="ndarray")
+        if len(pairs):
+            a, b = cand[pairs[:, 0]], cand[pairs[:, 1]]
+            far = np.sum((rest_V[a] - rest_V[b]) ** 2, axis=1) >= pinch_rest * pinch_rest
+            out[a[far]] = True
+            out[b[far]] = True
+    return out
+
+
 class ClothDynamics:
     """One garment simulated in time against a moving body of fixed topology.
 
@@ -152,12 +184,16 @@ class ClothDynamics:
     up : (3,) unit vector opposite to gravity.
     settings : :class:`DynamicsSettings`.
     anchor_weight : (n,) float64 in [0, 1] per-vertex anchor strength (None: no anchors).
+    body_rest : (b, 3) float64 the body at rest, for the pinch rule of :class:`Scene`
+        (None: no face is left out for a pinch).
     """
 
     def __init__(self, rest_V: np.ndarray, faces: np.ndarray, body_F: np.ndarray,
                  up: np.ndarray, settings: DynamicsSettings | None = None,
-                 anchor_weight: np.ndarray | None = None) -> None:
+                 anchor_weight: np.ndarray | None = None,
+                 body_rest: np.ndarray | None = None) -> None:
         s = self.settings = settings or DynamicsSettings()
+        self.body_rest = None if body_rest is None else np.asarray(body_rest, np.float64)
         self.model = ClothModel(rest_V, faces, s.cloth())
         m = self.model
         self.n = n = m.n
@@ -190,7 +226,10 @@ class ClothDynamics:
 
     def scene(self, x: np.ndarray, body_Vs: list[np.ndarray]) -> Scene:
         """The collision mesh of a frame moving between the bodies ``body_Vs``."""
-        return Scene(self.model, self.body_F, body_Vs, x, self.settings.crop)
+        s = self.settings
+        pinch = (None if self.body_rest is None or s.pinch <= 0
+                 else (self.body_rest, s.pinch, s.pinch_rest))
+        return Scene(self.model, self.body_F, body_Vs, x, s.crop, pinch)
 
     # ------------------------------------------------------------------ energy
     def _smooth_energy(self, y, c, z, anchors):
@@ -361,7 +400,7 @@ class ClothDynamics:
                 target = body_to if reach >= 1.0 else body_from + reach * (body_to - body_from)
                 u = u_rest if reach >= 1.0 else u_rest * ((reach - done) / (1.0 - done))
                 free = scene.free_fraction(x, body_now, x + u, target)
-                if free >= 1.0 or frac <= s.min_substep:
+                if free >= 1.0 or frac <= s.min_substep or free * frac >= s.min_substep * 4:
                     break
                 frac = max(frac * max(0.5 * free, 0.25), s.min_substep)
             if free < 1.0:
@@ -394,8 +433,9 @@ class ClothDynamics:
         return x, v, stats
 
     def intersection_free(self, x: np.ndarray, body_V: np.ndarray) -> bool:
-        """Whether no cloth triangle crosses a body or cloth edge (ipctk's exact check)."""
-        scene = self.scene(x, [body_V])
+        """Whether no cloth triangle crosses a body or cloth edge (ipctk's exact check; every
+        body face near the cloth, pinched ones included)."""
+        scene = Scene(self.model, self.body_F, [body_V], x, self.settings.crop)
         return not ipctk.has_intersections(scene.mesh, scene.stack(x, body_V))
 
     def min_distance(self, x: np.ndarray, body_V: np.ndarray) -> float:

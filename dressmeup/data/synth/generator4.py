@@ -25,13 +25,24 @@ from typing import Any
 import numpy as np
 
 from dressmeup.body import BodyParams, get_body_model
+from dressmeup.data.synth.common import (
+    BODY_DECIMALS,
+    STORE_DECIMALS,
+    BodyAnchors,
+    drape_stats,
+    quantize,
+)
 from dressmeup.data.synth.dynamics import ClothDynamics, DynamicsSettings, simulate
 from dressmeup.data.synth.garments import BodyFrame, build_garment, welded
 from dressmeup.data.synth.motion import MotionSpec, body_states, frame_bodies
-from dressmeup.data.synth.simulation import BodyAnchors
-from dressmeup.data.synth.wardrobe import BODY_DECIMALS, STORE_DECIMALS, drape_stats, quantize
 
 VERSION = "4.0.0"
+
+
+class SimulationFailed(RuntimeError):
+    """A motion the cloth could not follow: the collision-free sub-steps ran out (the body's
+    move squeezes the cloth between body parts, or into a gap thinner than the contact
+    distance). Deterministic for the same inputs: a dataset records the target as failed."""
 
 
 @dataclass(frozen=True)
@@ -150,7 +161,14 @@ def dress(kit: BodyKit, garment: BuiltGarment, target_shape: np.ndarray,
     solver figures (``frames``, ``substeps``, ``iterations``, ``unconverged_frames``,
     ``worst_residual``, ``max_iterations``), ``intersection_free`` (ipctk's exact check of
     cloth against body and itself at the end), the plausibility figures of
-    :func:`dressmeup.data.synth.wardrobe.drape_stats` and ``cpu_s``.
+    :func:`dressmeup.data.synth.common.drape_stats` and ``cpu_s``.
+
+    Raises
+    ------
+    SimulationFailed
+        The motion needs more than ``settings.dynamics.substep_budget`` sub-steps a frame on
+        average,
+        or the dynamics cannot follow the body (:meth:`ClothDynamics.advance`).
     """
     s = settings or Gen4Settings()
     t0 = time.process_time()
@@ -159,8 +177,24 @@ def dress(kit: BodyKit, garment: BuiltGarment, target_shape: np.ndarray,
     anchors = BodyAnchors(garment.vertices, garment.support, bodies[0], kit.faces,
                           gap=s.anchor_gap)
     dyn = ClothDynamics(garment.vertices, garment.faces, kit.faces, garment.frame.up, s.dynamics,
-                        anchor_weight=garment.support)
-    x, sim = simulate(dyn, garment.vertices, bodies, s.motion.dt, anchors.points, on_frame)
+                        anchor_weight=garment.support, body_rest=bodies[0])
+    budget = s.dynamics.substep_budget * s.motion.frames
+    spent = [0]
+
+    def watch(k: int, x: np.ndarray, st: dict) -> None:
+        spent[0] += st["substeps"]
+        if spent[0] > budget:
+            raise SimulationFailed(f"frame {k} of {s.motion.frames}: {spent[0]} sub-steps, over "
+                                   f"the budget of {budget:.0f} ({s.dynamics.substep_budget} a frame)")
+        if on_frame is not None:
+            on_frame(k, x, st)
+
+    try:
+        x, sim = simulate(dyn, garment.vertices, bodies, s.motion.dt, anchors.points, watch)
+    except SimulationFailed:
+        raise
+    except RuntimeError as exc:  # the dynamics' own stall or sub-step limit
+        raise SimulationFailed(str(exc)) from exc
     V = quantize(x, STORE_DECIMALS)
     stats = {"generator": VERSION, "motion": s.motion.to_dict(),
              "dynamics": s.dynamics.to_dict(), "anchor_gap": s.anchor_gap,

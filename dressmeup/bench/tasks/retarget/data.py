@@ -38,7 +38,8 @@ def dataset_problems(edition: Any, data_root: Path) -> tuple[dict[str, Any], lis
     return check_pin(edition, data_root)
 
 
-def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
+def sample_pairs(pairs: list, pairs_spec: dict[str, Any],
+                 declared: dict[str, str] | None = None) -> list:
     """The seeded per-track sample of retargeting pairs an edition scores.
 
     For every source garment and every track of ``pairs_spec["per_track"]`` (track -> n),
@@ -54,13 +55,17 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     subjects, drawn by a generator seeded with ``(seed, crc32(garment id), 99)``, in pose P
     are the sources, and the pairs are those from a source to any sample that is not one
     (other pose of the same subject: re-pose; another subject in P: re-shape; another subject
-    in another pose: cross).
+    in another pose: cross). With ``"sources": "dataset"`` (the v5 editions) each garment's
+    source is the sample its dataset declares (``dataset.json`` ``garments.<id>.source``,
+    given as ``declared``), and the pairs are those from it to every other sample of the
+    garment.
 
     Parameters
     ----------
     pairs : :class:`dressmeup.data.RetargetPair` list (e.g. ``ds.retarget_pairs(split)``).
     pairs_spec : the edition's ``pairs`` field (``{"seed": int, "per_track": {...}}``); empty:
         every pair is kept.
+    declared : garment id -> its source sample id (for ``"sources": "dataset"``).
 
     Returns
     -------
@@ -84,7 +89,13 @@ def sample_pairs(pairs: list, pairs_spec: dict[str, Any]) -> list:
     if poses:
         pairs = [p for p in pairs if p.source.pose_id in poses
                  and p.target.pose_id not in poses]
-    if pairs_spec.get("sources"):
+    if pairs_spec.get("sources") == "dataset":
+        if not declared:
+            raise InputError("pairs.sources is \"dataset\", but this data declares no source "
+                             "sample per garment (dataset.json garments.<id>.source): score "
+                             "the edition on the data it is pinned to")
+        pairs = [p for p in pairs if declared.get(p.source.garment_id) == p.source.sample_id]
+    elif pairs_spec.get("sources"):
         pairs = disjoint_pairs(pairs, pairs_spec["sources"], seed)
     order = sorted(per)
     groups: dict[tuple[str, str], list] = {}
@@ -132,7 +143,11 @@ def edition_pairs(edition: Any, dataset: Any) -> list:
     when the edition has a ``pairs`` field; see :func:`sample_pairs`, whose errors are
     prefixed with the edition's file)."""
     try:
-        return sample_pairs(dataset.retarget_pairs(edition.split), getattr(edition, "pairs", {}))
+        garments = dataset.info.get("garments", {})
+        declared = {g: v["source"] for g, v in garments.items()
+                    if isinstance(v, dict) and isinstance(v.get("source"), str)}
+        return sample_pairs(dataset.retarget_pairs(edition.split), getattr(edition, "pairs", {}),
+                            declared)
     except InputError as exc:
         raise InputError(f"edition {getattr(edition, 'source', edition.name)}: {exc}") from None
 
