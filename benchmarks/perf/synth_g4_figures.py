@@ -1,24 +1,27 @@
-"""Generator 4's ground truth, measured: plausibility, solver figures, sensitivity and cost of
-samples dressed by the defined motion (dressmeup.data.synth.generator4).
+"""Generator 4's ground truth, measured on a generated dataset: plausibility, solver figures,
+failures, cost and sensitivity of samples dressed by the defined motion
+(dressmeup.data.synth.generator4), with pictures.
 
-For each sample (a garment type, a design subject, a target subject and a target pose; the
-default set cycles through every garment type and the generator's pose families, sitting
-included):
+From a generator-4.0.0 dataset folder (``dressmeup synth DIR --edition E``):
 
-1. **Plausibility**: share of the garment's area inside the target body (face centroids,
-   winding number), self-intersecting faces (pymeshlab), ipctk's exact intersection check,
-   edge strain;
+1. **Plausibility** (every sample, from ``generator/stats``): share of the garment's area
+   inside the target body (face centroids, winding number), self-intersecting faces
+   (pymeshlab), ipctk's exact intersection check, edge strain;
 2. **Solver**: frames, sub-steps, Newton iterations, unconverged frames, worst residual;
-3. **Sensitivity** (``--sensitivity``): the same motion with the time step halved
-   (:meth:`MotionSpec.refined`) and with the Newton tolerance divided by 10; per-vertex
-   distance to the base result (median, 95th percentile);
-4. **Cost**: CPU seconds of the base simulation (the load average is printed beside it).
+   targets whose motion failed (``generator/failed``), with the reason;
+3. **Cost**: CPU seconds of each sample's simulation (the load average of this run is
+   printed; the generation's own load is the caller's to report);
+4. **Sensitivity** (``--sensitivity N``: the first N samples in id order, one per garment
+   first): the same motion with the time step halved (:meth:`MotionSpec.refined`) and with
+   the Newton tolerance divided by 10; per-vertex distance to the stored sample (median,
+   95th percentile);
+5. **Pictures** (``samples.png``): front and side of each sample, the body grey, the garment
+   coloured by its distance to the body (0-50 mm), faces inside the body red.
 
-    python benchmarks/perf/synth_g4_figures.py --samples 7 --edge 0.02 --workers 2 \\
-        [--sensitivity] --out benchmarks/results/generator4/DATE
+    python benchmarks/perf/synth_g4_figures.py --data DIR [--sensitivity N] [--workers 2] \\
+        --out benchmarks/results/studies/DATE-NAME
 
-writes ``figures.json``, ``figures.md`` and ``samples.png`` (front and side of every sample:
-body grey, garment coloured by its distance to the body, faces inside the body red).
+writes ``figures.json``, ``figures.md`` and ``samples.png`` into ``--out``.
 """
 
 from __future__ import annotations
@@ -28,21 +31,17 @@ import dataclasses
 import json
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-from dressmeup.data.synth.common import SUBJECTS
-from dressmeup.data.synth.dynamics import DynamicsSettings
-from dressmeup.data.synth.garments import sample_params
-from dressmeup.data.synth.generator4 import Gen4Settings, build, dress, load_body_kit
+from dressmeup.data.synth.config import synth_config
+from dressmeup.data.synth.dataset4 import Gen4Config
+from dressmeup.data.synth.generator4 import build, dress, load_body_kit
 from dressmeup.data.synth.jobs import single_threaded
-from dressmeup.data.synth.motion import MotionSpec
-from dressmeup.data.synth.poses import pose_axis_angle
+from dressmeup.io.mesh import load_mesh
 
-TYPES = ("t-shirt", "skirt", "dress", "trousers", "long-sleeve", "shorts", "tank-top")
-POSES = ("sitting", "arms-raised", "walking", "one-arm-up", "bent-knees", "arms-forward")
 GOALS = {"inside_median": 0.0, "inside_max": 0.5, "self_int_median": 0, "self_int_max": 10,
          "unconverged": 0, "sens_median_mm": 1.0, "sens_p95_mm": 5.0, "cpu_s": 15.0}
 
@@ -51,67 +50,74 @@ def load() -> str:
     return f"{os.getloadavg()[0]:.1f}"
 
 
-def plan(n: int, seed: int = 0) -> list[dict]:
-    """``n`` samples: garment type ``k mod 7``, pose ``k mod 6``, design subject ``k mod 6``
-    and target subject ``(k + 1) mod 6``."""
-    out = []
-    for k in range(n):
-        gtype = TYPES[k % len(TYPES)]
-        params = sample_params(gtype, np.random.default_rng([seed, 11, k]))
-        out.append({"id": f"X{k:02d}", "type": gtype, "params": params,
-                    "pose": POSES[k % len(POSES)],
-                    "design": SUBJECTS[k % len(SUBJECTS)][0],
-                    "target": SUBJECTS[(k + 1) % len(SUBJECTS)][0]})
+def read_samples(root: Path) -> tuple[dict, list[dict], list[dict]]:
+    """``(dataset.json, samples, failed)``: per written sample its ids, garment plan and
+    stats; per failed target its ids and reason."""
+    info = json.loads((root / "dataset.json").read_text())
+    garments = {p.stem: json.loads(p.read_text())
+                for p in sorted((root / "generator" / "garments").glob("*.json"))}
+    samples, failed = [], []
+    for kind, out in (("stats", samples), ("failed", failed)):
+        for p in sorted((root / "generator" / kind).glob("*.json")):
+            sid, gid, pid = p.stem.split("-")
+            out.append({"id": p.stem, "sid": sid, "gid": gid, "pid": pid,
+                        "garment": garments[gid], "family": info["poses"][pid]["family"],
+                        "stats": json.loads(p.read_text())})
+    return info, samples, failed
+
+
+def sensitivity(job: tuple[str, dict]) -> dict:
+    """Re-dress one sample with the time step halved and with the tolerance / 10."""
+    root, item = Path(job[0]), job[1]
+    info = json.loads((root / "dataset.json").read_text())
+    params = dict(info["generator"]["params"])
+    c = synth_config(version="4.0.0", plan=params["plan"], motion=params["motion"],
+                     dynamics=params["dynamics"], edge_length=params["edge_length"],
+                     body_model=params["body_model"])
+    base_settings = Gen4Config.from_synth(c).sim
+    with single_threaded():
+        kit = load_body_kit(params["body_model"])
+        g = item["garment"]
+        design = np.asarray(info["subjects"][g["design_subject"]]["shape"], np.float64)
+        built = build(kit, g["type"], g["params"], design, base_settings.edge_length)
+        body = np.load(_folder(root, item) / "body.npz")
+        stored = load_mesh(_folder(root, item) / "garment.ply")
+        V0 = np.asarray(stored.vertices, np.float64)
+        variants = {
+            "dt_half": dataclasses.replace(base_settings,
+                                           motion=base_settings.motion.refined(2)),
+            "tolerance_tenth": dataclasses.replace(
+                base_settings, dynamics=dataclasses.replace(
+                    base_settings.dynamics, tolerance=base_settings.dynamics.tolerance / 10))}
+        out = {"id": item["id"]}
+        for name, st in variants.items():
+            try:
+                other = dress(kit, built, body["shape"], body["pose"], st)
+            except RuntimeError as exc:
+                out[name] = {"error": str(exc)}
+                continue
+            d = np.sqrt(np.sum((other.vertices - V0) ** 2, axis=1)) * 1000
+            out[name] = {"median_mm": float(np.median(d)), "p95_mm": float(np.percentile(d, 95)),
+                         "max_mm": float(d.max()), "cpu_s": other.stats["cpu_s"]}
+    out["load"] = load()
     return out
 
 
-def _shape(name: str) -> np.ndarray:
-    return np.asarray(dict(SUBJECTS)[name], np.float64)
+def _folder(root: Path, item: dict) -> Path:
+    """The sample's folder in the dataset layout."""
+    return root / "samples" / item["sid"] / item["gid"] / item["pid"]
 
 
-def run_sample(job: tuple[dict, float, bool, str]) -> dict:
-    """Dress one sample (and its sensitivity variants); save its meshes under ``out``. A
-    sample the simulation cannot finish is returned with its ``error``."""
-    try:
-        return _run_sample(*job)
-    except RuntimeError as exc:
-        return {**job[0], "error": str(exc), "load": load()}
+def pick_for_sensitivity(samples: list[dict], n: int) -> list[dict]:
+    """The first ``n`` samples, one per garment before a second of any."""
+    firsts, rest, seen = [], [], set()
+    for s in samples:
+        (rest if s["gid"] in seen else firsts).append(s)
+        seen.add(s["gid"])
+    return (firsts + rest)[:n]
 
 
-def _run_sample(item: dict, edge: float, sensitivity: bool, out: str) -> dict:
-    with single_threaded():
-        kit = load_body_kit("anny")
-        g = build(kit, item["type"], item["params"], _shape(item["design"]), edge)
-        pose = pose_axis_angle(item["pose"], kit.joint_names, g.frame, rng=None)
-        base_settings = Gen4Settings(edge_length=edge)
-        t0 = time.process_time()
-        base = dress(kit, g, _shape(item["target"]), pose, base_settings,
-                     on_frame=lambda k, x, st: k % 25 or print(
-                         f"  {item['id']} frame {k}: {st}", flush=True))
-        res = {**item, "vertices": len(g.vertices), "stats": base.stats,
-               "cpu_s": time.process_time() - t0, "load": load()}
-        np.savez_compressed(Path(out) / f"{item['id']}.npz", V=base.vertices, F=g.faces,
-                            body=base.body_vertices, body_F=kit.faces)
-        if sensitivity:
-            variants = {
-                "dt_half": dataclasses.replace(base_settings,
-                                               motion=base_settings.motion.refined(2)),
-                "tolerance_tenth": dataclasses.replace(
-                    base_settings, dynamics=dataclasses.replace(
-                        base_settings.dynamics,
-                        tolerance=base_settings.dynamics.tolerance / 10))}
-            res["sensitivity"] = {}
-            for name, st in variants.items():
-                other = dress(kit, g, _shape(item["target"]), pose, st)
-                d = np.sqrt(np.sum((other.vertices - base.vertices) ** 2, axis=1)) * 1000
-                res["sensitivity"][name] = {"median_mm": float(np.median(d)),
-                                            "p95_mm": float(np.percentile(d, 95)),
-                                            "max_mm": float(d.max()),
-                                            "cpu_s": other.stats["cpu_s"]}
-    return res
-
-
-def pictures(results: list[dict], out: Path) -> None:
+def pictures(root: Path, samples: list[dict], out: Path, body_model: str) -> None:
     """``samples.png``: front and side of every sample."""
     # heavy: matplotlib through viz (~0.3 s to import)
     from matplotlib import colormaps
@@ -120,13 +126,14 @@ def pictures(results: list[dict], out: Path) -> None:
     from dressmeup.geometry.winding import winding_number
     from dressmeup.viz.contact_sheet import MeshLayer, render_contact_sheet
 
+    kit = load_body_kit(body_model)
     cells, titles = [], []
     cmap = colormaps["viridis"]
-    for r in results:
-        if "error" in r:
-            continue
-        m = np.load(out / f"{r['id']}.npz")
-        V, F, B, BF = m["V"], m["F"], m["body"], m["body_F"]
+    for s in samples:
+        m = load_mesh(_folder(root, s) / "garment.ply")
+        V, F = np.asarray(m.vertices, np.float64), np.asarray(m.faces, np.int64)
+        body = np.load(_folder(root, s) / "body.npz")
+        B, BF = kit.surface(body["shape"], body["pose"]), kit.faces
         d, _, _ = closest_points(B, BF, V[F].mean(1))
         col = cmap(np.clip(d / 0.05, 0, 1))[:, :3]
         col[winding_number(B, BF, V[F].mean(1)) > 0.5] = (0.9, 0.1, 0.1)
@@ -135,7 +142,7 @@ def pictures(results: list[dict], out: Path) -> None:
             cells.append(layers if side == "front" else
                          [MeshLayer(L.vertices @ _turn(), L.faces, L.color, L.face_colors)
                           for L in layers])
-            titles.append(f"{r['id']} {r['type']} {r['pose']} ({side})")
+            titles.append(f"{s['id']} ({side})\n{s['garment']['type']}, {s['family']}")
     render_contact_sheet(cells, out / "samples.png", right=np.array([1.0, 0, 0]),
                          up=np.array([0, 1.0, 0]), ncols=4, titles=titles,
                          suptitle="generator 4: garment coloured by distance to the body "
@@ -147,82 +154,78 @@ def _turn() -> np.ndarray:
     return np.array([[0.0, 0, -1], [0, 1, 0], [1, 0, 0]])
 
 
-def summary(results: list[dict]) -> str:
-    """Markdown table of the figures against the goals."""
-    failed = [r for r in results if "error" in r]
-    results = [r for r in results if "error" not in r]
-    inside = [r["stats"]["inside_area_pct"] for r in results]
-    selfi = [r["stats"]["self_intersecting_faces"] for r in results]
-    unconv = [r["stats"]["unconverged_frames"] for r in results]
-    cpu = [r["cpu_s"] for r in results]
-    lines = ["| sample | type | pose | vertices | inside % | self-int | ipctk free | "
-             "unconverged frames | iterations | worst residual | CPU s (load) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in results:
-        s = r["stats"]
-        lines.append(f"| {r['id']} | {r['type']} | {r['pose']} | {r['vertices']} | "
-                     f"{s['inside_area_pct']:.3f} | {s['self_intersecting_faces']} | "
-                     f"{s['intersection_free']} | {s['unconverged_frames']} | "
-                     f"{s['iterations']} | {s['worst_residual']:.2f} | "
-                     f"{r['cpu_s']:.0f} ({r['load']}) |")
-    lines += [f"| {r['id']} | {r['type']} | {r['pose']} | failed: {r['error']} |"
-              + " |" * 7 for r in failed]
+def summary(samples: list[dict], failed: list[dict], sens: list[dict]) -> str:
+    """Markdown tables: per sample, then the figures against the goals."""
+    lines = ["| sample | type | fit | track | pose family | inside % | self-int | ipctk free | "
+             "sub-steps | iterations | unconverged frames | CPU s |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for s in samples:
+        st = s["stats"]
+        lines.append(f"| {s['id']} | {st['garment_type']} | {st['fit']} | {st['track']} | "
+                     f"{s['family']} | {st['inside_area_pct']:.3f} | "
+                     f"{st['self_intersecting_faces']} | {st['intersection_free']} | "
+                     f"{st['substeps']} | {st['iterations']} | {st['unconverged_frames']} | "
+                     f"{st['cpu_s']:.1f} |")
+    for f in failed:
+        lines.append(f"| {f['id']} | {f['garment']['type']} | {f['garment']['fit']} | "
+                     f"{f['stats'].get('track')} | {f['family']} | failed: "
+                     f"{f['stats']['failed']} |" + " |" * 6)
+    stats = [s["stats"] for s in samples]
+    inside = [s["inside_area_pct"] for s in stats] or [float("nan")]
+    selfi = [s["self_intersecting_faces"] for s in stats] or [float("nan")]
+    cpu = [s["cpu_s"] for s in stats] or [float("nan")]
+    unconv = sum(s["unconverged_frames"] > 0 for s in stats)
     lines += ["", "| figure | measured | goal |", "|---|---|---|",
               f"| inside area | median {np.median(inside):.3f} %, max {max(inside):.3f} % | "
               f"median {GOALS['inside_median']} %, max <= {GOALS['inside_max']} % |",
               f"| self-intersecting faces | median {np.median(selfi):.1f}, max {max(selfi)} | "
               f"median {GOALS['self_int_median']}, max <= {GOALS['self_int_max']} |",
-              f"| unconverged frames | {sum(unconv)} in {len(results)} samples | 0 |",
-              f"| CPU s a sample | median {np.median(cpu):.0f} | <= {GOALS['cpu_s']:.0f} |",
-              f"| samples the simulation could not finish | {len(failed)} | 0 |"]
-    sens = [r["sensitivity"] for r in results if "sensitivity" in r]
+              f"| ipctk exact check not free | {sum(not s['intersection_free'] for s in stats)} "
+              f"of {len(stats)} samples | 0 |",
+              f"| samples with an unconverged frame | {unconv} of {len(stats)} | 0 |",
+              f"| targets whose motion failed | {len(failed)} of {len(failed) + len(stats)} | 0 |",
+              f"| CPU s a sample | median {np.median(cpu):.0f}, max {max(cpu):.0f} | "
+              f"<= {GOALS['cpu_s']:.0f} |"]
     for name in ("dt_half", "tolerance_tenth"):
-        if sens:
-            med = np.median([s[name]["median_mm"] for s in sens])
-            p95 = np.median([s[name]["p95_mm"] for s in sens])
-            lines.append(f"| sensitivity, {name} | median {med:.2f} mm, p95 {p95:.2f} mm "
-                         f"(medians over samples) | <= {GOALS['sens_median_mm']} mm, p95 <= "
-                         f"{GOALS['sens_p95_mm']} mm |")
+        ok = [s[name] for s in sens if "error" not in s.get(name, {"error": 1})]
+        if ok:
+            lines.append(f"| sensitivity, {name} ({len(ok)} samples) | median "
+                         f"{np.median([s['median_mm'] for s in ok]):.2f} mm, p95 "
+                         f"{np.median([s['p95_mm'] for s in ok]):.2f} mm (medians over samples; "
+                         f"worst p95 {max(s['p95_mm'] for s in ok):.2f} mm) | <= "
+                         f"{GOALS['sens_median_mm']} mm, p95 <= {GOALS['sens_p95_mm']} mm |")
     return "\n".join(lines) + "\n"
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--samples", type=int, default=7)
-    ap.add_argument("--edge", type=float, default=0.015)
+    ap.add_argument("--data", type=Path, required=True, help="a generator-4.0.0 dataset")
+    ap.add_argument("--sensitivity", type=int, default=0, help="samples to re-dress")
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--sensitivity", action="store_true")
     ap.add_argument("--out", type=Path, required=True)
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
-    items = plan(a.samples)
-    print(f"{len(items)} samples, edge {a.edge * 1000:.0f} mm, motion {MotionSpec()}, "
-          f"dynamics {DynamicsSettings()}; load {load()}", flush=True)
-    jobs = [(it, a.edge, a.sensitivity, str(a.out)) for it in items]
+    info, samples, failed = read_samples(a.data)
+    print(f"{len(samples)} samples, {len(failed)} failed targets; load {load()}", flush=True)
     t0 = time.time()
-    results = []
-    with ProcessPoolExecutor(a.workers) as pool:
-        for fut in as_completed([pool.submit(run_sample, job) for job in jobs]):
-            r = fut.result()
-            results.append(r)
-            (a.out / f"{r['id']}.json").write_text(json.dumps(r, indent=1, default=float))
-            if "error" in r:
-                print(f"{r['id']} {r['type']:12s} {r['pose']:12s} FAILED: {r['error']}",
-                      flush=True)
-                continue
-            s = r["stats"]
-            print(f"{r['id']} {r['type']:12s} {r['pose']:12s} inside {s['inside_area_pct']:.3f} % "
-                  f"self-int {s['self_intersecting_faces']} unconverged "
-                  f"{s['unconverged_frames']} CPU {r['cpu_s']:.0f} s (load {r['load']})",
-                  flush=True)
-    results.sort(key=lambda r: r["id"])
+    sens = []
+    if a.sensitivity:
+        jobs = [(str(a.data), s) for s in pick_for_sensitivity(samples, a.sensitivity)]
+        with ProcessPoolExecutor(a.workers) as pool:
+            for r in pool.map(sensitivity, jobs):
+                print(json.dumps(r), flush=True)
+                sens.append(r)
     (a.out / "figures.json").write_text(json.dumps(
-        {"results": results, "wall_s": time.time() - t0, "goals": GOALS}, indent=1,
-        default=float))
-    table = summary(results)
+        {"data": str(a.data), "generator": info["generator"]["params"],
+         "report": info.get("report"), "timings": info.get("timings"),
+         "samples": [{"id": s["id"], **s["stats"]} for s in samples],
+         "failed": [{"id": f["id"], **f["stats"]} for f in failed],
+         "sensitivity": sens, "sensitivity_wall_s": time.time() - t0, "goals": GOALS},
+        indent=1, default=float))
+    table = summary(samples, failed, sens)
     (a.out / "figures.md").write_text(table)
     print(table)
-    pictures(results, a.out)
+    pictures(a.data, samples, a.out, info["generator"]["params"]["body_model"])
 
 
 if __name__ == "__main__":

@@ -60,8 +60,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "generated without its test split (docs/benchmark.md, 'Secret test "
                         "splits')")
     add_executor_args(p, default_workers=1,
-                      what="garment of generators 2.x and 3.x (--edition ...-v3, ...-v4; the "
-                           "data do not depend on where they run)")
+                      what="garment of generators 2.x, 3.x and 4.x (--edition ...-v3, ...-v4, "
+                           "...-v5; the data do not depend on where they run)")
     p.set_defaults(func=_synth, locks=("out",))
 
     v = subparsers.add_parser(
@@ -111,9 +111,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _generator_1_is_serial(args: argparse.Namespace) -> None:
     if args.executor or args.scheduler or (args.workers or 1) > 1:
-        raise InputError("--executor/--workers/--scheduler run generators 2.x and 3.x "
-                         "(--edition ...-v3, ...-v4) in parallel; generator 1.1.0 runs in this "
-                         "process")
+        raise InputError("--executor/--workers/--scheduler run generators 2.x, 3.x and 4.x "
+                         "(--edition ...-v3, ...-v4, ...-v5) in parallel; generator 1.1.0 runs "
+                         "in this process")
 
 
 def _synth_edition(args: argparse.Namespace) -> int:
@@ -151,7 +151,7 @@ def _synth_edition(args: argparse.Namespace) -> int:
         root = build_data(ed, args.out, secret_file=args.secret)
     else:
         kw: dict = {}
-        if not str(pin.params.get("version", "")).startswith(("2.", "3.")):
+        if not str(pin.params.get("version", "")).startswith(("2.", "3.", "4.")):
             _generator_1_is_serial(args)
         elif args.executor or args.scheduler:
             kw["executor"] = executor_from_args(args, default_workers=1)

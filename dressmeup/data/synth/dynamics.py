@@ -68,12 +68,13 @@ class DynamicsSettings:
     refactor_every: int = 8  # iterations between two factorisations of the Hessian
     carry_full: float = 0.02  # m, cloth this close to the body moves with it before a solve
     carry: float = 0.06  # m, ... and from carry_full to here less and less
+    carry_blend: float = 0.06  # m, the carry averaged over cloth this close (0: not)
     crop: float = 0.05  # m, body faces this far from the cloth take part in a frame
     pinch: float = 0.01  # m, body faces where two body parts came this close leave the
     # contact (0: none) ...
     pinch_rest: float = 0.05  # m, ... parts whose vertices are this far apart at rest
     min_substep: float = 1.0 / 256.0  # smallest sub-step, as a fraction of a frame
-    substep_budget: float = 3.0  # sub-steps a frame on average over a motion, at most
+    substep_budget: float = 6.0  # sub-steps a frame on average over a motion, at most
     # (generator4.dress; a motion over it fails)
 
     def to_dict(self) -> dict:
@@ -362,6 +363,31 @@ class ClothDynamics:
         lift = np.zeros(len(near))
         np.maximum.at(lift, row, np.einsum("ij,ij->i", move[flat] - u[row], nrm[row]))
         out[near] = w[near, None] * (u + lift[:, None] * nrm)
+        if s.carry_blend > 0:
+            out = self._blended(x, out, s.carry_blend)
+        return out
+
+    @staticmethod
+    def _blended(x: np.ndarray, u: np.ndarray, radius: float) -> np.ndarray:
+        """The carry ``u (n, 3)`` averaged over the cloth vertices within ``radius`` of each
+        vertex of ``x`` (weights ``1 - d / radius``): layers of cloth close to each other
+        (a sleeve on the side of a shirt) are carried alike instead of into each other."""
+        moving = np.flatnonzero(np.any(u != 0.0, axis=1))
+        if not len(moving):
+            return u
+        tree = cKDTree(x)
+        pairs = tree.query_ball_point(x[moving], radius)
+        counts = np.fromiter((len(js) for js in pairs), np.int64, len(pairs))
+        flat = np.fromiter((j for js in pairs for j in js), np.int64, int(counts.sum()))
+        row = np.repeat(moving, counts)
+        d = np.sqrt(np.sum((x[row] - x[flat]) ** 2, axis=1))
+        w = 1.0 - d / radius
+        out = np.zeros_like(u)
+        total = np.zeros(len(u))
+        np.add.at(out, flat, w[:, None] * u[row])
+        np.add.at(total, flat, w)
+        touched = total > 0
+        out[touched] /= total[touched, None]
         return out
 
     def _body_tree(self, body_V: np.ndarray) -> cKDTree:
