@@ -65,7 +65,7 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
     Parameters
     ----------
     out : work folder (default ``./dressmeup-demo``).
-    workers : scoring worker processes (default: every core).
+    workers : data-generation and scoring worker processes (default: every core).
     quick : the tiny edition (procedural body; about a minute).
     log : called with each line of the report.
     retarget_methods : restrict the retargeting baselines (default: every available one).
@@ -94,7 +94,7 @@ def run_demo(out: str | os.PathLike | None = None, workers: int | None = None,
         + ("" if quick else " (the first run also builds the anny body model: a few "
            "minutes, with progress lines)"))
     parts = runs.build_parts(edition, out / "data" / edition, log=log,
-                             allow_other_data=True)
+                             allow_other_data=True, workers=workers)
     other = runs.data_differs(edition, parts.full) is not None
 
     log("[2/4] retargeting baselines on the public part -> submissions")

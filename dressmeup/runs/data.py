@@ -27,8 +27,12 @@ from dressmeup.runs.common import Log, _quiet
 
 
 def build_data(edition: str | Edition, root: str | os.PathLike, log: Log = _quiet,
-               secret_file: str | os.PathLike | None = None) -> Path:
+               secret_file: str | os.PathLike | None = None,
+               workers: int | None = None) -> Path:
     """Generate (or resume) the data an edition pins into ``root``.
+
+    ``workers``: processes computing garments in parallel for generators 2.x, 3.x and 4.x
+    (default: every core of this machine; the data do not depend on it).
 
     ``retarget`` editions of the synthetic generator call
     :func:`dressmeup.data.synth.generate_dataset` with the pinned parameters and seed;
@@ -62,7 +66,8 @@ def build_data(edition: str | Edition, root: str | os.PathLike, log: Log = _quie
                        garments=pin.params.get("garments"), seed=pin.seed)
     else:
         try:
-            generate_dataset(root, seed=pin.seed, **pin.params, secret=secret, splits=splits)
+            generate_dataset(root, seed=pin.seed, **pin.params, secret=secret, splits=splits,
+                             workers=workers or os.cpu_count() or 1)
         except InputError as exc:  # e.g. a parameter this toolkit's generator does not know
             raise InputError(f"edition {ed.name}: {exc}") from exc
     log(f"data for {ed.name}: {root} ({time.perf_counter() - t0:.0f} s)")
@@ -98,7 +103,8 @@ class DataParts:
 
 def build_parts(edition: str | Edition, root: str | os.PathLike, log: Log = _quiet,
                 allow_other_data: bool = False,
-                secret_file: str | os.PathLike | None = None) -> DataParts:
+                secret_file: str | os.PathLike | None = None,
+                workers: int | None = None) -> DataParts:
     """Generate (or resume) an edition's data into ``root/full`` and export its public and
     private parts into ``root/public`` and ``root/private`` (kept when already complete).
 
@@ -106,13 +112,14 @@ def build_parts(edition: str | Edition, root: str | os.PathLike, log: Log = _qui
     parts are then marked by their own manifests; scores on them are not comparable).
     An edition with a secret test split needs its secret (``secret_file`` or published):
     without it there is no test split to export, and it is refused before any work.
+    ``workers`` as for :func:`build_data`.
     """
     ed = load_edition(edition)
     root = Path(root)
     if splits_to_generate(ed, edition_secret(ed, secret_file)) != ALL_SPLITS:
         raise InputError(f"{secret_test_split_note(ed)}; its parts are built by whoever holds "
                          "the secret (--secret FILE)")
-    full = build_data(ed, root / "full", log=log, secret_file=secret_file)
+    full = build_data(ed, root / "full", log=log, secret_file=secret_file, workers=workers)
     public, private = root / "public", root / "private"
     if part_of(public) != "public" or part_of(private) != "private":
         for p in (public, private):

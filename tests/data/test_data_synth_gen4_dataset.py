@@ -15,7 +15,7 @@ from dressmeup.data.synth.secret import commitment
 SECRET = bytes(range(32))
 SETTINGS = dict(
     version="4.0.0", body_model="procedural", edge_length=0.07, write_scan=False,
-    texture_size=16, workers=1,
+    texture_size=16, workers=2,
     plan={"bodies": [5, 0, 5], "poses_per_family": [1, 0, 1], "garments": [1, 0, 1],
           "categories": ["bottomwear"], "families": ["standing", "walking"], "fits": ["loose"],
           "targets": {"re-pose": [0, 0, 1], "re-shape": [1, 0, 1], "cross": [0, 0, 1]}},

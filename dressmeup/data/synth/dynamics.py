@@ -426,12 +426,14 @@ class ClothDynamics:
                 target = body_to if reach >= 1.0 else body_from + reach * (body_to - body_from)
                 u = u_rest if reach >= 1.0 else u_rest * ((reach - done) / (1.0 - done))
                 free = scene.free_fraction(x, body_now, x + u, target)
+                # a collision-free part of 4 shortest sub-steps or more is taken as it is;
+                # a smaller one is tried again on a shorter sub-step
                 if free >= 1.0 or frac <= s.min_substep or free * frac >= s.min_substep * 4:
                     break
                 frac = max(frac * max(0.5 * free, 0.25), s.min_substep)
             if free < 1.0:
-                # even the shortest sub-step collides at its end: go as far as the CCD
-                # allows (the barrier then pushes the cloth ahead of the body)
+                # the sub-step collides at its end: go 90 % of the way the CCD allows (the
+                # barrier then pushes the cloth ahead of the body)
                 part = 0.9 * free
                 stalled = stalled + 1 if part * frac < 1e-3 * s.min_substep else 0
                 if stalled > 8:
