@@ -127,3 +127,35 @@ def test_smoothstep_starts_and_stops_at_rest():
 def test_motion_settings_are_checked(bad):
     with pytest.raises(InputError, match="motion"):
         MotionSpec.from_dict(bad)
+
+
+def test_pinched_faces_are_those_of_parts_pressed_together():
+    """Two plates 8 cm apart at rest, pressed to 5 mm: the facing vertices are pinched;
+    a plate's own neighbours (close at rest) never are."""
+    from dressmeup.data.synth.dynamics import pinched
+
+    A, FA = _sheet(n=5, size=0.04, z=0.0)
+    B, FB = _sheet(n=5, size=0.04, z=0.08)
+    rest = np.vstack([A, B])
+    F = np.vstack([FA, FB + len(A)])
+    keep = np.ones(len(F), bool)
+    assert not pinched(F, keep, [rest], rest, 0.01, 0.05).any()
+    pressed = np.vstack([A, B - [0.0, 0.0, 0.075]])
+    assert pinched(F, keep, [rest, pressed], rest, 0.01, 0.05).all()
+    # apart in one of the frame's bodies only is enough; beyond the pinch distance is not
+    assert not pinched(F, keep, [np.vstack([A, B - [0.0, 0.0, 0.065]])], rest, 0.01, 0.05).any()
+
+
+def test_blended_carry_keeps_a_uniform_move_and_averages_close_layers():
+    V, _ = _sheet(n=4, size=0.03, z=0.0)
+    W, _ = _sheet(n=4, size=0.03, z=0.01)  # a second layer 1 cm above
+    x = np.vstack([V, W])
+    uniform = np.tile([0.01, 0.0, 0.0], (len(x), 1))
+    assert np.allclose(ClothDynamics._blended(x, uniform, 0.06), uniform)
+    u = np.zeros_like(x)
+    u[len(V):] = [0.0, 0.0, -0.02]  # only the upper layer carried down
+    out = ClothDynamics._blended(x, u, 0.06)
+    # both layers now move alike (within a few per cent): the upper one no longer runs
+    # into the lower one
+    assert np.all(out[:, 2] < 0)
+    assert np.ptp(out[:, 2]) < 0.25 * 0.02

@@ -320,6 +320,10 @@ def _draw_targets(g: dict[str, Any], design: PlanDesign, rng: np.random.Generato
     source = draw(lambda: home, lambda: pids[int(rng.integers(len(pids)))], taken, "source")
     out = [source]
     rest = [p for p in pids if p != source.pid]
+    if not rest and (design.n_targets(g["split"], "re-pose")
+                     or design.n_targets(g["split"], "cross")):
+        raise InputError(f"plan: split {g['split']} has one pose; re-pose and cross targets "
+                         "need two or more (poses_per_family, families)")
     for _ in range(design.n_targets(g["split"], "re-pose")):
         out.append(draw(lambda: home, lambda: rest[int(rng.integers(len(rest)))], taken,
                         "re-pose"))
