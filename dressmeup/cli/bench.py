@@ -106,7 +106,7 @@ def _add_demo(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out", "-o", default=None, type=new_output,
                    help="work folder (default: a new folder under ./dressmeup-demo)")
     p.add_argument("--workers", "-j", type=integer(1, WORKERS), default=None,
-                   help="scoring workers")
+                   help="data-generation and scoring workers (default: every core)")
     p.add_argument("--quick", action="store_true",
                    help="the tiny edition (procedural body, 2 pairs): a few minutes")
     p.add_argument("--serve", action="store_true",

@@ -25,6 +25,10 @@ from dressmeup.data.uvmeshes import build_mesh_set
 from dressmeup.errors import InputError
 from dressmeup.runs.common import Log, _quiet
 
+#: the most worker processes ``build_data`` starts by itself (each loads the body model
+#: and torch: several hundred MB)
+MAX_AUTO_WORKERS = 8
+
 
 def build_data(edition: str | Edition, root: str | os.PathLike, log: Log = _quiet,
                secret_file: str | os.PathLike | None = None,
@@ -32,7 +36,8 @@ def build_data(edition: str | Edition, root: str | os.PathLike, log: Log = _quie
     """Generate (or resume) the data an edition pins into ``root``.
 
     ``workers``: processes computing garments in parallel for generators 2.x, 3.x and 4.x
-    (default: every core of this machine; the data do not depend on it).
+    (default: every core of this machine, at most :data:`MAX_AUTO_WORKERS`; the data do not
+    depend on it).
 
     ``retarget`` editions of the synthetic generator call
     :func:`dressmeup.data.synth.generate_dataset` with the pinned parameters and seed;
@@ -67,7 +72,7 @@ def build_data(edition: str | Edition, root: str | os.PathLike, log: Log = _quie
     else:
         try:
             generate_dataset(root, seed=pin.seed, **pin.params, secret=secret, splits=splits,
-                             workers=workers or os.cpu_count() or 1)
+                             workers=workers or min(os.cpu_count() or 1, MAX_AUTO_WORKERS))
         except InputError as exc:  # e.g. a parameter this toolkit's generator does not know
             raise InputError(f"edition {ed.name}: {exc}") from exc
     log(f"data for {ed.name}: {root} ({time.perf_counter() - t0:.0f} s)")
