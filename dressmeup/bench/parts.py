@@ -77,7 +77,8 @@ def _rows(root: Path) -> list[dict[str, Any]]:
 
 def _generator_files(root: Path, ids: set[str]) -> tuple[str, ...]:
     """Files under ``generator/`` named after one of ``ids`` (``G07.ply``, ``G07-S02.ply``,
-    ``S01-G07-P2.json``)."""
+    ``S01-G07-P2.json``), or with one of them between dashes (``S05-G07-P3.json``: a failed
+    target of a garment, which has no manifest row)."""
     gen = root / GENERATOR_DIR
     if not gen.is_dir():
         return ()
@@ -86,7 +87,8 @@ def _generator_files(root: Path, ids: set[str]) -> tuple[str, ...]:
         if not p.is_file() or p.name.startswith("."):
             continue
         stem = p.name.split(".")[0]
-        if stem in ids or any(stem.startswith(i + "-") for i in ids):
+        if (stem in ids or any(stem.startswith(i + "-") for i in ids)
+                or any(part in ids for part in stem.split("-"))):
             out.append(p.relative_to(root).as_posix())
     return tuple(out)
 

@@ -217,3 +217,18 @@ def test_stats_copies_leave_out_timings_at_any_depth(tmp_path):
     assert (tmp_path / "a-copy.json").read_bytes() == (tmp_path / "b-copy.json").read_bytes()
     assert json.loads((tmp_path / "a-copy.json").read_text()) == {
         "energy": 1.5, "dress": {"steps": 4}, "runs": [{"iterations": 7}]}
+
+
+def test_generator_files_of_a_split_include_its_garments_failed_targets(tmp_path):
+    """Generator 4 writes a garment's plan, its rest mesh, its samples' stats and its failed
+    targets (no manifest row) under generator/: all are the garment's files."""
+    from dressmeup.bench.parts import _generator_files
+
+    names = ["garments/G07.json", "rest/G07.ply", "stats/S01-G07-P2.json",
+             "failed/S05-G07-P3.json", "fitted/G07-S02.ply", "garments/G08.json",
+             "stats/S01-G08-P2.json", "failed/S05-G08-P3.json"]
+    for n in names:
+        (tmp_path / "generator" / n).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / "generator" / n).write_text("{}")
+    got = set(_generator_files(tmp_path, {"G07", "S01-G07-P2"}))
+    assert got == {f"generator/{n}" for n in names if "G07" in n}
