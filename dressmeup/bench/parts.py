@@ -7,7 +7,8 @@ mechanism is :mod:`dressmeup.data.parts`, the rule per task is here:
 - ``retarget``: the source samples of the scored pairs keep garment, texture and body; every
   other sample of the split (targets, unused) keeps its body only; every scan of the split,
   and the generator's files of the split's garments and samples (``generator/fitted``,
-  ``generator/rest``, ``generator/stats``) are withheld. A sample that is both a source and a
+  ``generator/rest``, ``generator/stats``, ``generator/garments``, ``generator/failed``) are
+  withheld. A sample that is both a source and a
   target must publish its garment: the pairs targeting it have public answers
   (:attr:`Export.public_answers`; v3 editions drew their pairs that way, v4 ones do not);
 - ``registration``: scans public; true bodies, garments (whose inner surface hugs the body)
