@@ -60,6 +60,7 @@ from dressmeup.data.synth.secret import commitment, derive_seed
 from dressmeup.data.synth.texture import procedural_texture
 from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import InputError
+from dressmeup.hyperparameters import resolve_config
 from dressmeup.io.atomic import atomic_write_text
 from dressmeup.io.mesh import save_mesh
 from dressmeup.progress import progress
@@ -88,13 +89,9 @@ class Gen4Config:
         ``texture_size``)."""
         if c.scan_body not in SCAN_BODY:
             raise InputError(f"scan_body: expected one of {SCAN_BODY}, got {c.scan_body!r}")
-        dyn = dict(c.dynamics or {})
-        unknown = sorted(set(dyn) - set(DynamicsSettings.__dataclass_fields__))
-        if unknown:
-            raise InputError(f"dynamics: unknown setting(s) {unknown}; known: "
-                             f"{sorted(DynamicsSettings.__dataclass_fields__)}")
-        sim = Gen4Settings(motion=MotionSpec.from_dict(c.motion),
-                           dynamics=DynamicsSettings(**dyn),
+        dynamics = resolve_config({"default": DynamicsSettings()}, "default",
+                                  dict(c.dynamics or {}), "dynamics")
+        sim = Gen4Settings(motion=MotionSpec.from_dict(c.motion), dynamics=dynamics,
                            edge_length=float(c.edge_length or DEFAULT_EDGE))
         return cls(PlanDesign.from_dict(c.plan), sim, c.body_model, c.write_scan, c.scan_body,
                    c.texture_size)

@@ -28,6 +28,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from dressmeup.errors import InputError
+from dressmeup.hyperparameters import resolve_config
 
 
 @dataclass(frozen=True)
@@ -74,13 +75,9 @@ class MotionSpec:
 
     @classmethod
     def from_dict(cls, d: dict | None) -> MotionSpec:
-        """The defaults with the entries of ``d``; an unknown entry raises ``InputError``."""
-        d = dict(d or {})
-        unknown = sorted(set(d) - set(cls.__dataclass_fields__))
-        if unknown:
-            raise InputError(f"motion: unknown setting(s) {unknown}; known: "
-                             f"{sorted(cls.__dataclass_fields__)}")
-        return cls(**d)
+        """The defaults with the entries of ``d``; an unknown entry or a value of the wrong
+        type raises ``InputError`` (:func:`dressmeup.hyperparameters.resolve_config`)."""
+        return resolve_config({"default": cls()}, "default", dict(d or {}), "motion")
 
 
 def smoothstep(t: float) -> float:

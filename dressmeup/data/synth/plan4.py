@@ -39,6 +39,7 @@ from dressmeup.data.synth.garments import BodyFrame, garment_types, sample_param
 from dressmeup.data.synth.sampling import POSE_FAMILIES, sample_bodies, sample_poses
 from dressmeup.data.synth.secret import derive_seed
 from dressmeup.errors import InputError
+from dressmeup.hyperparameters import resolve_config
 
 SPLITS = ("train", "val", "test")
 TRACKS = ("re-pose", "re-shape", "cross")
@@ -133,13 +134,9 @@ class PlanDesign:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any] | None) -> PlanDesign:
-        """The defaults with the entries of ``d``; an unknown entry raises ``InputError``."""
-        d = dict(d or {})
-        unknown = sorted(set(d) - set(cls.__dataclass_fields__))
-        if unknown:
-            raise InputError(f"plan: unknown setting(s) {unknown}; known: "
-                             f"{sorted(cls.__dataclass_fields__)}")
-        return cls(**d)
+        """The defaults with the entries of ``d``; an unknown entry raises ``InputError``
+        (:func:`dressmeup.hyperparameters.resolve_config`)."""
+        return resolve_config({"default": cls()}, "default", dict(d or {}), "plan")
 
 
 @dataclass(frozen=True)
