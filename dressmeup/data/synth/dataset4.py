@@ -320,8 +320,9 @@ def _todo(c: SynthConfig, plan: dict[str, Any], writer: DatasetWriter) -> list[G
     failed = writer.root / "generator" / "failed"
     todo = []
     for gid, g in sorted(plan["garments"].items(), key=lambda kv: (rank[kv[1]["split"]], kv[0])):
-        record = {**g, "targets": [[t.sid, t.pid, t.track] for t in g["targets"]]}
-        atomic_write_text(out_dir / f"{gid}.json", json.dumps(record, indent=1) + "\n")
+        if not (out_dir / f"{gid}.json").is_file():  # a resumed run has written it already
+            record = {**g, "targets": [[t.sid, t.pid, t.track] for t in g["targets"]]}
+            atomic_write_text(out_dir / f"{gid}.json", json.dumps(record, indent=1) + "\n")
         missing = tuple(
             (t.sid, t.pid, t.track, np.asarray(plan["subjects"][t.sid]["shape"], np.float64),
              np.asarray(plan["poses"][t.pid]["pose"], np.float64))
