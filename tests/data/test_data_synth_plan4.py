@@ -36,6 +36,14 @@ def plan():
     return _plan()
 
 
+def test_every_type_comes_in_every_fit():
+    p = _plan(splits=("train",), garments=[9, 0, 0], categories=["bottomwear"],
+              fits=["tight", "regular", "loose"],
+              targets={"re-pose": [1, 0, 0], "re-shape": [0, 0, 0], "cross": [0, 0, 0]})
+    kinds = [(g["type"], g["fit"]) for g in p["garments"].values()]
+    assert len(kinds) == 9 and len(set(kinds)) == 9  # 3 types x 3 fits, each once
+
+
 def test_fits_rule_analytic():
     design = {"chest": 0.14, "waist": 0.13, "hips": 0.15}
     off = 0.012

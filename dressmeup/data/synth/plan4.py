@@ -12,8 +12,9 @@ Every split draws its own, from its own random streams:
   not cut through itself (:class:`~dressmeup.data.synth.sampling.SelfIntersectionCheck`);
 - **garments**: ``design.garments[split]`` per category, types in turn, parameters drawn
   from the type table with the looseness (``offset``) drawn from a fit level
-  (:data:`FIT_OFFSETS`, levels in turn: tight, regular, loose), each designed on one of
-  the split's bodies;
+  (:data:`FIT_OFFSETS`, levels in turn: tight, regular, loose, shifted by one after each
+  round of types so that every type comes in every fit), each designed on one of the
+  split's bodies;
 - **targets**: per garment, a *source* (its design body in a drawn pose) and
   ``design.targets[track]`` targets per track: ``re-pose`` (the design body in another
   pose), ``re-shape`` (another body in the source's pose) and ``cross`` (another body in
@@ -270,7 +271,9 @@ def _plan_garments(split: str, design: PlanDesign, rng: np.random.Generator, fir
         for i in range(n):
             gid = f"G{first + len(garments):03d}"
             gtype = types[i % len(types)]
-            fit = fits_order[i % len(fits_order)]
+            # the fit advances once more after each round of types, so that types and fits
+            # cross (three types and three fits in plain turns would make every t-shirt tight)
+            fit = fits_order[(i + i // len(types)) % len(fits_order)]
             params = sample_params(gtype, rng)
             lo, hi = FIT_OFFSETS[fit]
             params["offset"] = float(rng.uniform(lo, hi))
