@@ -14,8 +14,8 @@ A benchmark's data exist in three forms, each a dataset folder (``dataset.json``
   ``samples/`` (generator files).
 
 Both parts leave out what only says how long a build took (``dataset.json``'s ``timings``,
-the CPU seconds in ``generator/stats/*.json``), so two builds of the same data export the
-same bytes.
+the CPU seconds in ``dataset.json`` and ``generator/stats/*.json``), so two builds of the
+same data export the same bytes.
 
 Which files are withheld is the benchmark's decision (:mod:`dressmeup.bench.parts`); this
 module only writes, recognises and reads the parts.
@@ -263,13 +263,14 @@ def write_parts(full_root: str | os.PathLike, withheld: Withheld,
     return report
 
 
-#: ``dataset.json`` keys a part leaves out: how long the build took is not part of the data
-#: (two builds of the same data export byte-identical parts)
+#: ``dataset.json`` keys a part leaves out, with the entries ending in
+#: :data:`VOLATILE_SUFFIXES` at any depth (generator 4's ``report.cpu_s``): how long the build
+#: took is not part of the data (two builds of the same data export byte-identical parts)
 VOLATILE_KEYS = ("timings",)
 
 
 def _write_info(root: Path, info: dict[str, Any], part: dict[str, Any]) -> None:
-    out = {k: v for k, v in info.items() if k not in VOLATILE_KEYS}
+    out = _without_timings({k: v for k, v in info.items() if k not in VOLATILE_KEYS})
     out["part"] = part
     atomic_write_text(root / layout.DATASET_JSON, json.dumps(out, indent=2) + "\n")
 
