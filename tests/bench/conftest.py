@@ -146,3 +146,70 @@ def scored(bench_data, bench_edition, tmp_path_factory) -> dict:
                                workers=1, show_progress=False)
         out[name] = {"sub": sub, "res": res}
     return out
+
+
+class ShortcutCheck:
+    """The no-shortcut tests' bench: a tiny retargeting edition's parts (built into the test
+    cache where the journey and the server tests keep them) and mean P2S (m) of submissions
+    scored on its private part."""
+
+    def __init__(self, edition: str, other_data) -> None:
+        from dressmeup import runs
+        from dressmeup.bench import load_edition
+        from dressmeup.bench.tasks.retarget.data import edition_pairs, open_dataset
+        from dressmeup.cache import cache_dir
+
+        self.ed = ed = load_edition(edition)
+        self.parts = runs.build_parts(ed, cache_dir("e2e") / f"{ed.name}-{ed.hash[:10]}",
+                                      allow_other_data=True)
+        other_data(ed, self.parts.full)  # the pin or a known machine's data; else it fails
+        self.other = runs.data_differs(ed, self.parts.full) is not None
+        self.pairs = edition_pairs(ed, open_dataset(str(self.parts.public.resolve())))
+
+    def mean_p2s(self, sub: Path, out: Path) -> float:
+        from dressmeup.bench.scoring.score import score_submission
+
+        res = score_submission(sub, self.ed, self.parts.private, out, workers=1,
+                               show_progress=False, allow_other_data=self.other)
+        assert (res.table["status"] == "ok").all()
+        return float(res.table["p2s"].mean())
+
+    def references(self, tmp_path: Path, methods=("rigid", "skinning", "transfer"),
+                   extra: dict | None = None) -> dict[str, float]:
+        """Mean P2S of the reference baselines run on the public part (and of ``extra``:
+        name -> predictions)."""
+        from dressmeup import runs
+        from dressmeup.bench import write_submission
+
+        subs = runs.run_baselines(self.ed, self.parts.public, tmp_path / "ref",
+                                  methods=list(methods))
+        assert set(subs) == set(methods)
+        for name, preds in (extra or {}).items():
+            subs[name] = write_submission(tmp_path / "ref" / name, preds, edition=self.ed,
+                                          method=name)
+        return {n: self.mean_p2s(s, tmp_path / f"res-ref-{n}") for n, s in subs.items()}
+
+    def shortcuts(self, tmp_path: Path, ops: dict, public) -> dict[str, float]:
+        """Mean P2S of each shortcut ``ops[name](public(public_root, pair)) -> (n, 3)``."""
+        from dressmeup.bench import write_submission
+
+        out = {}
+        for name, op in ops.items():
+            preds = {p.pair_id: op(public(self.parts.public, p)) for p in self.pairs}
+            sub = write_submission(tmp_path / f"sub-{name}", preds, edition=self.ed,
+                                   method=name)
+            out[name] = self.mean_p2s(sub, tmp_path / f"res-{name}")
+        return out
+
+
+@pytest.fixture(scope="session")
+def shortcut_check(other_data):
+    """``f(edition) -> ShortcutCheck``, one per edition and run."""
+    made: dict[str, ShortcutCheck] = {}
+
+    def get(edition: str) -> ShortcutCheck:
+        if edition not in made:
+            made[edition] = ShortcutCheck(edition, other_data)
+        return made[edition]
+
+    return get

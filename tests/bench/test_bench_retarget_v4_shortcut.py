@@ -24,34 +24,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dressmeup.bench import load_edition
-from dressmeup.bench.scoring.score import score_submission
-from dressmeup.bench.scoring.submission import write_submission
-
 EDITION = "synth-retarget-tiny-v4"
-
-
-@pytest.fixture(scope="module")
-def tiny(other_data):
-    from dressmeup import runs
-    from dressmeup.cache import cache_dir
-
-    ed = load_edition(EDITION)
-    parts = runs.build_parts(ed, cache_dir("e2e") / f"{ed.name}-{ed.hash[:10]}",
-                             allow_other_data=True)
-    other_data(ed, parts.full)  # the pin or a known machine's data; any other manifest fails
-    return ed, parts
-
-
-def _mean_p2s(ed, parts, preds, tmp_path, name) -> float:
-    from dressmeup import runs
-
-    sub = write_submission(tmp_path / f"sub-{name}", preds, edition=ed, method=name)
-    res = score_submission(sub, ed, parts.private, tmp_path / f"res-{name}", workers=1,
-                           show_progress=False,
-                           allow_other_data=runs.data_differs(ed, parts.full) is not None)
-    assert (res.table["status"] == "ok").all()
-    return float(res.table["p2s"].mean())
+#: the edition before the current one: its whole-edition checks run with the slow tests
+pytestmark = pytest.mark.slow
 
 
 class _Public:
@@ -122,27 +97,13 @@ def _simulated(pub: _Public) -> np.ndarray:
 SHORTCUTS = {"unchanged": lambda pub: pub.V, "relaxed": _relaxed, "simulated": _simulated}
 
 
-def test_no_shortcut_beats_the_best_reference(tiny, tmp_path):
-    from dressmeup import runs
-    from dressmeup.bench.tasks.retarget.data import edition_pairs, open_dataset
-
-    ed, parts = tiny
-    pairs = edition_pairs(ed, open_dataset(str(parts.public.resolve())))
+def test_no_shortcut_beats_the_best_reference(shortcut_check, tmp_path):
+    check = shortcut_check(EDITION)
+    pairs = check.pairs
     assert len(pairs) == 6 and {p.track for p in pairs} == {"re-pose", "re-shape", "cross"}
-    refs = ["rigid", "skinning", "transfer"]
-    subs = runs.run_baselines(ed, parts.public, tmp_path / "ref", methods=refs)
-    assert set(subs) == set(refs)
-    reference = {}
-    for name, sub in subs.items():
-        res = score_submission(sub, ed, parts.private, tmp_path / f"res-ref-{name}", workers=1,
-                               show_progress=False,
-                               allow_other_data=runs.data_differs(ed, parts.full) is not None)
-        reference[name] = float(res.table["p2s"].mean())
+    reference = check.references(tmp_path)
     best = min(reference.values())
-    found = {}
-    for name, op in SHORTCUTS.items():
-        preds = {p.pair_id: op(_Public(parts.public, p)) for p in pairs}
-        found[name] = _mean_p2s(ed, parts, preds, tmp_path, name)
+    found = check.shortcuts(tmp_path, SHORTCUTS, _Public)
     closer = {k: v for k, v in found.items() if v < best}
     assert not closer, (f"shortcuts closer to the ground truth than the best reference "
                         f"({best * 1000:.2f} mm, {reference}): "

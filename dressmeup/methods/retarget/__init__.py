@@ -2,7 +2,9 @@
 
 Methods: ``rigid`` (root-joint alignment, the lower bound), ``skinning`` (skinning-weight
 transfer, unpose, repose: the classical baseline), ``transfer`` (the body's displacement at
-each vertex's closest point between the two posed bodies), ``isomap`` (thesis 4.3.1: Isomap
+each vertex's closest point between the two posed bodies), ``simulate`` (generator 4's cloth
+dynamics along a motion from the source body to the target: a physics reference, seconds to
+minutes a pair, not a leaderboard row by default), ``isomap`` (thesis 4.3.1: Isomap
 correspondences through the body template), ``isomap-refine`` (thesis 4.3.2: self-supervised
 refinement network; ``isomap-refine-fast``: a narrower network; ``isomap-refine-sup``: the same
 network trained with ground truth, thesis 4.3.3.1), ``isomap-offset`` (the loose-garment
@@ -30,6 +32,7 @@ METHODS = {
     "rigid": ("dressmeup.methods.retarget.rigid", "RigidRetarget"),
     "skinning": ("dressmeup.methods.retarget.skinning", "SkinningRetarget"),
     "transfer": ("dressmeup.methods.retarget.transfer", "BodyTransfer"),
+    "simulate": ("dressmeup.methods.retarget.simulate", "SimulateRetarget"),
     "isomap": ("dressmeup.methods.retarget.isomap", "IsomapRetarget"),
     "isomap-offset": ("dressmeup.methods.retarget.isomap", "IsomapOffset"),
     "isomap-refine": ("dressmeup.methods.retarget.refine", "IsomapRefine"),
