@@ -30,8 +30,9 @@ import sys
 import time
 from pathlib import Path
 
-REFERENCE_EDITIONS = ("synth-retarget-v4", "synth-retarget-mini-v4", "synth-retarget-v3",
-                      "synth-retarget-thesis-v3", "synth-retarget-mini-v3", "synth-uvparam-v2")
+REFERENCE_EDITIONS = ("synth-retarget-mini-v5", "synth-retarget-v4", "synth-retarget-mini-v4",
+                      "synth-retarget-v3", "synth-retarget-thesis-v3", "synth-retarget-mini-v3",
+                      "synth-uvparam-v2")
 RESULTS = Path(__file__).resolve().parent / "results"
 
 

@@ -1,8 +1,9 @@
 """``dressmeup demo``: the whole journey on built-in synthetic data, in a few minutes.
 
-1. generate a small synthetic DressMeUp-style dataset (the ``synth-retarget-mini-v4``
-   edition's pinned parameters: three garments each dressed by simulation onto two very
-   different bodies; ``--quick``: ``synth-retarget-tiny-v4``), split into its public and
+1. generate a small synthetic DressMeUp-style dataset (the ``synth-retarget-mini-v5``
+   edition's pinned parameters, its test split's secret published: three garments, one per
+   category, each the end of generator 4's defined motion onto a source and three targets
+   of six bodies; ``--quick``: ``synth-retarget-tiny-v5``), split into its public and
    private parts;
 2. run every retargeting baseline the toolkit provides into submissions;
 3. validate and score them, and print the leaderboard;
@@ -34,8 +35,8 @@ from dressmeup.data.sample_capture import fuse_synthetic_sample
 from dressmeup.errors import DressmeupError
 from dressmeup.viz.site import write_site
 
-DEMO_EDITION = "synth-retarget-mini-v4"
-QUICK_EDITION = "synth-retarget-tiny-v4"
+DEMO_EDITION = "synth-retarget-mini-v5"
+QUICK_EDITION = "synth-retarget-tiny-v5"
 UV_EDITION = "synth-uvparam-mini-v1"
 #: UV baselines run by the demo (the neural method runs as its own row, pretrained).
 UV_DEMO_METHODS = ("xatlas", "lscm", "harmonic", "slim")

@@ -230,7 +230,8 @@ def test_an_unpinned_edition_needs_consent(packed, tmp_path):
 
 
 @pytest.mark.parametrize("edition", [
-    "synth-retarget-tiny-v4",  # generator 3.0.0: the same bytes on every x86 CPU
+    "synth-retarget-tiny-v5",  # generator 4.0.0: the same bytes on every x86 CPU
+    pytest.param("synth-retarget-tiny-v4", marks=pytest.mark.slow),  # 3.0.0: the same
     pytest.param("synth-retarget-tiny-v3", marks=pytest.mark.cpu_kernels),  # 2.1.0: not
 ])
 def test_shipped_pins_match_the_tiny_edition(edition, other_data, tmp_path):
@@ -243,7 +244,7 @@ def test_shipped_pins_match_the_tiny_edition(edition, other_data, tmp_path):
     pins = load_pins(ed)
     assert pins is not None and pins["edition_hash"] == ed.hash
     folder = cache_dir("e2e") / f"{ed.name}-{ed.hash[:10]}"
-    # the v4 data sit where runs.build_parts (the journey, the server tests) keeps them
+    # the v4 and v5 data sit where runs.build_parts (the journey, the server tests) keeps them
     full = runs.build_data(ed, folder / "full" if ed.version >= 4 else folder)
     other = other_data(ed, full)
     if other:

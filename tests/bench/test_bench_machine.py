@@ -82,6 +82,7 @@ def test_every_edition_of_generator_2_ships_a_probe_pin_and_no_portable_one_does
             assert probe is None, name
             assert machine_differs(ed) == (None, None)  # nothing is run
     assert portable("synth-retarget-tiny-v4") and portable("synth-uvparam-mini-v1")
+    assert portable("synth-retarget-tiny-v5") and portable("synth-retarget-mini-v5")
     assert not portable(TINY_V3) and not portable("synth-retarget-tiny-v2")
 
 

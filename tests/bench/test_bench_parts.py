@@ -1,6 +1,6 @@
 """Withheld answers: public and private parts of an edition's data.
 
-The tiny retargeting edition (v4: generator 3.0.0, the same bytes on every x86 CPU) is exported; the public part must hold no withheld answer (no
+The tiny retargeting edition (v5: generator 4.0.0, the same bytes on every x86 CPU) is exported; the public part must hold no withheld answer (no
 test scan, no target garment, no generator file of a test garment), every shipped
 retargeting baseline must run on it alone, scoring must refuse it and score the private part
 exactly as the full data. The registration and fusion rules are checked on the bench fixture.
@@ -28,8 +28,8 @@ from dressmeup.data.parts import part_of
 from dressmeup.data.validate import validate_dataset
 from dressmeup.errors import InputError
 
-#: generator 3.0.0: portable, so its private part is the pinned one on any x86 CPU
-EDITION = "synth-retarget-tiny-v4"
+#: generator 4.0.0: portable, so its private part is the pinned one on any x86 CPU
+EDITION = "synth-retarget-tiny-v5"
 
 _spec = importlib.util.spec_from_file_location(
     "bench_fixtures", Path(__file__).resolve().parent / "conftest.py")
@@ -68,7 +68,7 @@ def test_public_part_holds_no_answer(tiny_parts):
     assert validate_dataset(public).ok and validate_dataset(private).ok
     # the private part carries the full manifest byte for byte (the edition's pin holds)
     assert (private / "manifest.parquet").read_bytes() == (full / "manifest.parquet").read_bytes()
-    # v4 draws one source per test garment, disjoint from the targets: 6 pairs, no target
+    # v4 and v5 draw one source per test garment, disjoint from the targets: 6 pairs, no target
     # is another pair's source, so no answer is public
     assert len(res.public_answers) == 0 and len(pairs) == 6
     assert not sources & {p.target.sample_id for p in pairs}

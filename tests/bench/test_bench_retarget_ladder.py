@@ -1,5 +1,6 @@
-"""Sanity ladder of the retargeting benchmark (three tracks, v3 and v4 protocol), on the full
-data of ``synth-retarget-tiny-v4`` (generator 3.0.0: the same bytes on every x86 CPU).
+"""Sanity ladder of the retargeting benchmark (three tracks, the v3-v5 protocol), on the
+full data of ``synth-retarget-tiny-v5`` (generator 4.0.0 with its published secret: the same
+bytes on every x86 CPU).
 
 1. the ground truth as a submission scores P2S = ED = 0 (P2S to round-off, 1e-17 m) and
    NC = 1, with a track per row;
@@ -27,7 +28,7 @@ from dressmeup.bench import load_edition
 from dressmeup.bench.scoring.score import score_submission
 from dressmeup.bench.scoring.submission import write_submission
 
-EDITION = "synth-retarget-tiny-v4"
+EDITION = "synth-retarget-tiny-v5"
 SIGMA = 0.001
 
 

@@ -1,6 +1,6 @@
 """The whole journey, tiny: synthetic data -> baselines -> validate -> score -> leaderboard.
 
-Uses the ``synth-retarget-tiny-v4`` edition (procedural body, ground truth by simulation, 6 test
+Uses the ``synth-retarget-tiny-v5`` edition (procedural body, ground truth by simulation, 6 test
 pairs in three tracks; baselines run on its public part, scored with the private one). The generated
 data go to the test cache (``$DRESSMEUP_CACHE/e2e/<edition>-<hash>``) and are reused by later
 runs: the generator resumes and is deterministic, so a cached dataset is the same dataset.
@@ -14,7 +14,7 @@ import pandas as pd
 
 from dressmeup.cli import main
 
-EDITION = "synth-retarget-tiny-v4"
+EDITION = "synth-retarget-tiny-v5"
 
 
 def test_synth_to_leaderboard(tmp_path, capsys, other_data):
@@ -55,13 +55,16 @@ def test_synth_to_leaderboard(tmp_path, capsys, other_data):
     assert main(["leaderboard", *map(str, results), "--out", str(board)]) == 0
     lines = board.read_text().splitlines()
     assert "P2S ↓ [mm]" in lines[0]
-    # Skinning transfer must beat the rigid lower bound on every distance metric.
-    rigid, skin = (json.loads((r / "summary.json").read_text())["metrics"] for r in results)
-    for m in ("p2s", "p2s_bi", "chamfer", "ed"):
-        assert skin[m]["mean"] < rigid[m]["mean"], m
+    # Rows are ranked by the edition's primary figure, P2S on cross, recomputed here from the
+    # per-item results (on tiny v5's loose bottoms `rigid` is ahead of `skinning`)
+    cross = {}
+    for name, r in zip(subs, results, strict=True):
+        t = pd.read_parquet(r / "per_sample.parquet")
+        cross[name] = float(t.loc[t["track"] == "cross", "p2s"].mean())
+    first, second = sorted(cross, key=cross.get)
     if other:  # not comparable rows are listed unranked
-        assert lines[2].startswith("| – | skinning (not comparable) |")
-        assert lines[3].startswith("| – | rigid (not comparable) |")
+        assert lines[2].startswith(f"| – | {first} (not comparable) |")
+        assert lines[3].startswith(f"| – | {second} (not comparable) |")
     else:
-        assert lines[2].startswith("| 1 | skinning |") and lines[3].startswith("| 2 | rigid |")
+        assert lines[2].startswith(f"| 1 | {first} |") and lines[3].startswith(f"| 2 | {second} |")
     capsys.readouterr()

@@ -19,9 +19,9 @@ import pytest
 from dressmeup import runs
 from dressmeup.bench import load_edition
 
-#: generator 3.0.0 (portable: the same bytes on every x86 CPU), so that the server adds its
+#: generator 4.0.0 (portable: the same bytes on every x86 CPU), so that the server adds its
 #: private part as the pinned one on any machine
-EDITION = "synth-retarget-tiny-v4"
+EDITION = "synth-retarget-tiny-v5"
 
 
 @pytest.fixture(scope="session")

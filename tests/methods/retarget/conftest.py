@@ -48,9 +48,13 @@ def tiny(body_model):
 
 
 @pytest.fixture(scope="session")
-def tiny_v4_data(tmp_path_factory):
-    """The synth-retarget-tiny-v4 data (procedural body, 2 subjects), built once per run."""
+def tiny_retarget_data():
+    """The full synth-retarget-tiny-v5 data (procedural body, 2 test bottoms, 8 samples),
+    built once into the test cache where the journey, parts and server tests keep them."""
     pytest.importorskip("dressmeup.runs")
+    from dressmeup.bench import load_edition
+    from dressmeup.cache import cache_dir
     from dressmeup.runs import build_data
 
-    return build_data("synth-retarget-tiny-v4", tmp_path_factory.mktemp("data") / "tiny")
+    ed = load_edition("synth-retarget-tiny-v5")
+    return build_data(ed, cache_dir("e2e") / f"{ed.name}-{ed.hash[:10]}" / "full")

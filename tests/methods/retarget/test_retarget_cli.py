@@ -7,8 +7,8 @@ import pytest
 
 
 @pytest.fixture
-def tiny_data(tiny_v4_data):
-    return tiny_v4_data
+def tiny_data(tiny_retarget_data):
+    return tiny_retarget_data
 
 
 @pytest.mark.parametrize("method", ["rigid", "skinning+detail"])
@@ -20,11 +20,11 @@ def test_cli_writes_valid_submission(tiny_data, tmp_path, method):
 
     out = tmp_path / "sub"
     status = main(["baseline", "retarget", "--method", method, "--data", str(tiny_data),
-                   "--edition", "synth-retarget-tiny-v4", "--out", str(out)])
+                   "--edition", "synth-retarget-tiny-v5", "--out", str(out)])
     assert status == 0
-    report = validate_submission(out, "synth-retarget-tiny-v4", tiny_data)
+    report = validate_submission(out, "synth-retarget-tiny-v5", tiny_data)
     assert report.ok, report
-    pairs = edition_pairs(load_edition("synth-retarget-tiny-v4"), Dataset(tiny_data))
+    pairs = edition_pairs(load_edition("synth-retarget-tiny-v5"), Dataset(tiny_data))
     assert sorted(p.name for p in out.glob("*.npz")) == sorted(f"{p.pair_id}.npz" for p in pairs)
     for p in pairs:
         with np.load(out / f"{p.pair_id}.npz") as z:
@@ -35,6 +35,6 @@ def test_cli_rejects_bad_param(tiny_data, tmp_path, capsys):
     from dressmeup.cli import main
 
     status = main(["baseline", "retarget", "--method", "skinning", "--param", "nope=1", "--data",
-                   str(tiny_data), "--edition", "synth-retarget-tiny-v4", "--out", str(tmp_path / "s")])
+                   str(tiny_data), "--edition", "synth-retarget-tiny-v5", "--out", str(tmp_path / "s")])
     assert status == 2
     assert "unknown hyperparameter" in capsys.readouterr().err

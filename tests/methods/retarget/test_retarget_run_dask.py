@@ -8,8 +8,8 @@ import pytest
 
 
 @pytest.fixture
-def tiny_data(tiny_v4_data):
-    return tiny_v4_data
+def tiny_data(tiny_retarget_data):
+    return tiny_retarget_data
 
 
 @pytest.mark.parametrize("name", ["skinning", "skinning+detail"])
@@ -50,12 +50,12 @@ def test_baseline_retarget_command_on_an_existing_scheduler(dask_cluster, tiny_d
     addr = dask_cluster.client.scheduler.address
     out = tmp_path / "sub"
     assert main(["baseline", "retarget", "--method", "skinning", "--data", str(tiny_data),
-                 "--edition", "synth-retarget-tiny-v4", "--out", str(out),
+                 "--edition", "synth-retarget-tiny-v5", "--out", str(out),
                  "--scheduler", addr]) == 0
     from dressmeup.bench import load_edition
     from dressmeup.bench.tasks.retarget.data import edition_pairs
 
-    pairs = edition_pairs(load_edition("synth-retarget-tiny-v4"), Dataset(tiny_data))
+    pairs = edition_pairs(load_edition("synth-retarget-tiny-v5"), Dataset(tiny_data))
     serial, _ = predict_pairs(get_method("skinning"), pairs)
     for pid, V in serial.items():
         with np.load(out / f"{pid}.npz") as z:
