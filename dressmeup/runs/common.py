@@ -26,12 +26,16 @@ class SkippedBaseline(InputError):
 
 
 def shipped_weights(method: Any, body_model: str) -> Path | None:
-    """The checkpoint a trainable method ships for ``body_model`` (None when there is none)."""
-    mod = importlib.import_module(type(method).__module__)
-    wdir = getattr(mod, "WEIGHTS_DIR", None)
+    """The checkpoint a trainable method ships for ``body_model`` (None when there is none):
+    ``<stem>_<body_model>.pt`` in the ``WEIGHTS_DIR`` of the module of the method's class or
+    of a class it derives from; a post-process chain's base method's."""
+    base = getattr(method, "method", method)  # a chain's base method
+    wdir = next((d for cls in type(base).__mro__
+                 if (d := getattr(importlib.import_module(cls.__module__), "WEIGHTS_DIR", None))
+                 is not None), None)
     if wdir is None:
         return None
-    stem = getattr(getattr(method, "method", method), "weights_stem", None)  # a chain's base method
+    stem = getattr(base, "weights_stem", None)
     hits = sorted(Path(wdir).glob(f"{stem}_{body_model}.pt" if stem else f"*_{body_model}.pt"))
     return hits[0] if hits else None
 
