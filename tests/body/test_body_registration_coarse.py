@@ -160,3 +160,18 @@ def test_a_fit_on_coarse_points_ends_on_the_full_points(model, truth):
                    shape_search=False, limb_search=False)
     assert np.isfinite(res.params.pose).all() and res.params.scale == 1.0
     assert "shape_data" in res.losses
+
+
+@pytest.mark.parametrize("coarse", ["start", "pose"])
+def test_a_coarse_set_as_large_as_the_full_one_gives_the_same_fit(model, truth, coarse):
+    """Switching point sets changes nothing but the points: with coarse sizes equal to the
+    full ones, a plan with ``Points`` stages fits exactly as the plan without them."""
+    scan = synthetic_scan(model, truth, n_points=3000, noise=0.002, seed=7)
+    small = dict(iterations=(4, 6, 6), hypothesis_steps=(2, 2, 3), yaw_candidates=2,
+                 hypotheses=("a-pose", "t-pose"), hypothesis_keep=1, hypothesis_yaws=1,
+                 n_scan_points=1200, n_body_points=700, verbose=False)
+    plain = register(scan, model, coarse="none", **small)
+    same = register(scan, model, coarse=coarse, coarse_scan_points=1200,
+                    coarse_body_points=700, **small)
+    for key in ("shape", "pose", "transl"):
+        assert np.array_equal(getattr(plain, key), getattr(same, key)), key
