@@ -29,7 +29,6 @@ from dressmeup.body.registration.scan import UP_ROTATIONS
 from dressmeup.errors import InputError
 from dressmeup.hyperparameters import resolve_config
 
-
 #: which stages run on the coarse point set (``Schedule.coarse``)
 COARSE = ("none", "start", "pose", "all")
 
