@@ -1,8 +1,9 @@
 """Registration cost and accuracy of two versions of the toolkit, side by side in one run.
 
 Fits every scan of a registration edition (default ``synth-registration-v3``, 24 clothed
-scans) with the default registrar of this source tree and of a baseline source tree (an
-earlier commit, e.g. ``git archive <commit> | tar -x -C /tmp/base``), alternating which
+scans) with the default registrar of this source tree (or the settings ``--options``) and
+of a baseline source tree (its default; an earlier commit, e.g. ``git archive <commit> |
+tar -x -C /tmp/base``), alternating which
 goes first scan by scan, so both see the same machine load. Each fit runs in a fresh
 Python process importing its own tree (two versions of one package cannot share a
 process) and calls the edition runner's own job, ``dressmeup.runs.registration.RegisterJob``
@@ -17,6 +18,8 @@ taken at a load above the machine's cores are not valid for speed claims).
     python benchmarks/perf/registration_speed.py --baseline /tmp/base --data DATA_ROOT
     python benchmarks/perf/registration_speed.py --baseline /tmp/base --data DATA_ROOT \\
         --items 6 --json /tmp/speed.json --keep /tmp/fits
+    python benchmarks/perf/registration_speed.py --baseline /tmp/base --data DATA_ROOT \
+        --options '{"coarse": "none"}'
 
 ``DATA_ROOT``: the edition's generated data (``benchmarks/run_baselines.py`` makes it under
 ``<work>/data/<edition>``).
@@ -36,6 +39,7 @@ HERE = Path(__file__).resolve().parents[2]  # this source tree
 
 #: what each child process runs: one default fit through the edition runner's job
 CHILD = """
+import json
 import sys
 import numpy as np
 import dressmeup
@@ -43,20 +47,21 @@ try:
     from dressmeup.runs.registration import RegisterJob
 except ImportError:  # a tree from before the runners left dressmeup.bench
     from dressmeup.bench.runs import RegisterJob
-data, item, out = sys.argv[1:4]
-arrays, cpu = RegisterJob(data, {"verbose": False})(item)
+data, item, out, options = sys.argv[1:5]
+arrays, cpu = RegisterJob(data, {"verbose": False, **json.loads(options)})(item)
 np.savez(out, cpu_s=np.float64(cpu), source=np.array(dressmeup.__file__), **arrays)
 """
 
 
-def fit(tree: Path, data: Path, item: str, out: Path) -> dict:
-    """Fit ``item`` with the toolkit of source tree ``tree`` in a child process; its
-    arrays (shape, pose, transl, scale, ...) and ``cpu_s``."""
+def fit(tree: Path, data: Path, item: str, out: Path, options: str = "{}") -> dict:
+    """Fit ``item`` with the toolkit of source tree ``tree`` in a child process (registrar
+    settings ``options``, JSON); its arrays (shape, pose, transl, scale, ...) and
+    ``cpu_s``."""
     import numpy as np
 
     env = {**os.environ, "PYTHONPATH": str(tree), "DRESSMEUP_NO_PROGRESS": "1"}
     # run in the tree: ``python -c`` puts the working folder first on the import path
-    subprocess.run([sys.executable, "-c", CHILD, str(data), item, str(out)], env=env,
+    subprocess.run([sys.executable, "-c", CHILD, str(data), item, str(out), options], env=env,
                    cwd=tree, check=True)
     with np.load(out) as z:
         arrays = {k: z[k] for k in z.files}
@@ -92,6 +97,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--data", required=True, help="the edition's generated data folder")
     ap.add_argument("--edition", default="synth-registration-v3")
     ap.add_argument("--items", type=int, default=0, help="only the first N scans (0: all)")
+    ap.add_argument("--options", default="{}", help="registrar settings of this tree's "
+                    "fits as JSON, e.g. '{\"coarse\": \"none\"}' (the baseline's: its default)")
     ap.add_argument("--json", help="also write the rows to this JSON file")
     ap.add_argument("--keep", help="keep each fit's arrays in this folder as "
                     "<version>/<scan>.npz")
@@ -108,7 +115,8 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for k, item in enumerate(ids):
             order = ("baseline", "this") if k % 2 == 0 else ("this", "baseline")
-            res = {name: fit(trees[name], data, item, Path(tmp) / f"{name}.npz")
+            res = {name: fit(trees[name], data, item, Path(tmp) / f"{name}.npz",
+                             args.options if name == "this" else "{}")
                    for name in order}
             if args.keep:
                 for name, arrays in res.items():
