@@ -174,15 +174,16 @@ def blender_cloth(rest_V: np.ndarray, faces: np.ndarray, bodies: list[np.ndarray
                   body_F: np.ndarray, up: np.ndarray, dyn: DynamicsSettings, dt: float,
                   support: np.ndarray | None = None, anchors: list[np.ndarray] | None = None,
                   quality: int = 10, collision_quality: int = 4,
-                  on_frame=None) -> tuple[np.ndarray, dict]:
+                  bending_factor: float = 1.0, on_frame=None) -> tuple[np.ndarray, dict]:
     """Simulate the cloth ``rest_V (n, 3)``, ``faces (m, 3)`` with Blender through the body
     frames ``bodies`` (``(b, 3)`` each, frame 0 the start; faces ``body_F (c, 3)``), gravity
     along ``-up``, time step ``dt`` (s), from rest.
 
     ``support (n,)`` and ``anchors`` (per frame ``(n, 3)`` anchor points) pin the supported
     vertices to their anchors (:func:`blender_settings`); ``quality``: Blender's solver steps a
-    frame; ``collision_quality``: its collision passes a step. Runs in a fresh, empty Blender
-    scene on one CPU core.
+    frame; ``collision_quality``: its collision passes a step; ``bending_factor`` multiplies
+    the mapped bending stiffness (a diagnosis of the bending mapping; 1: as mapped). Runs in a
+    fresh, empty Blender scene on one CPU core.
 
     Returns ``(vertices (n, 3) float64 at the last frame, info)``; info: ``cpu_s`` (process CPU
     time of the frames), ``wall_s``, ``frames``, ``settings`` (the mapped parameters).
@@ -192,6 +193,7 @@ def blender_cloth(rest_V: np.ndarray, faces: np.ndarray, bodies: list[np.ndarray
     n = len(rest_V)
     support = np.zeros(n) if support is None else np.asarray(support, np.float64)
     bs = blender_settings(rest_V, faces, support, dyn, dt)
+    bs["bending"] *= float(bending_factor)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.context.preferences.edit.keyframe_new_interpolation_type = "LINEAR"
     scene = bpy.context.scene
@@ -284,7 +286,8 @@ def plausibility(V: np.ndarray, built, body: np.ndarray, kit, dyn: DynamicsSetti
     return st
 
 
-def crosscheck(root: Path, item: dict, quality: int, collision_quality: int) -> dict:
+def crosscheck(root: Path, item: dict, quality: int, collision_quality: int,
+               bending_factor: float = 1.0) -> dict:
     """Blender on one stored sample and the comparison (module docstring)."""
     with single_threaded():
         settings, kit, built, body, V4 = figures.replay_inputs(root, item)
@@ -294,7 +297,8 @@ def crosscheck(root: Path, item: dict, quality: int, collision_quality: int) -> 
         bodies, anchors = motion_inputs(kit, built, body["shape"], body["pose"], settings)
         VB, info = blender_cloth(built.vertices, built.faces, bodies, kit.faces,
                                  built.frame.up, settings.dynamics, settings.motion.dt,
-                                 built.support, anchors, quality, collision_quality)
+                                 built.support, anchors, quality, collision_quality,
+                                 bending_factor)
         d = np.sqrt(np.sum((VB - V4) ** 2, axis=1)) * 1000
         g4 = plausibility(V4, built, bodies[-1], kit, settings.dynamics)
         bl = plausibility(VB, built, bodies[-1], kit, settings.dynamics)
@@ -391,7 +395,7 @@ def picture(rows: list[dict], items: dict[str, dict], path: Path) -> None:
                           f"{r['median_mm']:.0f}/{r['p95_mm']:.0f} mm")
     path.parent.mkdir(parents=True, exist_ok=True)
     render_contact_sheet(cells, path, right=np.array([1.0, 0, 0]), up=np.array([0, 1.0, 0]),
-                         ncols=6, titles=titles,
+                         ncols=6, titles=titles, cell_size=2.2,
                          suptitle="generator 4 vs Blender's cloth, same motion: garment "
                                   "coloured by the distance between the two (0-50 mm); "
                                   "titles: median/p95")
@@ -419,6 +423,28 @@ def timing(root: Path, item: dict, edge: float, frames: int, quality: int,
             "quality": quality, "load": figures.load()}
 
 
+def _compare(path: Path, other: Path) -> int:
+    """Print, per sample in both runs, the per-vertex distance (mm) between their Blender
+    results and the two runs' distances to generator 4."""
+    mine = {(r["data"], r["id"]): r for r in json.loads(path.read_text())["samples"]}
+    theirs = json.loads(other.read_text())
+    out = []
+    for r in theirs["samples"]:
+        m = mine.get((r["data"], r["id"]))
+        if m is None:
+            continue
+        d = np.sqrt(np.sum((np.asarray(m["blender_vertices"])
+                            - np.asarray(r["blender_vertices"])) ** 2, axis=1)) * 1000
+        out.append({"id": r["id"], "median_mm": float(np.median(d)),
+                    "p95_mm": float(np.percentile(d, 95)), "max_mm": float(d.max()),
+                    "to_generator4": [m["median_mm"], m["p95_mm"], r["median_mm"], r["p95_mm"]],
+                    "cpu_s": [m["blender"]["cpu_s"], r["blender"]["cpu_s"]]})
+        print(json.dumps(out[-1]), flush=True)
+    (path.parent / "compare.json").write_text(json.dumps(
+        {"this": str(path), "other": str(other), "samples": out}, indent=1))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, action="append", required=True,
@@ -427,13 +453,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="*", default=None, help="sample ids to run (else --samples)")
     ap.add_argument("--quality", type=int, default=10, help="Blender's steps a frame")
     ap.add_argument("--collision-quality", type=int, default=4)
+    ap.add_argument("--bending-factor", type=float, default=1.0,
+                    help="multiply the mapped bending stiffness (diagnosis)")
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--picture", type=Path, default=None)
     ap.add_argument("--timing-edge", type=float, default=0.0,
                     help="time Blender alone on the first chosen garment at this edge (m)")
     ap.add_argument("--timing-frames", type=int, default=0)
+    ap.add_argument("--redraw", action="store_true",
+                    help="rewrite the table and the picture from OUT/crosscheck.json")
+    ap.add_argument("--compare-to", type=Path, default=None,
+                    help="another run's crosscheck.json: distance between the two Blender "
+                         "results of each sample both ran (Blender's own sensitivity)")
     a = ap.parse_args(argv)
     a.out.mkdir(parents=True, exist_ok=True)
+    if a.compare_to is not None:
+        return _compare(a.out / "crosscheck.json", a.compare_to)
     items = []
     for root in a.data:
         _, samples, _ = figures.read_samples(root)
@@ -450,14 +485,19 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     rows = []
     jpath = a.out / "crosscheck.json"
-    for s in chosen:
-        r = crosscheck(s["root"], s, a.quality, a.collision_quality)
+    if a.redraw:
+        rows = json.loads(jpath.read_text())["samples"]
+        chosen = [s for r in rows for s in items if s["id"] == r["id"]
+                  and str(s["root"]) == r["data"]]
+    for s in ([] if a.redraw else chosen):
+        r = crosscheck(s["root"], s, a.quality, a.collision_quality, a.bending_factor)
         rows.append(r)
         print(json.dumps({k: v for k, v in r.items()
                           if k not in ("distance_mm", "blender_vertices")}, default=float),
               flush=True)
         jpath.write_text(json.dumps({"samples": rows, "quality": a.quality,
-                                     "collision_quality": a.collision_quality}, default=float))
+                                     "collision_quality": a.collision_quality,
+                                     "bending_factor": a.bending_factor}, default=float))
     md = table(rows)
     (a.out / "crosscheck.md").write_text(md)
     print(md)
