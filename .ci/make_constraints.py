@@ -47,10 +47,13 @@ def closure() -> tuple[dict[str, str], list[str]]:
     todo = [r for r in todo if _applies(r, set())]
     pins: dict[str, str] = {}
     missing: list[str] = []
+    # the extras each package was visited with: a later requirement with more extras
+    # (urllib3[socks] after urllib3) still adds their dependencies
+    visited: dict[str, set[str]] = {}
     while todo:
         req = todo.pop()
         name = canonicalize_name(req.name)
-        if name in pins or name in missing:
+        if name in missing or (name in pins and set(req.extras) <= visited[name]):
             continue
         try:
             dist = metadata.distribution(req.name)
@@ -58,6 +61,7 @@ def closure() -> tuple[dict[str, str], list[str]]:
             missing.append(name)
             continue
         pins[name] = re.sub(r"\+.*$", "", dist.version)
+        visited.setdefault(name, set()).update(req.extras)
         for sub in dist.requires or []:
             sreq = Requirement(sub)
             if _applies(sreq, set(req.extras)):

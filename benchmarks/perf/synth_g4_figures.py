@@ -66,23 +66,30 @@ def read_samples(root: Path) -> tuple[dict, list[dict], list[dict]]:
     return info, samples, failed
 
 
-def sensitivity(job: tuple[str, dict]) -> dict:
-    """Re-dress one sample with the time step halved and with the tolerance / 10."""
-    root, item = Path(job[0]), job[1]
+def replay_inputs(root: Path, item: dict) -> tuple:
+    """What re-dressing a stored sample needs: ``(settings, kit, built garment, body.npz
+    (shape, pose), stored garment vertices (n, 3))``; the garment rebuilt from the dataset's
+    generator parameters (call inside :func:`single_threaded`)."""
     info = json.loads((root / "dataset.json").read_text())
     params = dict(info["generator"]["params"])
     c = synth_config(version="4.0.0", plan=params["plan"], motion=params["motion"],
                      dynamics=params["dynamics"], edge_length=params["edge_length"],
                      body_model=params["body_model"])
-    base_settings = Gen4Config.from_synth(c).sim
+    settings = Gen4Config.from_synth(c).sim
+    kit = load_body_kit(params["body_model"])
+    g = item["garment"]
+    design = np.asarray(info["subjects"][g["design_subject"]]["shape"], np.float64)
+    built = build(kit, g["type"], g["params"], design, settings.edge_length)
+    body = np.load(_folder(root, item) / "body.npz")
+    stored = load_mesh(_folder(root, item) / "garment.ply")
+    return settings, kit, built, body, np.asarray(stored.vertices, np.float64)
+
+
+def sensitivity(job: tuple[str, dict]) -> dict:
+    """Re-dress one sample with the time step halved and with the tolerance / 10."""
+    root, item = Path(job[0]), job[1]
     with single_threaded():
-        kit = load_body_kit(params["body_model"])
-        g = item["garment"]
-        design = np.asarray(info["subjects"][g["design_subject"]]["shape"], np.float64)
-        built = build(kit, g["type"], g["params"], design, base_settings.edge_length)
-        body = np.load(_folder(root, item) / "body.npz")
-        stored = load_mesh(_folder(root, item) / "garment.ply")
-        V0 = np.asarray(stored.vertices, np.float64)
+        base_settings, kit, built, body, V0 = replay_inputs(root, item)
         variants = {
             "dt_half": dataclasses.replace(base_settings,
                                            motion=base_settings.motion.refined(2)),
