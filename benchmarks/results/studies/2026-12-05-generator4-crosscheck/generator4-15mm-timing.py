@@ -1,13 +1,20 @@
 """Generator 4 on the cross-check's 15 mm timing garment (mini-v5 S002-G001-P002's t-shirt
 rebuilt at 15 mm edges, the same walking motion): CPU seconds and figures."""
-import dataclasses, json, os, sys, time
+import dataclasses
+import json
+import os
+import sys
+import time
 from pathlib import Path
+
 import numpy as np
+
 sys.path.insert(0, "/work/main/benchmarks/perf")
 
 def main():
     import synth_g4_figures as f
-    from dressmeup.data.synth.generator4 import build, dress, SimulationFailed
+
+    from dressmeup.data.synth.generator4 import SimulationFailed, build, dress
     from dressmeup.data.synth.jobs import single_threaded
     root = Path("/tmp/m5")
     info, samples, _ = f.read_samples(root)
@@ -28,9 +35,9 @@ def main():
             out = {k: res.stats[k] for k in ("cpu_s", "substeps", "iterations", "unconverged_frames", "intersection_free", "inside_area_pct", "self_intersecting_faces")}
         except SimulationFailed as exc:
             out = {"failed": str(exc), "cpu_s": time.process_time() - t0}
-        out["vertices"] = len(fine.vertices); out["load"] = os.getloadavg()
+        out["vertices"] = len(fine.vertices)
+        out["load"] = os.getloadavg()
         print(json.dumps(out, indent=1))
-        Path("/tmp/g15/result.json").write_text(json.dumps(out, indent=1))
 
 if __name__ == "__main__":
     main()
