@@ -7,7 +7,9 @@ vector linearly from the source's to the target's, each phase eased by the smoot
 generator 4's dynamics (:class:`dressmeup.data.synth.dynamics.ClothDynamics`: implicit time
 steps, springs, gravity, barrier contact with the body and itself, so no state penetrates).
 The garment's rest shape is the source garment as given (its design is not known); the top
-``anchor_share`` of its height is held to the body as a waistband or shoulders would be.
+``anchor_share`` of its height is held to the body as a waistband or shoulders would be;
+the pinch rule of the contact (body parts pressed together leave it) measures the parts'
+distance at the source body as posed, not at rest.
 A motion the dynamics cannot follow (cloth caught between body parts, over the sub-step
 budget of :class:`~dressmeup.data.synth.dynamics.DynamicsSettings`) falls back to ``transfer``'s result.
 
