@@ -62,11 +62,10 @@ from pathlib import Path
 import numpy as np
 
 from dressmeup.data.synth.cloth import ClothModel
-from dressmeup.data.synth.common import BodyAnchors, drape_stats
+from dressmeup.data.synth.common import drape_stats
 from dressmeup.data.synth.dynamics import ClothDynamics, DynamicsSettings
-from dressmeup.data.synth.generator4 import build
+from dressmeup.data.synth.generator4 import build, motion_frames
 from dressmeup.data.synth.jobs import single_threaded
-from dressmeup.data.synth.motion import body_states, frame_bodies
 
 _spec = importlib.util.spec_from_file_location(
     "synth_g4_figures", Path(__file__).resolve().parents[1] / "perf" / "synth_g4_figures.py")
@@ -271,10 +270,7 @@ def blender_cloth(rest_V: np.ndarray, faces: np.ndarray, bodies: list[np.ndarray
 def motion_inputs(kit, built, shape: np.ndarray, pose: np.ndarray, settings) -> tuple:
     """The body frames ``(b, 3)`` and anchor points ``(n, 3)`` of every frame of the motion
     :func:`generator4.dress` simulates for ``built`` to ``shape``, ``pose``."""
-    states = body_states(settings.motion, built.design_shape, shape, pose)
-    bodies = frame_bodies(states, kit.surface)
-    anchors = BodyAnchors(built.vertices, built.support, bodies[0], kit.faces,
-                          gap=settings.anchor_gap)
+    bodies, anchors = motion_frames(kit, built, shape, pose, settings)
     return bodies, [anchors.points(B) for B in bodies]
 
 

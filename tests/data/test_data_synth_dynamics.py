@@ -50,6 +50,18 @@ def test_free_fall_follows_backward_euler_with_damping():
     assert stats["unconverged_frames"] == 0 and stats["frames"] == frames
 
 
+def test_a_motion_over_the_substep_budget_fails_at_the_frame_that_goes_over():
+    V, F = _sheet()
+    body_V, body_F = _box(top=-5.0)  # no contact: one sub-step a frame
+    bodies = [body_V] * 9
+    _, stats = simulate(ClothDynamics(V, F, body_F, UP, DynamicsSettings(substep_budget=1.0)),
+                        V, bodies, 1.0 / 30.0)
+    assert stats["substeps"] == 8  # exactly at the budget: allowed
+    dyn = ClothDynamics(V, F, body_F, UP, DynamicsSettings(substep_budget=0.5))
+    with pytest.raises(RuntimeError, match=r"frame 5 of 8: 5 sub-steps, over the budget of 4 "):
+        simulate(dyn, V, bodies, 1.0 / 30.0)
+
+
 def test_cloth_rests_on_a_box_outside_it_within_the_barrier_gap():
     V, F = _sheet(z=0.02)
     body_V, body_F = _box(top=0.0)

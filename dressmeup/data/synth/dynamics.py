@@ -75,7 +75,7 @@ class DynamicsSettings:
     pinch_rest: float = 0.05  # m, ... parts whose vertices are this far apart at rest
     min_substep: float = 1.0 / 256.0  # smallest sub-step, as a fraction of a frame
     substep_budget: float = 6.0  # sub-steps a frame on average over a motion, at most
-    # (generator4.dress; a motion over it fails)
+    # (simulate; a motion over it fails)
 
     def to_dict(self) -> dict:
         """The settings as a JSON-able dict."""
@@ -482,6 +482,13 @@ def simulate(dyn: ClothDynamics, x0: np.ndarray, bodies: list[np.ndarray], dt: f
 
     Returns ``(vertices (n, 3), stats)``; stats: ``frames``, ``substeps``, ``iterations``,
     ``unconverged_frames``, ``worst_residual``, ``max_iterations`` (of one frame), ``cpu_s``.
+
+    Raises
+    ------
+    RuntimeError
+        The motion needs more than ``dyn.settings.substep_budget`` sub-steps a frame on
+        average (raised at the frame that goes over), or the dynamics cannot follow the body
+        (:meth:`ClothDynamics.advance`).
     """
     t0 = time.process_time()
     ipctk.set_num_threads(1)  # one thread: the same sums in the same order on every machine
@@ -489,9 +496,14 @@ def simulate(dyn: ClothDynamics, x0: np.ndarray, bodies: list[np.ndarray], dt: f
     v = np.zeros_like(x)
     tot = {"frames": len(bodies) - 1, "substeps": 0, "iterations": 0,
            "unconverged_frames": 0, "worst_residual": 0.0, "max_iterations": 0}
+    budget = dyn.settings.substep_budget * tot["frames"]
     for k in range(1, len(bodies)):
         x, v, st = dyn.advance(x, v, dt, bodies[k - 1], bodies[k], anchors_at)
         tot["substeps"] += st["substeps"]
+        if tot["substeps"] > budget:
+            raise RuntimeError(f"frame {k} of {tot['frames']}: {tot['substeps']} sub-steps, "
+                               f"over the budget of {budget:.0f} "
+                               f"({dyn.settings.substep_budget} a frame)")
         tot["iterations"] += st["iterations"]
         tot["unconverged_frames"] += not st["converged"]
         tot["worst_residual"] = max(tot["worst_residual"], st["residual"])

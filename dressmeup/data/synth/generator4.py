@@ -149,6 +149,18 @@ class DressedSample:
     stats: dict
 
 
+def motion_frames(kit: BodyKit, garment: BuiltGarment, target_shape: np.ndarray,
+                  target_pose: np.ndarray, settings: Gen4Settings
+                  ) -> tuple[list[np.ndarray], BodyAnchors]:
+    """The body surface ``(b, 3)`` of every frame of the motion :func:`dress` simulates
+    (``settings.motion.frames + 1``, the design body at rest first) and the garment's anchors
+    (:class:`~dressmeup.data.synth.common.BodyAnchors` on the first)."""
+    states = body_states(settings.motion, garment.design_shape, target_shape, target_pose)
+    bodies = frame_bodies(states, kit.surface)
+    return bodies, BodyAnchors(garment.vertices, garment.support, bodies[0], kit.faces,
+                               gap=settings.anchor_gap)
+
+
 def dress(kit: BodyKit, garment: BuiltGarment, target_shape: np.ndarray,
           target_pose: np.ndarray, settings: Gen4Settings | None = None,
           on_frame: Callable[[int, np.ndarray, dict], None] | None = None) -> DressedSample:
@@ -172,28 +184,12 @@ def dress(kit: BodyKit, garment: BuiltGarment, target_shape: np.ndarray,
     """
     s = settings or Gen4Settings()
     t0 = time.process_time()
-    states = body_states(s.motion, garment.design_shape, target_shape, target_pose)
-    bodies = frame_bodies(states, kit.surface)
-    anchors = BodyAnchors(garment.vertices, garment.support, bodies[0], kit.faces,
-                          gap=s.anchor_gap)
+    bodies, anchors = motion_frames(kit, garment, target_shape, target_pose, s)
     dyn = ClothDynamics(garment.vertices, garment.faces, kit.faces, garment.frame.up, s.dynamics,
                         anchor_weight=garment.support, body_rest=bodies[0])
-    budget = s.dynamics.substep_budget * s.motion.frames
-    spent = [0]
-
-    def watch(k: int, x: np.ndarray, st: dict) -> None:
-        spent[0] += st["substeps"]
-        if spent[0] > budget:
-            raise SimulationFailed(f"frame {k} of {s.motion.frames}: {spent[0]} sub-steps, over "
-                                   f"the budget of {budget:.0f} ({s.dynamics.substep_budget} a frame)")
-        if on_frame is not None:
-            on_frame(k, x, st)
-
     try:
-        x, sim = simulate(dyn, garment.vertices, bodies, s.motion.dt, anchors.points, watch)
-    except SimulationFailed:
-        raise
-    except RuntimeError as exc:  # the dynamics' own stall or sub-step limit
+        x, sim = simulate(dyn, garment.vertices, bodies, s.motion.dt, anchors.points, on_frame)
+    except RuntimeError as exc:  # over the sub-step budget, or the dynamics' own stall
         raise SimulationFailed(str(exc)) from exc
     V = quantize(x, STORE_DECIMALS)
     stats = {"generator": VERSION, "motion": s.motion.to_dict(),

@@ -92,16 +92,8 @@ class SimulateRetarget(RetargetMethod):
         anchors = BodyAnchors(V, top, bodies[0], faces, gap=self.anchor_gap)
         dyn = ClothDynamics(V, F, faces, up, DynamicsSettings(), anchor_weight=top,
                             body_rest=bodies[0])
-        budget = dyn.settings.substep_budget * (len(bodies) - 1)
-        spent = [0]
-
-        def watch(k: int, x: np.ndarray, st: dict) -> None:
-            spent[0] += st["substeps"]
-            if spent[0] > budget:
-                raise RuntimeError(f"frame {k}: over the sub-step budget ({budget:.0f})")
-
         try:
-            x, _ = simulate(dyn, V, bodies, self.dt, anchors.points, watch)
+            x, _ = simulate(dyn, V, bodies, self.dt, anchors.points)
         except RuntimeError:  # the dynamics cannot follow the motion: transfer's result
             return transfer_to_body(V, bodies[0], bodies[-1], faces)
         return x
