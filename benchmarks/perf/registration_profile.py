@@ -6,7 +6,7 @@ thread, and writes the fit's CPU seconds (profiler overhead included), its verte
 (mm), the load average, and the top functions by cumulative and by own time to ``OUT``.
 
     python benchmarks/perf/registration_profile.py clothed t-pose /tmp/profile.txt
-    python benchmarks/perf/registration_profile.py clothed t-pose /tmp/p.txt '{"coarse": "all"}'
+    python benchmarks/perf/registration_profile.py clothed t-pose /tmp/p.txt '{"n_body_points": 3000}'
 """
 
 from __future__ import annotations

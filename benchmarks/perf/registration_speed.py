@@ -19,7 +19,7 @@ taken at a load above the machine's cores are not valid for speed claims).
     python benchmarks/perf/registration_speed.py --baseline /tmp/base --data DATA_ROOT \\
         --items 6 --json /tmp/speed.json --keep /tmp/fits
     python benchmarks/perf/registration_speed.py --baseline /tmp/base --data DATA_ROOT \
-        --options '{"coarse": "none"}'
+        --options '{"n_body_points": 3000}'
 
 ``DATA_ROOT``: the edition's generated data (``benchmarks/run_baselines.py`` makes it under
 ``<work>/data/<edition>``).
@@ -98,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--edition", default="synth-registration-v3")
     ap.add_argument("--items", type=int, default=0, help="only the first N scans (0: all)")
     ap.add_argument("--options", default="{}", help="registrar settings of this tree's "
-                    "fits as JSON, e.g. '{\"coarse\": \"none\"}' (the baseline's: its default)")
+                    "fits as JSON, e.g. '{\"n_body_points\": 3000}' (the baseline's: its default)")
     ap.add_argument("--json", help="also write the rows to this JSON file")
     ap.add_argument("--keep", help="keep each fit's arrays in this folder as "
                     "<version>/<scan>.npz")

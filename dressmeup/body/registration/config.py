@@ -29,9 +29,6 @@ from dressmeup.body.registration.scan import UP_ROTATIONS
 from dressmeup.errors import InputError
 from dressmeup.hyperparameters import resolve_config
 
-#: which stages run on the coarse point set (``Schedule.coarse``)
-COARSE = ("none", "start", "pose", "all")
-
 
 @dataclass(frozen=True)
 class DataTerm:
@@ -54,11 +51,6 @@ class DataTerm:
         some scan point's nearest body point lies within this distance (m) of it on the rest
         body (a side the capture missed); None: only the facing test frees body points.
     n_scan_points, n_body_points : scan samples and body vertices the data term uses.
-    coarse_scan_points, coarse_body_points : the coarse point set of the stages that
-        ``Schedule.coarse`` runs on it: random subsets (seeded by ``Runtime.seed``) of those
-        scan samples and body vertices, so the coarse data term estimates the full one at a
-        fraction of the cost (nearest-point queries, skinning and gradients scale with the
-        points).
     """
 
     inside_weight: float = 0.5
@@ -70,8 +62,6 @@ class DataTerm:
     unseen_hit_radius: float | None = 0.03
     n_scan_points: int = 8000
     n_body_points: int = 5000
-    coarse_scan_points: int = 2500
-    coarse_body_points: int = 1500
 
 
 @dataclass(frozen=True)
@@ -106,21 +96,12 @@ class Schedule:
     iterations : steps of the rigid (``global``), pose and shape stages.
     lr_pose, lr_transl, lr_shape : learning rates of the pose (axis-angle, rad), the
         translation (m) and the shape (model units; phenotypes through a sigmoid).
-    coarse : which stages run on the coarse point set (``DataTerm.coarse_*_points``; see
-        :func:`.plan.build_plan`): ``"none"`` (every stage on the full points),
-        ``"start"`` (the start: hypothesis or keypoint search, first limb search),
-        ``"pose"`` (also the rigid stage, the pose stages and the limb searches after them;
-        every shape stage on the full points) or ``"all"`` (every stage, then a final shape
-        stage of ``refine_steps`` on the full points).
-    refine_steps : steps of that final full-point shape stage (``coarse="all"`` only).
     """
 
     iterations: tuple[int, int, int] = (60, 160, 160)
     lr_pose: float = 0.015
     lr_transl: float = 0.01
     lr_shape: float = 0.05
-    coarse: str = "none"
-    refine_steps: int = 80
 
 
 @dataclass(frozen=True)
@@ -268,7 +249,7 @@ PRESETS: dict[str, RegistrationConfig] = {
     "clothed": RegistrationConfig(data=DataTerm(inside_weight=0.2)),
     "fast": RegistrationConfig(
         data=DataTerm(n_scan_points=2500, n_body_points=1500),
-        schedule=Schedule(iterations=(30, 120, 120), coarse="none"),
+        schedule=Schedule(iterations=(30, 120, 120)),
         start=StartSearch(hypothesis_steps=(10, 8, 20), hypothesis_keep=2, hypothesis_yaws=2,
                           yaw_candidates=4)),
 }
@@ -336,8 +317,7 @@ def check_config(config: RegistrationConfig) -> None:
     s = config.flat()
     for name, allowed in (("far_cloth", ("free", "pull")),
                           ("init_route", ("hypotheses", "keypoints", "auto")),
-                          ("limb_aim", ("none", "arms", "all")),
-                          ("coarse", COARSE)):
+                          ("limb_aim", ("none", "arms", "all"))):
         if s[name] not in allowed:
             raise InputError(f"{name}: expected one of {', '.join(allowed)}, got {s[name]!r}")
     for name in ("inside_weight", "sigma_out", "sigma_in", "point_weight", "cloth_max",
@@ -349,8 +329,7 @@ def check_config(config: RegistrationConfig) -> None:
     if radius is not None and not (_real(radius) and 0 < radius < 1):
         raise InputError(f"unseen_hit_radius: expected None or a distance in metres in "
                          f"(0, 1), got {radius!r}")
-    for name in ("n_scan_points", "n_body_points", "coarse_scan_points",
-                 "coarse_body_points", "hypothesis_keep", "hypothesis_yaws",
+    for name in ("n_scan_points", "n_body_points", "hypothesis_keep", "hypothesis_yaws",
                  "yaw_candidates", "support_sample"):
         if not (_count(s[name]) and s[name] >= 1):
             raise InputError(f"{name}: expected a whole number >= 1, got {s[name]!r}")
@@ -374,8 +353,6 @@ def check_config(config: RegistrationConfig) -> None:
     threads = s["num_threads"]
     if threads is not None and not (_count(threads) and threads >= 1):
         raise InputError(f"num_threads: expected None or a whole number >= 1, got {threads!r}")
-    if not _count(s["refine_steps"]):
-        raise InputError(f"refine_steps: expected a whole number >= 0, got {s['refine_steps']!r}")
     if not _count(s["seed"]):
         raise InputError(f"seed: expected a whole number >= 0, got {s['seed']!r}")
 

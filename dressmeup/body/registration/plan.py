@@ -13,9 +13,6 @@ configuration and a scan with nothing else given, the plan reads::
     LimbSearch         from the finished body; a kept move runs Shape again
     ShapeSearch        stature-matched phenotype starts, the lowest shape objective kept
 
-with ``Points`` stages where the point set changes (``Schedule.coarse``): a coarse
-subset of the scan and body points for the stages before ``Points("full")``.
-
 A plan is frozen data: print it, compare it, or build one of your own from these classes
 and pass it to :meth:`~dressmeup.body.registration.optimizer.OptimizationRegistrar.fit`
 (``plan=``) to try another sequence (``benchmarks/`` does so for experiments).
@@ -143,15 +140,6 @@ class ShapeSearch:
 
 
 @dataclass(frozen=True)
-class Points:
-    """The stages after this one evaluate the objective on point set ``level``:
-    ``"full"`` or ``"coarse"`` (:meth:`.problem.FitProblem.use_points`; the parameters
-    stay)."""
-
-    level: str
-
-
-@dataclass(frozen=True)
 class Branch:
     """A named sequence of stages, one alternative of a :class:`BestOf`. ``keypoints``:
     the keypoint term takes part (False: it is off in this branch and, if the branch wins,
@@ -176,7 +164,7 @@ class BestOf:
 
 
 Stage = (GivenStart | RestStart | HypothesisSearch | KeypointStart | Rigid | Pose | Shape
-         | LimbSearch | ShapeSearch | BestOf | Points)
+         | LimbSearch | ShapeSearch | BestOf)
 
 
 @dataclass(frozen=True)
@@ -199,8 +187,6 @@ def _name(stage: Stage) -> str:
         inner = " | ".join(f"{b.name}: " + ", ".join(_name(s) for s in b.stages)
                            for b in stage.branches)
         return f"BestOf[{inner}]"
-    if isinstance(stage, Points):
-        return f"Points({stage.level})"
     return type(stage).__name__
 
 
@@ -246,10 +232,6 @@ def build_plan(config: RegistrationConfig, start: str = "search",
                         "start_scores"),)
     else:
         first = search
-    coarse = sch.coarse
-    if coarse != "none":  # the start on the coarse points
-        first = (Points("coarse"),) + first
-    full = (Points("full"),)
     shape = Shape(n_shape, searched, rates)
     branches = []
     rules = (False, True) if config.data.far_cloth != "pull" else (False,)
@@ -258,10 +240,8 @@ def build_plan(config: RegistrationConfig, start: str = "search",
         if searched and lim.limb_search and lim.limb_search_after_pose:
             steps += (_limbs(config, rates, aim=lim.limb_aim, size=True, far_cloth=rule,
                              record="limbs_after_pose"),)
-        steps += full if coarse == "pose" else ()  # the shape stage on the full points
         branches.append(Branch(config.data.far_cloth if rule else "pull", steps + (shape,)))
-    stages: tuple[Stage, ...] = full if coarse == "start" else ()
-    stages += (Rigid(n_global, rates),)
+    stages: tuple[Stage, ...] = (Rigid(n_global, rates),)
     stages += (BestOf("shape", tuple(branches), "far_cloth_branches"),) if len(branches) > 1 \
         else branches[0].stages
     if searched and lim.limb_search and lim.limb_search_final:
@@ -269,8 +249,6 @@ def build_plan(config: RegistrationConfig, start: str = "search",
                           record="limbs_final", then=Shape(n_shape, False, rates)),)
     if searched and config.shapes.shape_search:
         stages += (ShapeSearch(n_pose // 2, Shape(n_shape, False, rates), rates),)
-    if coarse == "all":  # a last shape stage on the full points
-        stages += full + (Shape(sch.refine_steps, False, rates),)
     weight = config.priors.keypoint_weight
     return Plan(first, stages, keypoints=weight,
                 keypoints_after=config.priors.keypoint_refine_weight if detected else weight)

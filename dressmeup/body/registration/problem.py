@@ -1,9 +1,7 @@
 """One fit's state: the parameters as torch tensors and the objective over them.
 
-:class:`FitProblem` holds the scan points, the sampled body points (two point sets, a
-:class:`PointSet` each: the full one and a coarse one of random subsets, for the stages a
-plan runs on it; :meth:`FitProblem.use_points`), the priors' constants and the free
-parameters (``pose (j, 3)`` axis-angle, ``transl (3,)``, ``shape_z`` (the
+:class:`FitProblem` holds the scan points, the sampled body points, the priors' constants
+and the free parameters (``pose (j, 3)`` axis-angle, ``transl (3,)``, ``shape_z`` (the
 shape, through a sigmoid for phenotype models), ``log_scale``), and evaluates the loss
 that an :class:`Objective` names (stage ``global``, ``pose`` or ``shape``; the core
 joints only; the far-cloth rule on or off; the keypoint weight). The nearest-point pairs
@@ -83,63 +81,13 @@ class Correspondences:
         self.nn_s2b = None  # (p,) body index of each scan point
 
 
-@dataclass(frozen=True)
-class PointSet:
-    """The scan and body points the objective is evaluated on (one level of a fit,
-    :meth:`FitProblem.use_points`).
-
-    Attributes
-    ----------
-    P : (p, 3) float64 scan points (m); P_t the same as a torch tensor; tree their
-        nearest-point index.
-    body_ids : (b,) int64 model vertex indices of the body points, sorted; body_ids_t the
-        same as a torch tensor.
-    W_sub : (b, j) torch skinning weights of the body points.
-    core_t : (c,) torch indices into the body points on the core joints' skin (all of them
-        when none is).
-    neighbourhoods : None or (b, m) torch neighbourhoods for the hit test of unseen body
-        points (:func:`.terms.body_neighbourhoods`).
-    """
-
-    P: np.ndarray
-    P_t: Any
-    tree: NearestTree
-    body_ids: np.ndarray
-    body_ids_t: Any
-    W_sub: Any
-    core_t: Any
-    neighbourhoods: Any
-
-    @classmethod
-    def build(cls, model, P: np.ndarray, body_ids: np.ndarray, hit_radius: float | None,
-              dev, dt) -> PointSet:
-        """The point set of scan points ``P`` and model vertices ``body_ids`` (the hit test's
-        neighbourhoods within ``hit_radius`` m on the rest body; None: none)."""
-        # heavy: torch (~1.1 s to import)
-        import torch
-
-        core = joint_skin_mask(model, CORE_JOINTS)[body_ids]
-        neighbourhoods = None
-        if hit_radius is not None:
-            rest = np.asarray(model.posed(model.default_params()).vertices)[body_ids]
-            neighbourhoods = torch.as_tensor(body_neighbourhoods(rest, float(hit_radius)),
-                                             device=dev)
-        return cls(P=P, P_t=torch.as_tensor(P, dtype=dt, device=dev), tree=NearestTree(P),
-                   body_ids=body_ids, body_ids_t=torch.as_tensor(body_ids, device=dev),
-                   W_sub=torch.as_tensor(np.asarray(model.skinning_weights)[body_ids],
-                                         dtype=dt, device=dev),
-                   core_t=torch.as_tensor(np.flatnonzero(core) if core.any()
-                                          else np.arange(len(body_ids)), device=dev),
-                   neighbourhoods=neighbourhoods)
-
-
 class FitProblem:
     """Parameters and objective of one registration (see module docstring).
 
     Parameters
     ----------
     model : BodyModel.
-    P : (p, 3) float64 scan points (m): the full point set's (the coarse set: a subset).
+    P : (p, 3) float64 scan points (m).
     kp : None or (joint ids (k,), targets (k, 3)) keypoints.
     data : :class:`~dressmeup.body.registration.config.DataTerm`.
     priors : :class:`~dressmeup.body.registration.config.Priors`.
@@ -151,24 +99,17 @@ class FitProblem:
         # heavy: torch (~1.1 s to import)
         import torch
 
-        self.model, self.kp, self.data, self.priors = model, kp, data, priors
+        self.model, self.P, self.kp, self.data, self.priors = model, P, kp, data, priors
         self.dev = torch.device(device)
         self.dt = torch.float32
         dev, dt = self.dev, self.dt
+        self.tree = NearestTree(P)
+        self.P_t = torch.as_tensor(P, dtype=dt, device=dev)
         rng = np.random.default_rng(seed)
-        body_ids = np.sort(rng.choice(model.n_vertices, min(data.n_body_points,
-                                                            model.n_vertices), replace=False))
-        # the coarse set: random subsets of the full points (drawn after them, so the full
-        # set is the same with or without a coarse level)
-        coarse_scan = np.sort(rng.choice(len(P), min(data.coarse_scan_points, len(P)),
-                                         replace=False))
-        coarse_body = np.sort(rng.choice(body_ids, min(data.coarse_body_points,
-                                                       len(body_ids)), replace=False))
-        self._point_ids = {"full": (np.arange(len(P)), body_ids),
-                           "coarse": (coarse_scan, coarse_body)}
-        self._P_all = np.asarray(P)
-        self._sets: dict[str, PointSet] = {}
-        self.level = ""
+        self.body_ids = np.sort(rng.choice(model.n_vertices, min(data.n_body_points,
+                                                                 model.n_vertices),
+                                           replace=False))
+        self.body_ids_t = torch.as_tensor(self.body_ids, device=dev)
         names = list(model.joint_names)
         self.n_joints = len(names)
         self.phenotype = tuple(getattr(model, "shape_names", ())) == PHENOTYPE_NAMES
@@ -193,35 +134,21 @@ class FitProblem:
             self.kp_ids = torch.as_tensor(kp[0], dtype=torch.long, device=dev)
             self.kp_pts = torch.as_tensor(kp[1], dtype=dt, device=dev)
 
-        self.use_points("full")
+        self.W_sub = torch.as_tensor(np.asarray(model.skinning_weights)[self.body_ids], dtype=dt,
+                                     device=dev)
+        core = joint_skin_mask(model, CORE_JOINTS)[self.body_ids]
+        self.core_t = torch.as_tensor(np.flatnonzero(core) if core.any() else
+                                      np.arange(len(self.body_ids)), device=dev)
+        self.neighbourhoods = None  # (b, m) for the hit test of unseen body points
+        if data.unseen_hit_radius is not None:
+            rest = np.asarray(model.posed(model.default_params()).vertices)[self.body_ids]
+            self.neighbourhoods = torch.as_tensor(
+                body_neighbourhoods(rest, float(data.unseen_hit_radius)), device=dev)
 
         self.shape_z = torch.zeros(len(self.default_shape), dtype=dt, device=dev, requires_grad=True)
         self.pose = torch.zeros((self.n_joints, 3), dtype=dt, device=dev, requires_grad=True)
         self.transl = torch.zeros(3, dtype=dt, device=dev, requires_grad=True)
         self.log_scale = torch.zeros((), dtype=dt, device=dev, requires_grad=True)
-
-    # ------------------------------------------------------------ point sets
-    #: the point sets a fit can run on (:meth:`use_points`)
-    LEVELS = ("full", "coarse")
-
-    def use_points(self, level: str) -> None:
-        """Evaluate the objective (and the scores, the limb search, the size handover) on
-        point set ``level`` from now on: ``"full"`` (``n_scan_points`` scan samples,
-        ``n_body_points`` body vertices) or ``"coarse"`` (random subsets of those,
-        ``coarse_scan_points`` and ``coarse_body_points``). Sets ``P`` (p, 3), ``tree``,
-        ``body_ids`` (b,) model vertex indices and what depends on them; the parameters stay.
-        """
-        if level not in self.LEVELS:
-            raise ValueError(f"level: expected one of {', '.join(self.LEVELS)}, got {level!r}")
-        if level not in self._sets:
-            scan_ids, body_ids = self._point_ids[level]
-            self._sets[level] = PointSet.build(self.model, self._P_all[scan_ids], body_ids,
-                                               self.data.unseen_hit_radius, self.dev, self.dt)
-        ps = self._sets[level]
-        self.level = level
-        self.P, self.P_t, self.tree = ps.P, ps.P_t, ps.tree
-        self.body_ids, self.body_ids_t, self.W_sub = ps.body_ids, ps.body_ids_t, ps.W_sub
-        self.core_t, self.neighbourhoods = ps.core_t, ps.neighbourhoods
         self._normals = None  # (shape bytes, rest normals of the body points)
 
     @classmethod

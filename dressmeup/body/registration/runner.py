@@ -30,7 +30,6 @@ from dressmeup.body.registration.plan import (
     KeypointStart,
     LimbSearch,
     Plan,
-    Points,
     Pose,
     RestStart,
     Rigid,
@@ -146,24 +145,17 @@ def _shape_search(stage: ShapeSearch, state: FitState) -> None:
     state.losses.update(losses)
 
 
-def _points(stage: Points, state: FitState) -> None:
-    state.problem.use_points(stage.level)
-
-
 def _best_of(stage: BestOf, state: FitState) -> None:
-    """Each branch on a state of its own from the same parameters and point set; the
-    winner's info, losses, keypoint use and point set become the fit's; the scores go to
-    ``info[stage.record]``."""
+    """Each branch on a state of its own from the same parameters; the winner's info,
+    losses and keypoint use become the fit's; the scores go to ``info[stage.record]``."""
     p = state.problem
-    level = p.level
 
     def branch(b) -> Candidate:
         def run(problem) -> dict:
-            problem.use_points(level)
             sub = FitState(problem, state.keypoints if b.keypoints else 0.0, state.init,
                            state.verbose)
             run_stages(b.stages, sub)
-            return {"state": sub, "level": problem.level}
+            return {"state": sub}
         return Candidate(b.name, run)
 
     shape = Objective("shape", far_cloth=True, keypoints=state.keypoints)
@@ -176,7 +168,6 @@ def _best_of(stage: BestOf, state: FitState) -> None:
     ranked = best_of(p, [branch(b) for b in stage.branches], objectives[stage.objective],
                      start=p.snapshot())
     won = ranked[0].info["state"]
-    p.use_points(ranked[0].info["level"])
     state.info.update(won.info)
     state.losses.update(won.losses)
     state.keypoints = won.keypoints
@@ -190,5 +181,5 @@ def _best_of(stage: BestOf, state: FitState) -> None:
 RUNNERS: dict[type, Callable] = {
     GivenStart: _given, RestStart: _rest, HypothesisSearch: _hypotheses,
     KeypointStart: _keypoints, LimbSearch: _limbs, Rigid: _rigid, Pose: _pose, Shape: _shape,
-    ShapeSearch: _shape_search, BestOf: _best_of, Points: _points,
+    ShapeSearch: _shape_search, BestOf: _best_of,
 }
