@@ -62,6 +62,19 @@ def test_a_motion_over_the_substep_budget_fails_at_the_frame_that_goes_over():
         simulate(dyn, V, bodies, 1.0 / 30.0)
 
 
+def test_a_frame_stops_at_the_substep_over_its_limit_before_solving_it():
+    from dressmeup.data.synth.dynamics import SubstepsExceeded
+
+    V, F = _sheet()
+    body_V, body_F = _box(top=-5.0)
+    dyn = ClothDynamics(V, F, body_F, UP, DynamicsSettings())
+    calls = []
+    dyn.solve_step = lambda *a, **k: calls.append(1)  # never reached
+    with pytest.raises(SubstepsExceeded) as over:
+        dyn.advance(V, np.zeros_like(V), 1.0 / 30.0, body_V, body_V, substep_limit=0)
+    assert over.value.substeps == 1 and not calls
+
+
 def test_cloth_rests_on_a_box_outside_it_within_the_barrier_gap():
     V, F = _sheet(z=0.02)
     body_V, body_F = _box(top=0.0)

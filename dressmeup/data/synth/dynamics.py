@@ -174,6 +174,15 @@ def pinched(body_F: np.ndarray, keep: np.ndarray, body_Vs: list[np.ndarray],
     return out
 
 
+class SubstepsExceeded(RuntimeError):
+    """A frame that needs more sub-steps than it was allowed (``substeps``: the count at the
+    sub-step over the limit)."""
+
+    def __init__(self, substeps: int) -> None:
+        super().__init__(f"{substeps} sub-steps")
+        self.substeps = substeps
+
+
 class ClothDynamics:
     """One garment simulated in time against a moving body of fixed topology.
 
@@ -397,7 +406,8 @@ class ClothDynamics:
         return self._tree
 
     def advance(self, x: np.ndarray, v: np.ndarray, h: float, body_from: np.ndarray,
-                body_to: np.ndarray, anchors_at=None) -> tuple[np.ndarray, np.ndarray, dict]:
+                body_to: np.ndarray, anchors_at=None, substep_limit: int | None = None
+                ) -> tuple[np.ndarray, np.ndarray, dict]:
         """One frame of length ``h``: the body moves linearly from ``body_from`` to
         ``body_to`` (both ``(b, 3)``), in as many sub-steps as collision-free moves need.
 
@@ -407,6 +417,9 @@ class ClothDynamics:
 
         Raises
         ------
+        SubstepsExceeded
+            The frame needs more than ``substep_limit`` sub-steps (raised before the
+            sub-step over it is solved).
         RuntimeError
             When the body's move cannot be followed: the collision-free part of the
             shortest sub-step stays negligible (cloth caught between two body parts).
@@ -417,6 +430,8 @@ class ClothDynamics:
                  "contacts": 0}
         done, frac, body_now, stalled = 0.0, 1.0, body_from, 0
         while done < 1.0:
+            if substep_limit is not None and stats["substeps"] >= substep_limit:
+                raise SubstepsExceeded(stats["substeps"] + 1)
             frac = min(frac, 1.0 - done)
             # the carry is linear in the body's move: computed once to the frame's end and
             # scaled to each trial sub-step
@@ -487,7 +502,7 @@ def simulate(dyn: ClothDynamics, x0: np.ndarray, bodies: list[np.ndarray], dt: f
     ------
     RuntimeError
         The motion needs more than ``dyn.settings.substep_budget`` sub-steps a frame on
-        average (raised at the frame that goes over), or the dynamics cannot follow the body
+        average (raised at the sub-step that goes over, before it is solved), or the dynamics cannot follow the body
         (:meth:`ClothDynamics.advance`).
     """
     t0 = time.process_time()
@@ -496,14 +511,17 @@ def simulate(dyn: ClothDynamics, x0: np.ndarray, bodies: list[np.ndarray], dt: f
     v = np.zeros_like(x)
     tot = {"frames": len(bodies) - 1, "substeps": 0, "iterations": 0,
            "unconverged_frames": 0, "worst_residual": 0.0, "max_iterations": 0}
-    budget = dyn.settings.substep_budget * tot["frames"]
+    budget = int(np.floor(dyn.settings.substep_budget * tot["frames"]))
     for k in range(1, len(bodies)):
-        x, v, st = dyn.advance(x, v, dt, bodies[k - 1], bodies[k], anchors_at)
+        try:
+            # the frame stops at the sub-step that goes over the motion's budget
+            x, v, st = dyn.advance(x, v, dt, bodies[k - 1], bodies[k], anchors_at,
+                                   substep_limit=budget - tot["substeps"])
+        except SubstepsExceeded as over:
+            raise RuntimeError(f"frame {k} of {tot['frames']}: "
+                               f"{tot['substeps'] + over.substeps} sub-steps, over the budget "
+                               f"of {budget} ({dyn.settings.substep_budget} a frame)") from None
         tot["substeps"] += st["substeps"]
-        if tot["substeps"] > budget:
-            raise RuntimeError(f"frame {k} of {tot['frames']}: {tot['substeps']} sub-steps, "
-                               f"over the budget of {budget:.0f} "
-                               f"({dyn.settings.substep_budget} a frame)")
         tot["iterations"] += st["iterations"]
         tot["unconverged_frames"] += not st["converged"]
         tot["worst_residual"] = max(tot["worst_residual"], st["residual"])
