@@ -1,6 +1,6 @@
 """Train the shipped ``isomap-refine`` weights (``dressmeup/methods/retarget/weights/``).
 
-    python benchmarks/train_retarget_weights.py --data DATA_ROOT --preset thesis --wall-minutes 38 \
+    python benchmarks/train_retarget_weights.py --data DATA_ROOT --preset thesis --until-converged \
         --out dressmeup/methods/retarget/weights/isomap_refine_anny.pt
 
 Presets: ``thesis`` (decoder 6 x 512, 128-d PointNet codes, PointNet hidden 128: thesis 4.4.2)
@@ -18,6 +18,7 @@ Resumable: re-running continues from ``OUT.ckpt``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -26,13 +27,39 @@ PRESETS = {"thesis": dict(width=512, depth=6, code_dim=128, pointnet_hidden=128)
            "fast": dict(width=256, depth=6, code_dim=64, pointnet_hidden=64)}
 
 
-def _plan(params: dict, seed: int) -> dict:
-    """The generator's plan of a dataset (garment ids -> type, params, split); 1.x and 2.x."""
+def _plan4(params: dict, seed: int, secret: bytes | None) -> dict:
+    """Garment ids -> key and split of a generator-4 plan: train and val (public seed), and
+    test when its ``secret`` is known (a published secret, or the maintainers' file)."""
+    from dressmeup.data.synth.config import SynthConfig
+    from dressmeup.data.synth.dataset4 import Gen4Config
+    from dressmeup.data.synth.generator4 import load_body_kit
+    from dressmeup.data.synth.plan4 import SPLITS, split_garments
+
+    # dataset.json's params hold more than a configuration (anchor_gap, the commitment)
+    fields = {f.name for f in dataclasses.fields(SynthConfig)} - {"seed", "splits", "secret"}
+    g4 = Gen4Config.from_synth(SynthConfig(**{k: v for k, v in params.items() if k in fields}))
+    kit = load_body_kit(g4.body_model)
+    out = {}
+    for split in SPLITS:
+        if split == "test" and secret is None:
+            continue
+        subjects, garments = split_garments(split, g4.design, kit, seed, secret)
+        for g, v in garments.items():
+            key = [subjects[v["design_subject"]]["shape"], v["type"], v["params"]]
+            out[g] = {"key": json.dumps(key, sort_keys=True), "split": split}
+    return out
+
+
+def _plan(params: dict, seed: int, secret: bytes | None = None) -> dict:
+    """The generator's plan of a dataset (garment ids -> key of its design, split); 1.x, 2.x
+    and 4.x (4.x: the test split only with its ``secret``)."""
     from dressmeup.data.splits import split_by_garment
     from dressmeup.data.synth.common import plan_2x
     from dressmeup.data.synth.garments import garment_types
     from dressmeup.data.synth.generate import plan_dataset
 
+    if str(params.get("version", "1")).startswith("4."):
+        return _plan4(params, seed, secret)
     q = {"subjects": 3, "garments": 4, "poses": 5, **params}
     if str(q.get("version", "1")).startswith("2."):
         plan = plan_2x(q["subjects"], q["poses"], tuple(q["garments_per_split"]), seed, q.get("categories"))
@@ -63,7 +90,7 @@ def _check_no_test_garments(ds, split: str, exclude: list[str]) -> None:
     mine = _plan(gen["params"], gen["seed"])
     used = {g for g, v in ds.info["garments"].items() if v["split"] == split} - set(exclude)
     used_keys = {mine[g]["key"]: g for g in used}
-    checked = []
+    checked, sealed = [], []
     for name in list_editions():
         ed = load_edition(name)
         pin = ed.dataset
@@ -71,12 +98,17 @@ def _check_no_test_garments(ds, split: str, exclude: list[str]) -> None:
             continue
         if str(pin.generator_version).split(".")[0] != str(gen["version"]).split(".")[0]:
             continue
-        for g, rec in _plan(pin.params, pin.seed).items():
+        if pin.test_split_commitment and pin.published_secret is None:
+            # seeded by a secret's streams, which the public seed never draws from
+            sealed.append(name)
+            continue
+        for g, rec in _plan(pin.params, pin.seed, pin.published_secret).items():
             if rec["split"] == ed.split and rec["key"] in used_keys:
                 raise SystemExit(f"training garment {used_keys[rec['key']]} is test "
                                  f"garment {g} of edition {name}: exclude it")
         checked.append(name)
-    print(f"training garments {sorted(used)}: none is a test garment of {checked}")  # noqa: T201
+    print(f"training garments {sorted(used)}: none is a test garment of {checked}"  # noqa: T201
+          + (f"; test splits seeded by an unpublished secret: {sealed}" if sealed else ""))
 
 
 def main() -> None:
@@ -92,8 +124,12 @@ def main() -> None:
     ap.add_argument("--preset", default="thesis", choices=sorted(PRESETS))
     ap.add_argument("--split", default="train")
     ap.add_argument("--exclude-garments", default="", help="comma-separated garment ids")
-    ap.add_argument("--steps", type=int, default=5000, help="upper bound; the wall budget usually stops first")
-    ap.add_argument("--wall-minutes", type=float, default=38.0)
+    ap.add_argument("--steps", type=int, default=5000, help="upper bound on the steps")
+    ap.add_argument("--wall-minutes", type=float, default=None,
+                    help="wall budget of this invocation (resume later; default: none)")
+    ap.add_argument("--until-converged", action="store_true",
+                    help="stop by the convergence rule on the validation pairs")
+    ap.add_argument("--checkpoint-every", type=int, default=50)
     ap.add_argument("--max-triplets", type=int, default=0, help="cap on training pairs (0: all)")
     ap.add_argument("--max-val", type=int, default=12)
     ap.add_argument("--val-every", type=int, default=40)
@@ -109,6 +145,8 @@ def main() -> None:
                               split=args.split, steps=args.steps, max_triplets=args.max_triplets or None,
                               max_val=args.max_val, seed=args.seed,
                               wall_minutes=args.wall_minutes, val_every=args.val_every, half=True,
+                              until_converged=args.until_converged,
+                              checkpoint_every=args.checkpoint_every,
                               curves=args.curves, exclude_garments=exclude,
                               callback=lambda s, total, terms: print(  # noqa: T201
                                   f"step {s:4d} loss {total:.5f} " + " ".join(f"{k} {v:.5f}" for k, v in terms.items()),

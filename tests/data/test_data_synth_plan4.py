@@ -146,3 +146,21 @@ def test_test_split_needs_the_secret(tmp_path):
         generate_dataset(tmp_path / "d", version="3.0.0", plan=DESIGN)
     with pytest.raises(InputError, match="unknown setting"):
         PlanDesign.from_dict({"bodys": [1, 1, 1]})
+
+
+def test_split_garments_are_the_plans(plan):
+    """The garments alone (as a training script checks them against other editions' test
+    garments) are the full plan's, split by split, the test split only with its secret."""
+    from dressmeup.data.synth.generator4 import load_body_kit
+    from dressmeup.data.synth.plan4 import split_garments
+
+    kit = load_body_kit("procedural")
+    design = PlanDesign.from_dict(DESIGN)
+    for split, secret in (("train", None), ("val", None), ("test", SECRET)):
+        subjects, garments = split_garments(split, design, kit, 0, secret)
+        want = {g: {k: v for k, v in rec.items() if k != "targets"}
+                for g, rec in plan["garments"].items() if rec["split"] == split}
+        assert garments == want
+        assert subjects == {s: v for s, v in plan["subjects"].items() if v["split"] == split}
+    with pytest.raises(InputError, match="secret"):
+        split_garments("test", design, kit, 0, None)

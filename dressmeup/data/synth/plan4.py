@@ -234,14 +234,7 @@ def plan_split(split: str, design: PlanDesign, kit: Any, seed: int, secret: byte
     k = SPLITS.index(split)
     rng = split_streams(split, seed, secret)
     first = id_offsets(design)[split]
-    subjects = {}
-    radii = {}
-    for i, b in enumerate(sample_bodies(rng["bodies"], design.bodies[k])
-                          if design.bodies[k] else []):
-        sid = f"S{first['subjects'] + i:03d}"
-        subjects[sid] = {"shape": np.round(b.shape, 6).tolist(), "name": b.name, "split": split}
-        rest_V, frame = kit.rest(np.asarray(subjects[sid]["shape"]))
-        radii[sid] = region_radii(rest_V, kit.labels, frame)
+    subjects, radii, garments = _bodies_and_garments(split, design, kit, rng, first)
     frame0 = kit.rest(np.asarray(kit.model.default_params().shape))[1]
     poses = {}
     for family in design.families:
@@ -249,12 +242,40 @@ def plan_split(split: str, design: PlanDesign, kit: Any, seed: int, secret: byte
             pid = f"P{first['poses'] + len(poses):03d}"
             q = sample_poses(rng["poses"], family, kit.joint_names, frame0)
             poses[pid] = {"family": family, "pose": np.round(q, 9).tolist(), "split": split}
-    garments = _plan_garments(split, design, rng["garments"], first["garments"], subjects,
-                              radii)
     for gid, g in garments.items():
         g["targets"] = _draw_targets(g, design, rng["targets"], subjects, poses, radii,
                                      pose_ok, gid)
     return {"subjects": subjects, "poses": poses, "garments": garments}
+
+
+def split_garments(split: str, design: PlanDesign, kit: Any, seed: int, secret: bytes | None
+                   ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The bodies and garments of one split as :func:`plan_split` draws them, without its
+    poses and targets (the garments depend on neither): ``(subjects, garments)``, records as
+    in :func:`plan_split` (garments without ``targets``). Cheap enough to check a training
+    set's garments against another edition's test garments."""
+    rng = split_streams(split, seed, secret)
+    subjects, _, garments = _bodies_and_garments(split, design, kit, rng,
+                                                 id_offsets(design)[split])
+    return subjects, garments
+
+
+def _bodies_and_garments(split: str, design: PlanDesign, kit: Any,
+                         rng: dict[str, np.random.Generator], first: dict[str, int]
+                         ) -> tuple[dict[str, Any], dict[str, dict[str, float]], dict[str, Any]]:
+    """``(subjects, their region radii, garments)`` of one split from its streams."""
+    k = SPLITS.index(split)
+    subjects: dict[str, Any] = {}
+    radii: dict[str, dict[str, float]] = {}
+    for i, b in enumerate(sample_bodies(rng["bodies"], design.bodies[k])
+                          if design.bodies[k] else []):
+        sid = f"S{first['subjects'] + i:03d}"
+        subjects[sid] = {"shape": np.round(b.shape, 6).tolist(), "name": b.name, "split": split}
+        rest_V, frame = kit.rest(np.asarray(subjects[sid]["shape"]))
+        radii[sid] = region_radii(rest_V, kit.labels, frame)
+    garments = _plan_garments(split, design, rng["garments"], first["garments"], subjects,
+                              radii)
+    return subjects, radii, garments
 
 
 def _plan_garments(split: str, design: PlanDesign, rng: np.random.Generator, first: int,
