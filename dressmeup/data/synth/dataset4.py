@@ -5,9 +5,10 @@
 One job per garment: build it on its design body at rest, then simulate the motion to each
 of its targets (the source first). Jobs run in spawned worker processes (or on a
 :mod:`dressmeup.executors` executor) with the canonical numerics of
-:mod:`dressmeup.data.synth.jobs`; this process writes the results in plan order (test
-garments first, then train, then val), each sample's statistics before its manifest row, so
-an interrupted run resumes where it stopped.
+:mod:`dressmeup.data.synth.jobs`; this process writes the results in plan order (train
+garments first, then val, then test, so that training can start on a full edition's train
+split while its test split is generated), each sample's statistics before its manifest row,
+so an interrupted run resumes where it stopped.
 
 Files besides the dataset layout:
 
@@ -313,9 +314,10 @@ def generate_gen4(out: str | os.PathLike, c: SynthConfig, workers: int = 1,
 
 
 def _todo(c: SynthConfig, plan: dict[str, Any], writer: DatasetWriter) -> list[GarmentWork]:
-    """The jobs of the garments with a sample not yet written (test first, then train, val);
-    writes each garment's plan file."""
-    rank = {"test": 0, "train": 1, "val": 2}
+    """The jobs of the garments with a sample not yet written (train, then val, then test:
+    networks can start training while the test split is generated); writes each garment's
+    plan file."""
+    rank = {"train": 0, "val": 1, "test": 2}
     out_dir = writer.root / "generator" / "garments"
     failed = writer.root / "generator" / "failed"
     todo = []
