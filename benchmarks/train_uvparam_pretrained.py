@@ -1,4 +1,6 @@
-"""Train the shipped pretrained neural UV models on the synth-uvparam-v2 mesh set.
+"""Train the shipped pretrained neural UV models on the synth-uvparam-v2 mesh set, or on a
+generator-4 dataset's garments (``--garments-from``: the v5 train split's garments as
+designed, validated on its val split's).
 
 Models: one per garment category (``topwear``, ``bottomwear``, ``dress``: the category's
 *train* garments, validated on its *val* garments) and one ``general`` model (the train
@@ -13,6 +15,8 @@ in ``benchmarks/results/studies/<date>-uvparam_pretrained_<model>.json`` and lea
 
     nice -n 10 python benchmarks/train_uvparam_pretrained.py --data DATA --models topwear dress \\
         --budget-minutes 35
+    python benchmarks/train_uvparam_pretrained.py --data V5_ROOT --garments-from \\
+        --budget-minutes 0 --uv-iters 100000 --patch-iters 5000
 """
 
 from __future__ import annotations
@@ -55,11 +59,30 @@ def warped(mesh_id: str, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return V, F
 
 
-def mesh_sets(data: Path, model: str):
+def garment_meshes(root: Path, split: str, cats) -> tuple[list, list[str]]:
+    """The rest garments (as designed, ``generator/rest/<G>.ply``) of a generator-4 dataset's
+    ``split`` in the categories ``cats``: ``([(V, F), ...], [garment id, ...])``."""
+    from dressmeup.io.mesh import load_mesh
+
+    info = json.loads((root / "dataset.json").read_text())
+    if not str(info.get("generator", {}).get("version", "")).startswith("4."):
+        raise SystemExit(f"{root}: --garments-from needs a generator-4 dataset (v5 editions)")
+    ids = sorted(g for g, v in info["garments"].items()
+                 if v["split"] == split and v["category"] in cats)
+    out = []
+    for g in ids:
+        m = load_mesh(root / "generator" / "rest" / f"{g}.ply")
+        out.append((np.asarray(m.vertices, np.float64), np.asarray(m.faces, np.int64)))
+    return out, ids
+
+
+def mesh_sets(data: Path, model: str, garments: bool = False):
     from dressmeup.bench.tasks.uvparam.data import meshes
     from dressmeup.io.mesh import load_mesh
 
     def load(split, cats):
+        if garments:
+            return garment_meshes(data, split, cats)
         out = [m for m in meshes(data, split) if m.category in cats]
         return [(lambda mm: (mm.vertices, mm.faces))(load_mesh(m.path)) for m in out], \
             [m.mesh_id for m in out]
@@ -108,10 +131,17 @@ def plot_curves(hist: dict, title: str, path: Path) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", required=True, type=Path, help="synth-uvparam-v2 mesh set root")
+    ap.add_argument("--data", required=True, type=Path,
+                    help="synth-uvparam-v2 mesh set root, or with --garments-from a "
+                         "generator-4 dataset (its train and val garments as designed)")
+    ap.add_argument("--garments-from", action="store_true",
+                    help="--data is a generator-4 dataset (v5): train on its train split's "
+                         "garments, validate on its val split's")
     ap.add_argument("--models", nargs="+", default=[*CATEGORIES, "general"],
                     choices=[*CATEGORIES, "general"])
-    ap.add_argument("--budget-minutes", type=float, default=60.0, help="wall budget per model")
+    ap.add_argument("--budget-minutes", type=float, default=60.0,
+                    help="wall budget per model (0: none; the convergence rule or the step "
+                         "limits stop it)")
     ap.add_argument("--config", default="reference", choices=["reference", "fast"])
     ap.add_argument("--uv-iters", type=int, default=4000, help="UV step limit")
     ap.add_argument("--patch-iters", type=int, default=300, help="PatchNet step limit")
@@ -126,7 +156,7 @@ def main(argv=None) -> int:
 
     torch.set_num_threads(1)
     for model in args.models:
-        train, train_ids, val, val_ids = mesh_sets(args.data, model)
+        train, train_ids, val, val_ids = mesh_sets(args.data, model, args.garments_from)
         print(f"[{time.strftime('%H:%M:%S')}] {model}: {len(train)} train, {len(val)} val meshes, "
               f"budget {args.budget_minutes} min, load {os.getloadavg()}", flush=True)
 
@@ -135,7 +165,8 @@ def main(argv=None) -> int:
                   flush=True)
 
         t0 = time.time()
-        m = train_on_set(train, val, args.config, budget_seconds=60 * args.budget_minutes,
+        budget = 60 * args.budget_minutes if args.budget_minutes > 0 else float("inf")
+        m = train_on_set(train, val, args.config, budget_seconds=budget,
                          eval_every=args.eval_every, on_eval=on_eval,
                          uv_iters=args.uv_iters, patch_iters=args.patch_iters,
                          train_vertices=args.train_vertices)
