@@ -13,6 +13,8 @@ score`` itself never overwrites anything; this script owns those files).
     python benchmarks/run_baselines.py --editions synth-uvparam-v1 --methods xatlas lscm
     python benchmarks/run_baselines.py --work /tmp/bench --workers 2
     python benchmarks/run_baselines.py --work /tmp/bench --executor dask --workers 2
+    python benchmarks/run_baselines.py --work W --editions synth-retarget-v5 \
+        --secret ../shared/secrets/synth-retarget-v5.secret --methods skinning
     python benchmarks/run_baselines.py --work W --editions E --methods isomap-refine \
         --keep-results W/runs/<earlier UTC time> ...  # re-run one method, keep the others
 
@@ -49,6 +51,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--train-steps", type=int, default=300,
                     help="self-supervised training steps of trainable retargeting baselines")
     ap.add_argument("--results", default=str(RESULTS), help="where the tables are rewritten")
+    ap.add_argument("--secret", default=None, metavar="FILE",
+                    help="the test-split secret of an edition that publishes only its "
+                         "commitment (synth-retarget-v5: the maintainers' file, read by path)")
     ap.add_argument("--allow-other-data", action="store_true",
                     help="score data this machine generated differently from the edition's pin "
                          "(every row is then marked not comparable)")
@@ -83,8 +88,11 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
         t0 = time.perf_counter()
         ed = load_edition(name)
         log(f"== {ed.name} ({ed.task}) ==")
+        secret = args.secret if ed.dataset and ed.dataset.test_split_commitment else None
+        if secret and ed.dataset.published_secret is not None:
+            secret = None  # a published secret needs no file
         parts = runs.build_parts(ed, work / "data" / ed.name, log=log,
-                                 allow_other_data=args.allow_other_data)
+                                 allow_other_data=args.allow_other_data, secret_file=secret)
         kw = {"train_steps": args.train_steps} if ed.task == "retarget" else {}
         subs = runs.run_baselines(ed, parts.public, run / "submissions" / ed.name,
                                   methods=args.methods, log=log, executor=baseline_executor,
