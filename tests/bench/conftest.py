@@ -9,6 +9,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
+
+
+def benchmark_script(name: str):
+    """The module ``benchmarks/<name>.py``, loaded from its file (the scripts are not a
+    package)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
 FIXTURE_GENERATOR = {"name": "bench-test-fixture", "version": "1",
                      "params": {"garments": 3, "poses": 3}, "seed": 0}
 

@@ -3,20 +3,14 @@ and the scans whose fit moves between seeds (a start that flips on a float-level
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
-
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "registration_tuning_data.py"
 
 
 @pytest.fixture(scope="module")
 def tuning():
-    spec = importlib.util.spec_from_file_location("registration_tuning_data", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    from tests.bench.conftest import benchmark_script
+
+    return benchmark_script("registration_tuning_data")
 
 
 def _row(sample, seed, v2v, pose="bowing", category="dress"):

@@ -4,20 +4,14 @@ of every v5 edition whose secret is published, and names the sealed ones."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
-
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "train_retarget_weights.py"
 
 
 @pytest.fixture(scope="module")
 def script():
-    spec = importlib.util.spec_from_file_location("train_retarget_weights", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    from tests.bench.conftest import benchmark_script
+
+    return benchmark_script("train_retarget_weights")
 
 
 def test_generator4_plan_keys_follow_the_secret(script):
