@@ -502,8 +502,8 @@ def simulate(dyn: ClothDynamics, x0: np.ndarray, bodies: list[np.ndarray], dt: f
     ------
     RuntimeError
         The motion needs more than ``dyn.settings.substep_budget`` sub-steps a frame on
-        average (raised at the sub-step that goes over, before it is solved), or the dynamics cannot follow the body
-        (:meth:`ClothDynamics.advance`).
+        average (raised at the sub-step that goes over, before it is solved), or the
+        dynamics cannot follow the body (:meth:`ClothDynamics.advance`).
     """
     t0 = time.process_time()
     ipctk.set_num_threads(1)  # one thread: the same sums in the same order on every machine
