@@ -88,9 +88,8 @@ def _run(args: argparse.Namespace, executor, baseline_executor) -> int:
         t0 = time.perf_counter()
         ed = load_edition(name)
         log(f"== {ed.name} ({ed.task}) ==")
-        secret = args.secret if ed.dataset and ed.dataset.test_split_commitment else None
-        if secret and ed.dataset.published_secret is not None:
-            secret = None  # a published secret needs no file
+        # only a sealed test split takes the file (a published secret is in the edition)
+        secret = args.secret if ed.dataset is not None and ed.dataset.sealed else None
         parts = runs.build_parts(ed, work / "data" / ed.name, log=log,
                                  allow_other_data=args.allow_other_data, secret_file=secret)
         kw = {"train_steps": args.train_steps} if ed.task == "retarget" else {}

@@ -98,7 +98,7 @@ def _check_no_test_garments(ds, split: str, exclude: list[str]) -> None:
             continue
         if str(pin.generator_version).split(".")[0] != str(gen["version"]).split(".")[0]:
             continue
-        if pin.test_split_commitment and pin.published_secret is None:
+        if pin.sealed:
             # seeded by a secret's streams, which the public seed never draws from
             sealed.append(name)
             continue

@@ -65,6 +65,12 @@ class DatasetPin:
         return bytes.fromhex(text) if text else None
 
     @property
+    def sealed(self) -> bool:
+        """Whether the test split is seeded by a secret the edition does not publish (only
+        whoever holds the secret file generates it)."""
+        return bool(self.test_split_commitment) and self.published_secret is None
+
+    @property
     def pinned_manifest_sha256(self) -> str | None:
         """The manifest sha256 the data must have (real pin or generated expectation)."""
         return self.manifest_sha256 if self.kind == "real" else self.expected_manifest_sha256

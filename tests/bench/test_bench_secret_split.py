@@ -87,6 +87,7 @@ def test_the_commitment_is_hashed_the_published_secret_is_not():
     assert revealed.hash == secret_only.hash  # the reveal changes no protocol
     assert len({secret_only.hash, plain.hash, other.hash}) == 3
     assert revealed.dataset.published_secret == SECRET
+    assert secret_only.dataset.sealed and not revealed.dataset.sealed and not plain.dataset.sealed
     assert revealed.to_dict()["dataset"]["test_split"]["secret"] == SECRET.hex()
     assert SECRET.hex() not in revealed.canonical_json()
 
