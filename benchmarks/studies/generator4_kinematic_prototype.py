@@ -38,7 +38,7 @@ def install(kmul: float, gap: float, stats: dict) -> None:
     import scipy.sparse as sp
 
     from dressmeup.data.synth import dynamics as D
-    from dressmeup.data.synth.cloth import factor, pcg, spring_terms
+    from dressmeup.data.synth.cloth import factor, pcg
 
     plain = D.ClothDynamics.advance
 
@@ -48,23 +48,8 @@ def install(kmul: float, gap: float, stats: dict) -> None:
 
     def system(dyn, scene, y, b, c, z, anchors, b_to, K):
         """Potential, gradient and Hessian over cloth and body vertices."""
-        n = dyn.n
-        e_s, g_s, Kc = spring_terms(dyn.model, y)
-        d = y - z
-        e = 0.5 * np.sum(c[:, None] * d * d) + e_s + np.sum(dyn.gravity * y)
-        g = c[:, None] * d + g_s + dyn.gravity
-        diag = np.repeat(c, 3)
-        if anchors is not None:
-            da = y - anchors
-            e += 0.5 * np.sum(dyn.anchor_k[:, None] * da * da)
-            g = g + dyn.anchor_k[:, None] * da
-            diag = diag + np.repeat(dyn.anchor_k, 3)
-        N = 3 * (n + len(b))
-        rows = np.concatenate([dyn._rows, np.arange(3 * n, N)])
-        cols = np.concatenate([dyn._cols, np.arange(3 * n, N)])
-        blocks = np.concatenate([Kc, Kc, Kc, Kc]) * dyn._sign[:, None, None]
-        H = sp.csc_matrix((np.concatenate([blocks.ravel(), diag, np.full(N - 3 * n, K)]),
-                           (rows, cols)), shape=(N, N))
+        e, g, Hc = dyn.smooth_system(y, c, z, anchors)
+        H = sp.block_diag([Hc, sp.identity(3 * len(b), format="csc") * K], format="csc")
         db = b - b_to
         e += 0.5 * K * np.sum(db * db)
         grad = np.concatenate([g.ravel(), (K * db).ravel()])

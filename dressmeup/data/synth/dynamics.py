@@ -262,9 +262,11 @@ class ClothDynamics:
         return self._smooth_energy(y, c, z, anchors) + float(
             self.barrier(col, scene.mesh, scene.stack(y, body_V))), col
 
-    def _system(self, scene: Scene, y, body_V, c, z, anchors, col=None):
-        """``(Phi, gradient (3n,), Hessian (3n, 3n) csc, contacts)`` at ``y`` (``col``: the
-        collision set at ``y`` when already built)."""
+    def smooth_system(self, y, c, z, anchors):
+        """``(energy (J), gradient (n, 3), Hessian (3n, 3n) csc)`` of inertia, springs,
+        gravity and anchors at ``y (n, 3)`` (``c (n,)`` inertia weights, ``z (n, 3)`` their
+        target; ``anchors (n, 3)`` or None): :meth:`solve_step`'s potential without the
+        barrier."""
         n = self.n
         e_s, g_s, K = spring_terms(self.model, y)
         d = y - z
@@ -279,6 +281,13 @@ class ClothDynamics:
         Kv = np.concatenate([K, K, K, K]) * self._sign[:, None, None]
         H = sp.csc_matrix((np.concatenate([Kv.ravel(), dvals]), (self._rows, self._cols)),
                           shape=(3 * n, 3 * n))
+        return e, g, H
+
+    def _system(self, scene: Scene, y, body_V, c, z, anchors, col=None):
+        """``(Phi, gradient (3n,), Hessian (3n, 3n) csc, contacts)`` at ``y`` (``col``: the
+        collision set at ``y`` when already built)."""
+        n = self.n
+        e, g, H = self.smooth_system(y, c, z, anchors)
         if col is None:
             col = scene.collisions(y, body_V, self.settings.dhat)
         if col.empty():
