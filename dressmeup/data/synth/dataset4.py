@@ -19,8 +19,15 @@ Files besides the dataset layout:
   the plausibility figures (:func:`dressmeup.data.synth.generator4.dress`);
 - ``generator/failed/<sample>.json``: a planned target whose motion the cloth could not
   follow within the sub-step budget (:class:`~dressmeup.data.synth.generator4.SimulationFailed`):
-  it is not in the dataset, the reason and the CPU spent are. When a garment's source
-  fails, the garment has no sample at all.
+  it is not in the dataset, the reason and the CPU spent are.
+
+**A garment's source** is the first of its targets on its design body (the planned source,
+then its re-pose targets, in plan order) whose motion succeeds; ``dataset.json`` declares it
+(``garments.<id>.source``) and every track is the relation of a target to it
+(:func:`track_of`: a re-shape target planned in a failed source's pose is then a cross
+target). A target on another body waits for the source: when every motion on the design
+body fails, the garment has no sample (its other targets are recorded as failed, not
+simulated). While every planned source succeeds the rule changes nothing.
 
 The public part of a test split withholds all three for its garments and samples (their
 names start with the garment's or the sample's id); ``dataset.json`` lists garments by
@@ -42,6 +49,7 @@ from typing import Any
 import numpy as np
 
 from dressmeup.body import BodyParams
+from dressmeup.data import layout
 from dressmeup.data.synth.config import SynthConfig
 from dressmeup.data.synth.dynamics import DynamicsSettings
 from dressmeup.data.synth.generator4 import (
@@ -63,6 +71,7 @@ from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import InputError
 from dressmeup.hyperparameters import resolve_config
 from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.jsonio import parse_json_file
 from dressmeup.io.mesh import save_mesh
 from dressmeup.progress import progress
 
@@ -109,13 +118,16 @@ class Gen4Config:
 @dataclass(frozen=True)
 class GarmentWork:
     """One garment's job: its plan record, the design body's phenotype ``(s,)``, its
-    targets as ``(sid, pid, track, shape (s,), pose (j, 3))`` and its texture's seed words."""
+    targets still to dress as ``(sid, pid, track, shape (s,), pose (j, 3))`` (plan order),
+    its texture's seed words and its source's ``(sid, pid)`` when already written (None:
+    the source is the first target on the design body that this job dresses)."""
 
     gid: str
     garment: dict[str, Any]
     design_shape: np.ndarray
     targets: tuple[tuple[str, str, str, np.ndarray, np.ndarray], ...]
     texture_seed: tuple[int, ...]
+    source: tuple[str, str] | None = None
 
 
 @dataclass
@@ -173,13 +185,15 @@ class DressJob:
         tex, pattern = procedural_texture(np.random.default_rng(list(work.texture_seed)),
                                           c.texture_size)
         samples: list[DressedTarget] = []
-        source_failed = None
-        for sid, pid, track, shape, pose in work.targets:
-            if source_failed is not None:
+        source, home = work.source, g["design_subject"]
+        home_failed: list[str] = []
+        for sid, pid, planned, shape, pose in work.targets:
+            if source is None and sid != home:
                 samples.append(DressedTarget(sid, pid, None, shape, pose, {
-                    "failed": f"the garment's source failed: {source_failed}", "track": track},
-                    None))
+                    "failed": "the garment has no source: every motion on its design body "
+                              f"failed ({'; '.join(home_failed)})", "track": planned}, None))
                 continue
+            track = planned if source is None else track_of((sid, pid), source)
             t0 = time.process_time()
             try:
                 res = dress(kit, built, shape, pose, c.sim)
@@ -187,9 +201,11 @@ class DressJob:
                 samples.append(DressedTarget(sid, pid, None, shape, pose, {
                     "failed": str(exc), "track": track,
                     "cpu_s": round(time.process_time() - t0, 2)}, None))
-                if track == "source":
-                    source_failed = str(exc)
+                if source is None:
+                    home_failed.append(f"{pid}: {exc}")
                 continue
+            if source is None:
+                source, track = (sid, pid), "source"
             scan = (clothed_scan(res.body_vertices, kit.faces, res.vertices, built.faces,
                                  c.scan_body) if c.write_scan else None)
             stats = {**res.stats, "track": track, "pose": pid, "subject": sid,
@@ -240,8 +256,13 @@ def make_plan(c: SynthConfig, g4: Gen4Config) -> dict[str, Any]:
     return plan
 
 
-def dataset_info(c: SynthConfig, g4: Gen4Config, plan: dict[str, Any]) -> dict[str, Any]:
-    """The ``dataset.json`` record (no garment parameter, no secret)."""
+def dataset_info(c: SynthConfig, g4: Gen4Config, plan: dict[str, Any],
+                 sources: dict[str, str] | None = None) -> dict[str, Any]:
+    """The ``dataset.json`` record (no garment parameter, no secret); ``sources`` garment id
+    -> source sample id (:func:`declared_sources`; default: the planned sources)."""
+    if sources is None:
+        sources = {gid: f"{g['targets'][0].sid}-{gid}-{g['targets'][0].pid}"
+                   for gid, g in plan["garments"].items()}
     params = g4.params(c.seed)
     params["splits"] = [s for s in SPLITS if s in c.splits]
     if c.secret is not None:
@@ -264,15 +285,33 @@ def dataset_info(c: SynthConfig, g4: Gen4Config, plan: dict[str, Any]) -> dict[s
         "poses": {p: {"family": v["family"], "split": v["split"]}
                   for p, v in plan["poses"].items()},
         "garments": {g: {"split": v["split"], "type": v["type"], "category": v["category"],
-                         "source": _source_id(g, v)}
+                         "source": sources[g]}
                      for g, v in plan["garments"].items()},
     }
 
 
-def _source_id(gid: str, g: dict[str, Any]) -> str:
-    """The sample id of a garment's source (its first target)."""
-    t = g["targets"][0]
-    return f"{t.sid}-{gid}-{t.pid}"
+def track_of(target: tuple[str, str], source: tuple[str, str]) -> str:
+    """The track of a ``(subject, pose)`` target relative to its garment's source ``(subject,
+    pose)``: ``source`` (itself), ``re-pose`` (same subject), ``re-shape`` (same pose) or
+    ``cross``."""
+    if target == source:
+        return "source"
+    if target[0] == source[0]:
+        return "re-pose"
+    return "re-shape" if target[1] == source[1] else "cross"
+
+
+def declared_sources(plan: dict[str, Any], failed_dir: Path) -> dict[str, str]:
+    """Garment id -> the sample id of its source (module docstring): its first target on the
+    design body in plan order not recorded in ``failed_dir``; the planned source when all
+    are."""
+    out = {}
+    for gid, g in plan["garments"].items():
+        home = [t for t in g["targets"] if t.sid == g["design_subject"]]
+        ok = [t for t in home if not (failed_dir / f"{t.sid}-{gid}-{t.pid}.json").is_file()]
+        t = (ok or home)[0]
+        out[gid] = f"{t.sid}-{gid}-{t.pid}"
+    return out
 
 
 def generate_gen4(out: str | os.PathLike, c: SynthConfig, workers: int = 1,
@@ -298,7 +337,11 @@ def generate_gen4(out: str | os.PathLike, c: SynthConfig, workers: int = 1,
                          "build train and val only (splits)")
     plan = make_plan(c, g4)
     out = Path(out)
-    writer = DatasetWriter(out, dataset_info(c, g4, plan))
+    failed_dir = out / "generator" / "failed"
+    sources = declared_sources(plan, failed_dir)
+    info = dataset_info(c, g4, plan, sources)
+    _sync_sources(out, info["garments"])
+    writer = DatasetWriter(out, info)
     todo = _todo(c, plan, writer)
     total = sum(len(g["targets"]) for g in plan["garments"].values())
     bar = progress(range(total), desc="synth v5", total=total)
@@ -306,11 +349,35 @@ def generate_gen4(out: str | os.PathLike, c: SynthConfig, workers: int = 1,
         next(bar, None)
     for res in run_jobs(DressJob(g4), todo, workers=workers, executor=executor):
         _write(writer, out, plan, res, g4.body_model, bar)
+        now = declared_sources(plan, failed_dir)
+        if now != sources:  # a source failed: dataset.json declares the next one
+            sources = now
+            writer.update_info(garments=dataset_info(c, g4, plan, sources)["garments"])
     for _ in bar:
         pass
     return writer.finalize(report=summarize(out), timings={
         "last_run_s": round(time.perf_counter() - t_start, 2),
         "last_run_main_cpu_s": round(time.process_time() - cpu_start, 2), "workers": workers})
+
+
+def _sync_sources(out: Path, garments: dict[str, Any]) -> None:
+    """Bring the declared sources of an interrupted run's ``dataset.json`` up to date with
+    its failed records (a run killed between a failed source's record and the declaration
+    of the next one); any other difference is left for the writer to report."""
+    path = out / layout.DATASET_JSON
+    if not path.is_file():
+        return
+    old = parse_json_file(path)
+    was = old.get("garments") if isinstance(old, dict) else None
+
+    def rest(g: dict[str, Any]) -> dict[str, Any]:
+        return {k: v for k, v in g.items() if k != "source"}
+
+    if (isinstance(was, dict) and was != garments and set(was) == set(garments)
+            and all(isinstance(was[g], dict) and rest(was[g]) == rest(garments[g])
+                    for g in garments)):
+        old["garments"] = garments
+        atomic_write_text(path, json.dumps(old, indent=2, sort_keys=True) + "\n")
 
 
 def _todo(c: SynthConfig, plan: dict[str, Any], writer: DatasetWriter) -> list[GarmentWork]:
@@ -332,8 +399,11 @@ def _todo(c: SynthConfig, plan: dict[str, Any], writer: DatasetWriter) -> list[G
             and not (failed / f"{t.sid}-{gid}-{t.pid}.json").is_file())
         if missing:
             design = np.asarray(plan["subjects"][g["design_subject"]]["shape"], np.float64)
+            written = [(t.sid, t.pid) for t in g["targets"] if t.sid == g["design_subject"]
+                       and writer.has_sample(f"{t.sid}-{gid}-{t.pid}")]
             todo.append(GarmentWork(gid, g, design, missing,
-                                    texture_seed(g["split"], c.seed, c.secret, gid)))
+                                    texture_seed(g["split"], c.seed, c.secret, gid),
+                                    written[0] if written else None))
     return todo
 
 
