@@ -15,11 +15,16 @@ From a generator-4.0.0 dataset folder (``dressmeup synth DIR --edition E``):
    first): the same motion with the time step halved (:meth:`MotionSpec.refined`) and with
    the Newton tolerance divided by 10; per-vertex distance to the stored sample (median,
    95th percentile);
-5. **Pictures** (``samples.png``): front and side of each sample, the body grey, the garment
-   coloured by its distance to the body (0-50 mm), faces inside the body red.
+5. **Pictures** (``samples.png``): front and side of each sample (``--worst N``: of the N
+   worst, ranked by :func:`badness`), the body grey, the garment coloured by its distance to
+   the body (0-50 mm), faces inside the body red.
 
-    python benchmarks/perf/synth_g4_figures.py --data DIR [--sensitivity N] [--workers 2] \\
-        --out benchmarks/results/studies/DATE-NAME
+Besides the figures against the goals, ``figures.md`` breaks them down by garment type and
+fit and by pose family (written, failed, skipped for want of a source) and lists every
+sample (``--worst N``: the N worst).
+
+    python benchmarks/perf/synth_g4_figures.py --data DIR [--sensitivity N] [--worst N] \\
+        [--workers 2] --out benchmarks/results/studies/DATE-NAME
 
 writes ``figures.json``, ``figures.md`` and ``samples.png`` into ``--out``.
 """
@@ -125,7 +130,7 @@ def pick_for_sensitivity(samples: list[dict], n: int) -> list[dict]:
 
 
 def pictures(root: Path, samples: list[dict], out: Path, body_model: str) -> None:
-    """``samples.png``: front and side of every sample."""
+    """``samples.png``: front and side of every sample of ``samples``."""
     # heavy: matplotlib through viz (~0.3 s to import)
     from matplotlib import colormaps
 
@@ -156,17 +161,43 @@ def pictures(root: Path, samples: list[dict], out: Path, body_model: str) -> Non
                                   "(0-50 mm), red: inside the body")
 
 
+def badness(s: dict) -> tuple:
+    """Sort key of a sample, worst first: garment area inside the body, self-intersecting
+    faces, not free by the exact check, unconverged frames (each descending)."""
+    st = s["stats"]
+    return (-st["inside_area_pct"], -st["self_intersecting_faces"],
+            -int(not st["intersection_free"]), -st["unconverged_frames"], s["id"])
+
+
+def breakdown(samples: list[dict], failed: list[dict], key) -> list[str]:
+    """Markdown rows per value of ``key(item)``: samples written, motions failed, targets
+    skipped for want of a source, inside area (median, max), samples with an unconverged
+    frame."""
+    rows = []
+    for k in sorted({key(x) for x in samples + failed}):
+        ok = [x["stats"] for x in samples if key(x) == k]
+        bad = [x for x in failed if key(x) == k]
+        skipped = sum("no source" in x["stats"]["failed"] for x in bad)
+        inside = [st["inside_area_pct"] for st in ok] or [float("nan")]
+        rows.append(f"| {k} | {len(ok)} | {len(bad) - skipped} | {skipped} | "
+                    f"{np.median(inside):.3f} / {max(inside):.3f} | "
+                    f"{sum(st['unconverged_frames'] > 0 for st in ok)} |")
+    return rows
+
+
 def _turn() -> np.ndarray:
     """Rotation (row-vector convention) of 90 degrees about the vertical (y) axis."""
     return np.array([[0.0, 0, -1], [0, 1, 0], [1, 0, 0]])
 
 
-def summary(samples: list[dict], failed: list[dict], sens: list[dict]) -> str:
-    """Markdown tables: per sample, then the figures against the goals."""
+def summary(samples: list[dict], failed: list[dict], sens: list[dict],
+            listed: list[dict] | None = None) -> str:
+    """Markdown tables: per sample (``listed``, default all), the breakdowns, then the
+    figures against the goals."""
     lines = ["| sample | type | fit | track | pose family | inside % | self-int | ipctk free | "
              "sub-steps | iterations | unconverged frames | CPU s |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for s in samples:
+    for s in samples if listed is None else listed:
         st = s["stats"]
         lines.append(f"| {s['id']} | {st['garment_type']} | {st['fit']} | {st['track']} | "
                      f"{s['family']} | {st['inside_area_pct']:.3f} | "
@@ -177,11 +208,20 @@ def summary(samples: list[dict], failed: list[dict], sens: list[dict]) -> str:
         lines.append(f"| {f['id']} | {f['garment']['type']} | {f['garment']['fit']} | "
                      f"{f['stats'].get('track')} | {f['family']} | failed: "
                      f"{f['stats']['failed']} |" + " |" * 6)
+    head = ("| written | motions failed | skipped (no source) | inside % median / max | "
+            "with an unconverged frame |")
+    for title, key in (("garment type, fit", lambda x: f"{x['garment']['type']}, "
+                                                       f"{x['garment']['fit']}"),
+                       ("pose family", lambda x: x["family"]),
+                       ("split", lambda x: x["garment"]["split"])):
+        lines += ["", f"| {title} " + head, "|---" * 6 + "|"] + breakdown(samples, failed, key)
     stats = [s["stats"] for s in samples]
     inside = [s["inside_area_pct"] for s in stats] or [float("nan")]
     selfi = [s["self_intersecting_faces"] for s in stats] or [float("nan")]
     cpu = [s["cpu_s"] for s in stats] or [float("nan")]
     unconv = sum(s["unconverged_frames"] > 0 for s in stats)
+    rescued = sum(s["stats"]["track"] == "source"
+                  and s["garment"]["targets"][0][:2] != [s["sid"], s["pid"]] for s in samples)
     lines += ["", "| figure | measured | goal |", "|---|---|---|",
               f"| inside area | median {np.median(inside):.3f} %, max {max(inside):.3f} % | "
               f"median {GOALS['inside_median']} %, max <= {GOALS['inside_max']} % |",
@@ -190,7 +230,11 @@ def summary(samples: list[dict], failed: list[dict], sens: list[dict]) -> str:
               f"| ipctk exact check not free | {sum(not s['intersection_free'] for s in stats)} "
               f"of {len(stats)} samples | 0 |",
               f"| samples with an unconverged frame | {unconv} of {len(stats)} | 0 |",
-              f"| targets whose motion failed | {len(failed)} of {len(failed) + len(stats)} | 0 |",
+              f"| targets whose motion failed | {len(failed)} of {len(failed) + len(stats)} "
+              f"({sum('no source' in f['stats']['failed'] for f in failed)} of them skipped: "
+              "no motion on the design body succeeded) | 0 |",
+              f"| garments whose source is a re-pose target (the planned source failed) | "
+              f"{rescued} | - |",
               f"| CPU s a sample | median {np.median(cpu):.0f}, max {max(cpu):.0f} | "
               f"<= {GOALS['cpu_s']:.0f} |"]
     for name in ("dt_half", "tolerance_tenth"):
@@ -208,6 +252,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", type=Path, required=True, help="a generator-4.0.0 dataset")
     ap.add_argument("--sensitivity", type=int, default=0, help="samples to re-dress")
+    ap.add_argument("--worst", type=int, default=0,
+                    help="list and picture only the N worst samples (0: every sample)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, required=True)
     a = ap.parse_args()
@@ -229,10 +275,11 @@ def main() -> None:
          "failed": [{"id": f["id"], **f["stats"]} for f in failed],
          "sensitivity": sens, "sensitivity_wall_s": time.time() - t0, "goals": GOALS},
         indent=1, default=float))
-    table = summary(samples, failed, sens)
+    shown = sorted(samples, key=badness)[:a.worst] if a.worst else samples
+    table = summary(samples, failed, sens, shown)
     (a.out / "figures.md").write_text(table)
     print(table)
-    pictures(a.data, samples, a.out, info["generator"]["params"]["body_model"])
+    pictures(a.data, shown, a.out, info["generator"]["params"]["body_model"])
 
 
 if __name__ == "__main__":
