@@ -3,8 +3,10 @@
     python benchmarks/train_retarget_weights.py --data DATA_ROOT --preset thesis --until-converged \
         --out dressmeup/methods/retarget/weights/isomap_refine_anny.pt
 
-Presets: ``thesis`` (decoder 6 x 512, 128-d PointNet codes, PointNet hidden 128: thesis 4.4.2)
-and ``fast`` (6 x 256, 64-d codes, hidden 64: about 4x fewer operations per vertex).
+Presets (network sizes of ``dressmeup.methods.retarget.refine_config.PRESETS``): ``thesis``
+(decoder 6 x 512, 128-d PointNet codes, PointNet hidden 128, 32 target neighbours: thesis
+4.4.2; ``isomap-refine``), ``medium`` (6 x 256, 64-d codes, hidden 64: ``isomap-refine-sup``)
+and ``fast`` (6 x 128, 64-d codes, hidden 64, 16 neighbours: ``isomap-refine-fast``).
 Self-supervised (``--method isomap-refine``) or supervised (``--method isomap-refine-sup``) on
 the train split of a synthetic dataset built by the generator; validation pairs choose the
 kept step; weights stored as float16. Before training, the script checks that no training
@@ -23,8 +25,16 @@ import json
 import time
 from pathlib import Path
 
-PRESETS = {"thesis": dict(width=512, depth=6, code_dim=128, pointnet_hidden=128),
-           "fast": dict(width=256, depth=6, code_dim=64, pointnet_hidden=64)}
+#: the network-size fields a preset sets (the loss settings stay each method's own)
+SIZE_FIELDS = ("width", "depth", "code_dim", "pointnet_hidden", "k_neighbors")
+PRESETS = ("thesis", "medium", "fast")
+
+
+def preset_params(name: str) -> dict:
+    """The network size of a preset of ``refine_config.PRESETS``."""
+    from dressmeup.methods.retarget.refine_config import PRESETS as SIZES
+
+    return {f: getattr(SIZES[name], f) for f in SIZE_FIELDS}
 
 
 def _plan4(params: dict, seed: int, secret: bytes | None) -> dict:
@@ -121,7 +131,7 @@ def main() -> None:
     ap.add_argument("--data", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--method", default="isomap-refine", choices=["isomap-refine", "isomap-refine-sup"])
-    ap.add_argument("--preset", default="thesis", choices=sorted(PRESETS))
+    ap.add_argument("--preset", default="thesis", choices=PRESETS)
     ap.add_argument("--split", default="train")
     ap.add_argument("--exclude-garments", default="", help="comma-separated garment ids")
     ap.add_argument("--steps", type=int, default=5000, help="upper bound on the steps")
@@ -141,7 +151,7 @@ def main() -> None:
     exclude = [g for g in args.exclude_garments.split(",") if g]
     _check_no_test_garments(Dataset(args.data), args.split, exclude)
     t = time.perf_counter()
-    info = train_from_dataset(args.data, args.out, method=args.method, params=PRESETS[args.preset],
+    info = train_from_dataset(args.data, args.out, method=args.method, params=preset_params(args.preset),
                               split=args.split, steps=args.steps, max_triplets=args.max_triplets or None,
                               max_val=args.max_val, seed=args.seed,
                               wall_minutes=args.wall_minutes, val_every=args.val_every, half=True,

@@ -51,7 +51,7 @@ def retarget_prepared(method: Any, garment_V, garment_F, source, target, body_mo
         x = x + np.random.default_rng(method.config.seed).normal(0.0, float(method.config.correspondence_noise), size=x.shape)
     x = x.astype(np.float32)
     k = int(min(method.config.k_neighbors, len(TV)))
-    _, nb = cKDTree(TV).query(x, k=k)
+    _, nb = cKDTree(TV).query(x, k=k, workers=torch.get_num_threads())  # exact at any count
     nb = np.asarray(nb).reshape(len(x), k)
     neighbors = (TV[nb].astype(np.float32) - x[:, None, :]).reshape(len(x), 3 * k)
     t4 = time.perf_counter()

@@ -186,8 +186,10 @@ def test_fast_variant_is_narrower_and_looks_for_its_own_weights(tiny, body_model
     from dressmeup.methods.retarget import refine
 
     fast, full = get_method("isomap-refine-fast"), get_method("isomap-refine")
-    assert (fast.config.width, fast.config.code_dim, fast.config.pointnet_hidden) == (256, 64, 64)
-    assert (full.config.width, full.config.code_dim, full.config.pointnet_hidden) == (512, 128, 128)
+    assert (fast.config.width, fast.config.code_dim, fast.config.pointnet_hidden,
+            fast.config.k_neighbors) == (128, 64, 64, 16)
+    assert (full.config.width, full.config.code_dim, full.config.pointnet_hidden,
+            full.config.k_neighbors) == (512, 128, 128, 32)
     monkeypatch.setattr(refine, "WEIGHTS_DIR", tmp_path)
     with pytest.raises(MissingModelError, match="isomap_refine_fast_procedural"):
         fast.retarget(tiny["V"], tiny["F"], tiny["source"], tiny["target"], body_model)
