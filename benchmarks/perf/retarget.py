@@ -107,7 +107,7 @@ def _learned(args, model, V, F, src, targets, row) -> tuple[float, float, float]
             m.network_ = m.new_network().eval()
             m.body_model_name_ = model.name
         net_label = "fresh network"
-    print(f"isomap-refine: width {new.width}, codes {new.code_dim}, PointNet hidden {new.pointnet_hidden} "  # noqa: T201
+    print(f"isomap-refine: width {new.config.width}, codes {new.config.code_dim}, PointNet hidden {new.config.pointnet_hidden} "  # noqa: T201
           f"({net_label})")
     new.embedding(model)  # the template embedding is a one-off per template (cached)
     # the old path caches nothing per garment: no warm-up needed (the template embedding is built above)
@@ -122,11 +122,14 @@ def _learned(args, model, V, F, src, targets, row) -> tuple[float, float, float]
     split = new.last_timing_
     print("    split of the last call: " + ", ".join(f"{k} {v:.3f}" for k, v in split.items()))  # noqa: T201
 
-    fast = get_method("isomap-refine", width=args.fast_width, code_dim=64, pointnet_hidden=64)
+    # the fast preset's size (a fresh network: the shipped file may carry another size)
+    fast = get_method("isomap-refine-fast", **({"width": args.fast_width} if args.fast_width else {}))
     fast.network_ = fast.new_network().eval()
     fast.body_model_name_ = model.name
     t_fast, l_fast = _median_per_target(lambda t: fast.retarget(V, F, src, t, model), targets)
-    row(f"isomap-refine 'fast' (width {args.fast_width}, codes 64), prepared path per new target", t_fast, l_fast)
+    c = fast.config
+    row(f"isomap-refine-fast (width {c.width}, codes {c.code_dim}, {c.k_neighbors} neighbours), "
+        "prepared path per new target", t_fast, l_fast)
 
     return t_old, t_new, t_fast
 
@@ -146,7 +149,8 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--targets", type=int, default=5, help="new targets timed per path (median)")
     ap.add_argument("--weights", default=None, help="isomap-refine checkpoint (default: shipped, else fresh)")
-    ap.add_argument("--fast-width", type=int, default=256, help="decoder width of the 'fast' network timed too")
+    ap.add_argument("--fast-width", type=int, default=None,
+                    help="decoder width of the 'fast' network timed too (default: its preset's)")
     ap.add_argument("--skip-learned", action="store_true", help="time the non-learned paths only")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
