@@ -25,16 +25,15 @@ import json
 import time
 from pathlib import Path
 
+from dressmeup.methods.retarget.refine_config import PRESETS
+
 #: the network-size fields a preset sets (the loss settings stay each method's own)
 SIZE_FIELDS = ("width", "depth", "code_dim", "pointnet_hidden", "k_neighbors")
-PRESETS = ("thesis", "medium", "fast")
 
 
 def preset_params(name: str) -> dict:
     """The network size of a preset of ``refine_config.PRESETS``."""
-    from dressmeup.methods.retarget.refine_config import PRESETS as SIZES
-
-    return {f: getattr(SIZES[name], f) for f in SIZE_FIELDS}
+    return {f: getattr(PRESETS[name], f) for f in SIZE_FIELDS}
 
 
 def _plan4(params: dict, seed: int, secret: bytes | None) -> dict:
@@ -131,7 +130,7 @@ def main() -> None:
     ap.add_argument("--data", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--method", default="isomap-refine", choices=["isomap-refine", "isomap-refine-sup"])
-    ap.add_argument("--preset", default="thesis", choices=PRESETS)
+    ap.add_argument("--preset", default="thesis", choices=sorted(PRESETS))
     ap.add_argument("--split", default="train")
     ap.add_argument("--exclude-garments", default="", help="comma-separated garment ids")
     ap.add_argument("--steps", type=int, default=5000, help="upper bound on the steps")

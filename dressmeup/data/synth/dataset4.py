@@ -261,8 +261,7 @@ def dataset_info(c: SynthConfig, g4: Gen4Config, plan: dict[str, Any],
     """The ``dataset.json`` record (no garment parameter, no secret); ``sources`` garment id
     -> source sample id (:func:`declared_sources`; default: the planned sources)."""
     if sources is None:
-        sources = {gid: f"{g['targets'][0].sid}-{gid}-{g['targets'][0].pid}"
-                   for gid, g in plan["garments"].items()}
+        sources = declared_sources(plan)
     params = g4.params(c.seed)
     params["splits"] = [s for s in SPLITS if s in c.splits]
     if c.secret is not None:
@@ -301,14 +300,15 @@ def track_of(target: tuple[str, str], source: tuple[str, str]) -> str:
     return "re-shape" if target[1] == source[1] else "cross"
 
 
-def declared_sources(plan: dict[str, Any], failed_dir: Path) -> dict[str, str]:
+def declared_sources(plan: dict[str, Any], failed_dir: Path | None = None) -> dict[str, str]:
     """Garment id -> the sample id of its source (module docstring): its first target on the
     design body in plan order not recorded in ``failed_dir``; the planned source when all
-    are."""
+    are (or without ``failed_dir``)."""
     out = {}
     for gid, g in plan["garments"].items():
         home = [t for t in g["targets"] if t.sid == g["design_subject"]]
-        ok = [t for t in home if not (failed_dir / f"{t.sid}-{gid}-{t.pid}.json").is_file()]
+        ok = [t for t in home if failed_dir is None
+              or not (failed_dir / f"{t.sid}-{gid}-{t.pid}.json").is_file()]
         t = (ok or home)[0]
         out[gid] = f"{t.sid}-{gid}-{t.pid}"
     return out
