@@ -24,7 +24,7 @@ fit and by pose family (written, failed, skipped for want of a source) and lists
 sample (``--worst N``: the N worst).
 
     python benchmarks/perf/synth_g4_figures.py --data DIR [--sensitivity N] [--worst N] \\
-        [--workers 2] --out benchmarks/results/studies/DATE-NAME
+        [--splits train val] [--workers 2] --out benchmarks/results/studies/DATE-NAME
 
 writes ``figures.json``, ``figures.md`` and ``samples.png`` into ``--out``.
 """
@@ -55,9 +55,10 @@ def load() -> str:
     return f"{os.getloadavg()[0]:.1f}"
 
 
-def read_samples(root: Path) -> tuple[dict, list[dict], list[dict]]:
+def read_samples(root: Path, splits: tuple[str, ...] | None = None
+                 ) -> tuple[dict, list[dict], list[dict]]:
     """``(dataset.json, samples, failed)``: per written sample its ids, garment plan and
-    stats; per failed target its ids and reason."""
+    stats; per failed target its ids and reason; only garments of ``splits`` (None: all)."""
     info = json.loads((root / "dataset.json").read_text())
     garments = {p.stem: json.loads(p.read_text())
                 for p in sorted((root / "generator" / "garments").glob("*.json"))}
@@ -65,6 +66,8 @@ def read_samples(root: Path) -> tuple[dict, list[dict], list[dict]]:
     for kind, out in (("stats", samples), ("failed", failed)):
         for p in sorted((root / "generator" / kind).glob("*.json")):
             sid, gid, pid = p.stem.split("-")
+            if splits is not None and garments[gid]["split"] not in splits:
+                continue
             out.append({"id": p.stem, "sid": sid, "gid": gid, "pid": pid,
                         "garment": garments[gid], "family": info["poses"][pid]["family"],
                         "stats": json.loads(p.read_text())})
@@ -254,11 +257,14 @@ def main() -> None:
     ap.add_argument("--sensitivity", type=int, default=0, help="samples to re-dress")
     ap.add_argument("--worst", type=int, default=0,
                     help="list and picture only the N worst samples (0: every sample)")
+    ap.add_argument("--splits", nargs="+", default=None, metavar="SPLIT",
+                    help="only these splits' garments (e.g. train val: figures and pictures "
+                         "that show no test answer; default: every split)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, required=True)
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
-    info, samples, failed = read_samples(a.data)
+    info, samples, failed = read_samples(a.data, tuple(a.splits) if a.splits else None)
     print(f"{len(samples)} samples, {len(failed)} failed targets; load {load()}", flush=True)
     t0 = time.time()
     sens = []

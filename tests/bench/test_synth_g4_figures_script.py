@@ -25,3 +25,22 @@ def test_worst_first_and_breakdown_counts():
     rows = f.breakdown(samples, failed, lambda x: x["garment"]["type"])
     assert rows == ["| skirt | 2 | 1 | 1 | 0.000 / 0.000 | 0 |",
                     "| t-shirt | 2 | 0 | 0 | 0.150 / 0.300 | 0 |"]
+
+
+def test_read_samples_keeps_only_the_asked_splits(tmp_path):
+    """``--splits train val``: no test garment's sample or failed target is read."""
+    import json
+
+    f = benchmark_script("perf/synth_g4_figures")
+    gen = tmp_path / "generator"
+    for sub in ("garments", "stats", "failed"):
+        (gen / sub).mkdir(parents=True)
+    for gid, split in (("G001", "train"), ("G002", "val"), ("G003", "test")):
+        (gen / "garments" / f"{gid}.json").write_text(json.dumps({"split": split}))
+        (gen / "stats" / f"S001-{gid}-P001.json").write_text(json.dumps({"cpu_s": 1.0}))
+    (gen / "failed" / "S002-G003-P001.json").write_text(json.dumps({"failed": "budget"}))
+    (tmp_path / "dataset.json").write_text(json.dumps({"poses": {"P001": {"family": "a"}}}))
+    _, samples, failed = f.read_samples(tmp_path, ("train", "val"))
+    assert [s["gid"] for s in samples] == ["G001", "G002"] and failed == []
+    _, samples, failed = f.read_samples(tmp_path)
+    assert len(samples) == 3 and [x["gid"] for x in failed] == ["G003"]
