@@ -1,8 +1,10 @@
 """When a training run has converged: the one rule every trainer of the toolkit uses.
 
 A run has converged when its best validation figure improved by less than ``tol`` (1 %)
-over the last ``fraction`` (20 %) of the steps so far, with at least ``min_tail``
-evaluations in that window (one noisy evaluation is no plateau).
+over the last ``fraction`` (20 %) of the steps so far, and over at least ``min_window``
+steps (a trainer passes one pass over its training set: a run stopped inside its first
+passes has not seen its data), with at least ``min_tail`` evaluations in that window (one
+noisy evaluation is no plateau).
 """
 
 from __future__ import annotations
@@ -13,9 +15,9 @@ import numpy as np
 
 
 def converged(val: Sequence[tuple[int, float]], tol: float = 0.01, fraction: float = 0.2,
-              min_tail: int = 4) -> bool:
+              min_tail: int = 4, min_window: int = 0) -> bool:
     """True when the best validation loss improved by less than ``tol`` (relative) over the
-    last ``fraction`` of the steps so far.
+    last ``fraction`` of the steps so far, a window of at least ``min_window`` steps.
 
     Parameters
     ----------
@@ -24,12 +26,14 @@ def converged(val: Sequence[tuple[int, float]], tol: float = 0.01, fraction: flo
     fraction : the trailing share of the steps compared (0.2 = the last fifth).
     min_tail : the last fifth must hold at least this many evaluations (so at least
         ``min_tail / fraction`` evaluations in all): one noisy evaluation is no plateau.
+    min_window : the window's least length in steps (e.g. one pass over the training set;
+        0: the fraction alone).
     """
     steps = np.array([s for s, _ in val], dtype=float)
     loss = np.array([v for _, v in val], dtype=float)
     if steps.size == 0:
         return False
-    cut = steps[-1] * (1.0 - fraction)
+    cut = min(steps[-1] * (1.0 - fraction), steps[-1] - float(min_window))
     before = loss[steps <= cut]
     if before.size == 0 or int(np.count_nonzero(steps > cut)) < min_tail:
         return False

@@ -117,9 +117,9 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
         ``until_converged`` the most steps.
     wall_seconds : float, optional wall budget of this invocation (a resumed run goes on).
     until_converged : stop when the validation figure (ED with ground truth, else the loss)
-        has improved by less than ``tol`` over the last 20 % of the steps
-        (:func:`dressmeup.methods.nn.convergence.converged`); ``stopped_by`` says
-        ``converged``. Needs validation samples.
+        has improved by less than ``tol`` over the last 20 % of the steps, and over at least
+        one pass over ``samples`` (:func:`dressmeup.methods.nn.convergence.converged`);
+        ``stopped_by`` says ``converged``. Needs validation samples.
     val_every, checkpoint_every : int, steps between validations / checkpoints.
     checkpoint : path, optional; resumed from when it exists.
     callback : callable(step, total, terms), optional.
@@ -168,7 +168,7 @@ def train_network(method, samples: list, val_samples: list | None = None, steps:
         if until_converged and val_samples and (step + 1) % int(val_every) == 0:
             run.validate(step + 1)
             figure = [(s_, e if np.isfinite(e) else lo) for s_, lo, e in history.val]
-            if converged(figure, tol):
+            if converged(figure, tol, min_window=len(samples)):
                 history.stopped_by = "converged"
                 step += 1
                 break

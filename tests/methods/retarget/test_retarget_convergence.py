@@ -1,5 +1,5 @@
 """The retargeting trainer stops on the convergence rule (1 % over the last 20 % of the
-steps), not on a wall budget, and says so."""
+steps and at least one pass over the training samples), not on a wall budget, and says so."""
 
 from __future__ import annotations
 
@@ -39,6 +39,15 @@ def test_stops_when_converged_and_records_why():
     assert len(h.train) < 5000
     last = [v for _, v, _ in h.val][-1]
     assert last == pytest.approx(1.0, abs=1e-2)
+
+
+def test_the_rule_waits_for_one_pass_over_the_samples():
+    """A plateau reached in the first steps does not stop a run before it has seen every
+    training sample once."""
+    samples = [_Sample() for _ in range(300)]
+    _, h = train_network(_Plateau(), samples, samples[:2], steps=5000, val_every=10,
+                         until_converged=True)
+    assert h.stopped_by == "converged" and 300 <= len(h.train) < 5000
 
 
 def test_runs_every_step_without_the_rule():

@@ -137,6 +137,15 @@ def test_converged_rule():
     # regression: one noisy evaluation after a dip used to stop training at 125 steps
     early = [(25, 0.056), (50, 0.054), (75, 0.049), (100, 0.039), (125, 0.040)]
     assert not converged(early)
+    # a plateau inside the first pass over the training set is no convergence: the window
+    # spans at least min_window steps (a real run: 1,874 training pairs, val ED at 640 steps)
+    first_pass = [(0, 0.0976), (40, 0.0916), (80, 0.0927), (120, 0.0916), (160, 0.0917),
+                  (200, 0.0923), (240, 0.0894), (280, 0.0918), (320, 0.0931), (360, 0.0892),
+                  (400, 0.0888), (440, 0.0868), (480, 0.0895), (520, 0.0908), (560, 0.0901),
+                  (600, 0.0871), (640, 0.0869)]
+    assert converged(first_pass)
+    assert not converged(first_pass, min_window=1874)
+    assert converged(flat, min_window=150) and not converged(flat, min_window=200)  # nothing before
 
 
 def test_training_on_a_set_and_half_checkpoint(tmp_path):

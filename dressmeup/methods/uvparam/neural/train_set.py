@@ -5,7 +5,8 @@ One PatchNet and one pair of UV MLPs serve the whole set: every step takes one t
 (a shuffled round robin), so the networks must find patches and maps that work across the
 set, and the chart code psi tells the meshes' charts apart. A validation set (other meshes)
 is scored every ``eval_every`` steps; a stage stops when its validation loss improved by less
-than ``tol`` (1 %) over the last fifth of its steps, when its share of the wall-clock budget
+than ``tol`` (1 %) over the last fifth of its steps and at least one pass over the training
+meshes (:func:`~dressmeup.methods.nn.convergence.converged`), when its share of the wall-clock budget
 is spent, or at its step limit -- whichever comes first; ``history["stopped"]`` says which.
 
 Meshes are decimated to ``NeuralConfig.train_vertices`` first (the networks are
@@ -266,7 +267,7 @@ def _fit_patchnet_on_set(patchnet: Any, train: list[dict], val: list[dict], cfg:
                 on_eval("patchnet", step, v)
             if v < best_val:
                 best_val, best_state = v, {k: t.clone() for k, t in patchnet.state_dict().items()}
-            if converged(hist["val_patch"], tol):
+            if converged(hist["val_patch"], tol, min_window=len(train)):
                 stop = "converged"
                 break
         if time.perf_counter() > deadline:
@@ -312,7 +313,7 @@ def _fit_uv_on_set(fwd: Any, bwd: Any, train_uv: list[dict], val_uv: list[dict],
                 best_val = v
                 best_state = ({k: t.clone() for k, t in fwd.state_dict().items()},
                               {k: t.clone() for k, t in bwd.state_dict().items()})
-            if converged(hist["val_uv"], tol):
+            if converged(hist["val_uv"], tol, min_window=len(train_uv)):
                 stop = "converged"
                 break
         if time.perf_counter() > deadline:
