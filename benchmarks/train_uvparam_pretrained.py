@@ -7,7 +7,8 @@ Models: one per garment category (``topwear``, ``bottomwear``, ``dress``: the ca
 garments of every category plus smoothly warped copies of the test shapes -- never the test
 meshes themselves -- validated on the val garments and other warped shapes). Each model gets
 a wall-clock budget and stops earlier when its validation loss improves by less than 1 % over
-the last fifth of training (``train_set.converged``).
+the last fifth of training and at least one pass over its training meshes
+(``dressmeup.methods.nn.convergence.converged``).
 
 Writes ``dressmeup/methods/uvparam/weights/neural_<model>.pt`` (float16), a JSON log per model
 in ``benchmarks/results/studies/<date>-uvparam_pretrained_<model>.json`` and learning curves in

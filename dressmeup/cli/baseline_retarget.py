@@ -73,7 +73,8 @@ def register(tasks: argparse._SubParsersAction) -> None:
     t.add_argument("--half", action="store_true", help="store the weights as float16 (half the file)")
     t.add_argument("--until-converged", action="store_true",
                    help="stop when the validation figure improved by less than 1 %% over the last "
-                        "20 %% of the steps (--steps is then the most steps)")
+                        "20 %% of the steps and one pass over the training pairs (--steps is then "
+                        "the most steps)")
     t.add_argument("--curves", default=None, help="write the learning curves to this PNG")
     t.add_argument("--threads", type=integer(1, WORKERS), default=None,
                    help="torch threads (default: torch's choice)")
