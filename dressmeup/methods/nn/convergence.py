@@ -4,7 +4,9 @@ A run has converged when its best validation figure improved by less than ``tol`
 over the last ``fraction`` (20 %) of the steps so far, and over at least ``min_window``
 steps (a trainer passes one pass over its training set: a run stopped inside its first
 passes has not seen its data), with at least ``min_tail`` evaluations in that window (one
-noisy evaluation is no plateau).
+noisy evaluation is no plateau). The figure compared is the mean of the last ``min_tail``
+evaluations at each one, so that one lucky evaluation (a noise dip of a few validation
+items) does not stand for a level the network has not reached.
 """
 
 from __future__ import annotations
@@ -16,8 +18,9 @@ import numpy as np
 
 def converged(val: Sequence[tuple[int, float]], tol: float = 0.01, fraction: float = 0.2,
               min_tail: int = 4, min_window: int = 0) -> bool:
-    """True when the best validation loss improved by less than ``tol`` (relative) over the
-    last ``fraction`` of the steps so far, a window of at least ``min_window`` steps.
+    """True when the best trailing mean of ``min_tail`` validation losses improved by less
+    than ``tol`` (relative) over the last ``fraction`` of the steps so far, a window of at
+    least ``min_window`` steps.
 
     Parameters
     ----------
@@ -25,7 +28,8 @@ def converged(val: Sequence[tuple[int, float]], tol: float = 0.01, fraction: flo
     tol : relative improvement threshold (0.01 = 1 %).
     fraction : the trailing share of the steps compared (0.2 = the last fifth).
     min_tail : the last fifth must hold at least this many evaluations (so at least
-        ``min_tail / fraction`` evaluations in all): one noisy evaluation is no plateau.
+        ``min_tail / fraction`` evaluations in all), and the losses are averaged over this
+        many evaluations (fewer at the start) before the bests are compared.
     min_window : the window's least length in steps (e.g. one pass over the training set;
         0: the fraction alone).
     """
@@ -33,6 +37,9 @@ def converged(val: Sequence[tuple[int, float]], tol: float = 0.01, fraction: flo
     loss = np.array([v for _, v in val], dtype=float)
     if steps.size == 0:
         return False
+    sums = np.concatenate([[0.0], np.cumsum(loss)])
+    first = np.maximum(np.arange(loss.size) + 1 - int(min_tail), 0)
+    loss = (sums[1:] - sums[first]) / (np.arange(loss.size) + 1 - first)  # trailing means
     cut = min(steps[-1] * (1.0 - fraction), steps[-1] - float(min_window))
     before = loss[steps <= cut]
     if before.size == 0 or int(np.count_nonzero(steps > cut)) < min_tail:

@@ -146,6 +146,11 @@ def test_converged_rule():
     assert converged(first_pass)
     assert not converged(first_pass, min_window=1874)
     assert converged(flat, min_window=150) and not converged(flat, min_window=200)  # nothing before
+    # one lucky evaluation early (0.90) is no level: the level falls from 1.0 to 0.90 in the
+    # last fifth, which the trailing means see and the raw bests would not
+    lucky = [(s, 0.90 if s == 50 else 1.0) for s in range(10, 160, 10)]
+    lucky += [(s, 1.0 - 0.1 * (s - 150) / 50) for s in range(160, 210, 10)]
+    assert converged(lucky, min_tail=1) and not converged(lucky)
 
 
 def test_training_on_a_set_and_half_checkpoint(tmp_path):
