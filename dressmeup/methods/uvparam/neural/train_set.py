@@ -6,8 +6,9 @@ One PatchNet and one pair of UV MLPs serve the whole set: every step takes one t
 set, and the chart code psi tells the meshes' charts apart. A validation set (other meshes)
 is scored every ``eval_every`` steps; a stage stops when its validation loss improved by less
 than ``tol`` (1 %) over the last fifth of its steps and at least one pass over the training
-meshes (:func:`~dressmeup.methods.nn.convergence.converged`), when its share of the wall-clock budget
-is spent, or at its step limit -- whichever comes first; ``history["stopped"]`` says which.
+meshes (:func:`~dressmeup.methods.nn.convergence.converged`), when its share of the
+wall-clock budget is spent, or at its step limit -- whichever comes first;
+``history["stopped"]`` says which.
 
 Meshes are decimated to ``NeuralConfig.train_vertices`` first (the networks are
 discretisation-agnostic, so the trained model runs on any resolution afterwards).
