@@ -37,12 +37,13 @@ def converged(val: Sequence[tuple[int, float]], tol: float = 0.01, fraction: flo
     loss = np.array([v for _, v in val], dtype=float)
     if steps.size == 0:
         return False
+    end = np.arange(1, loss.size + 1)                 # evaluations up to and including each
+    start = np.maximum(end - int(min_tail), 0)
     sums = np.concatenate([[0.0], np.cumsum(loss)])
-    first = np.maximum(np.arange(loss.size) + 1 - int(min_tail), 0)
-    loss = (sums[1:] - sums[first]) / (np.arange(loss.size) + 1 - first)  # trailing means
+    level = (sums[end] - sums[start]) / (end - start)  # trailing mean of min_tail evaluations
     cut = min(steps[-1] * (1.0 - fraction), steps[-1] - float(min_window))
-    before = loss[steps <= cut]
+    before = level[steps <= cut]
     if before.size == 0 or int(np.count_nonzero(steps > cut)) < min_tail:
         return False
-    best_before, best_now = float(before.min()), float(loss.min())
+    best_before, best_now = float(before.min()), float(level.min())
     return (best_before - best_now) < tol * abs(best_before)
