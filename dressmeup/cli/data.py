@@ -60,8 +60,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "generated without its test split (docs/benchmark.md, 'Secret test "
                         "splits')")
     add_executor_args(p, default_workers=1,
-                      what="garment of generators 2.x, 3.x and 4.x (--edition ...-v3, ...-v4, "
-                           "...-v5; the data do not depend on where they run)")
+                      what="garment of generators 2.x and 3.x (--edition ...-v3, ...-v4), "
+                           "per target of generator 4.x (...-v5); the data do not depend on "
+                           "where they run")
     p.set_defaults(func=_synth, locks=("out",))
 
     v = subparsers.add_parser(

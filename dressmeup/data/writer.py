@@ -315,11 +315,14 @@ class DatasetWriter:
         info["complete"] = False
         atomic_write_text(info_path, json.dumps(info, indent=2, sort_keys=True) + "\n")
 
-    def finalize(self, **extra_info: Any) -> Path:
+    def finalize(self, row_order: Mapping[str, Any] | None = None, **extra_info: Any) -> Path:
         """Mark the dataset complete in ``dataset.json`` (with counts and splits).
 
         Parameters
         ----------
+        row_order : sample id -> sort key: the manifest's rows in that order (a build whose
+            samples arrive in completion order, or over several resumed runs, writes the
+            same manifest as one serial run); None keeps the order samples were added in.
         **extra_info : more ``dataset.json`` fields (e.g. timings).
 
         Returns
@@ -328,6 +331,11 @@ class DatasetWriter:
         """
         info_path = self.root / layout.DATASET_JSON
         info = parse_json_file(info_path)
+        if row_order is not None:
+            missing = [r["sample_id"] for r in self._rows if r["sample_id"] not in row_order]
+            if missing:
+                raise ValueError(f"row_order: no key for samples {missing[:5]}")
+            self._rows.sort(key=lambda r: row_order[r["sample_id"]])
         splits: dict[str, list[str]] = {}
         for r in self._rows:
             ids = splits.setdefault(r["split"], [])

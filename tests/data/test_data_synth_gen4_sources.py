@@ -41,9 +41,18 @@ def fake_dress(monkeypatch):
         return DressedSample(built.vertices + 0.001, np.zeros((3, 3)), stats)
 
     monkeypatch.setattr(d4, "dress", dress)
-    monkeypatch.setattr(d4, "run_jobs", lambda job, items, workers=1, executor=None:
-                        map(job, items))
+    monkeypatch.setattr(d4, "run_ready_jobs", serial_ready_jobs)
     return state
+
+
+def serial_ready_jobs(job, ready, workers=1, executor=None):
+    """:func:`~dressmeup.data.synth.jobs.run_ready_jobs` in this process, one at a time."""
+    waiting = list(ready())
+    while waiting:
+        waiting.sort(key=lambda pi: pi[0])
+        item = waiting.pop(0)[1]
+        yield item, job(item)
+        waiting += ready()
 
 
 def _key(plan, sid, pid):
@@ -110,3 +119,54 @@ def test_without_a_motion_on_the_design_body_the_garment_has_no_sample(tmp_path,
     info = json.loads((root / "dataset.json").read_text())
     assert info["garments"][gid]["source"] == f"{home[0].sid}-{gid}-{home[0].pid}"
     assert info["n_samples"] == 0
+
+
+def reversed_ready_jobs(job, ready, workers=1, executor=None):
+    """Completion order against the priorities: of the items ready, the last runs first."""
+    waiting = list(ready())
+    while waiting:
+        waiting.sort(key=lambda pi: pi[0])
+        item = waiting.pop()[1]
+        yield item, job(item)
+        waiting += ready()
+
+
+class Killed(Exception):
+    """A run stopped from outside."""
+
+
+def test_results_in_any_order_and_resumes_write_one_dataset(tmp_path, fake_dress,
+                                                            monkeypatch):
+    """Results written in completion order, over a killed run and its resume: the same
+    files as one serial run, and no target simulated twice once written."""
+    c = _config()
+    plan = make_plan(c, Gen4Config.from_synth(c))
+    (gid, g), = plan["garments"].items()
+    src = g["targets"][0]
+    fake_dress["fails"] = {_key(plan, src.sid, src.pid)}
+    serial = generate_gen4(tmp_path / "serial", c)
+
+    fake_dress["calls"].clear()
+    monkeypatch.setattr(d4, "run_ready_jobs", reversed_ready_jobs)
+    dress = d4.dress
+
+    def dying(*args):
+        if len(fake_dress["calls"]) == 3:  # the three design-body targets are done
+            raise Killed
+        return dress(*args)
+
+    monkeypatch.setattr(d4, "dress", dying)
+    with pytest.raises(Killed):
+        generate_gen4(tmp_path / "resumed", c)
+    part = tmp_path / "resumed"
+    assert (part / "generator" / "failed" / f"{src.sid}-{gid}-{src.pid}.json").is_file()
+    assert len(list((part / "generator" / "stats").glob("*.json"))) == 2
+    monkeypatch.setattr(d4, "dress", dress)
+    resumed = generate_gen4(part, c)
+    assert len(fake_dress["calls"]) == len(g["targets"]) == len(set(fake_dress["calls"]))
+    # the rows came in another order (the cross target before the re-shape one)
+    assert (resumed / "manifest.parquet").read_bytes() == (serial / "manifest.parquet").read_bytes()
+    for sub in ("stats", "failed", "garments", "rest"):
+        a = {p.name: p.read_bytes() for p in (serial / "generator" / sub).iterdir()}
+        b = {p.name: p.read_bytes() for p in (resumed / "generator" / sub).iterdir()}
+        assert a == b, sub

@@ -2,13 +2,15 @@
 :mod:`dressmeup.data.synth.plan4`, every sample dressed by the defined motion of
 :mod:`dressmeup.data.synth.generator4`, written as a dataset.
 
-One job per garment: build it on its design body at rest, then simulate the motion to each
-of its targets (the source first). Jobs run in spawned worker processes (or on a
-:mod:`dressmeup.executors` executor) with the canonical numerics of
-:mod:`dressmeup.data.synth.jobs`; this process writes the results in plan order (train
-garments first, then val, then test, so that training can start on a full edition's train
-split while its test split is generated), each sample's statistics before its manifest row,
-so an interrupted run resumes where it stopped.
+One job per target: build the garment on its design body at rest (once per worker
+process), then simulate the motion to the target. Jobs run in spawned worker processes (or
+on a :mod:`dressmeup.executors` executor) with the canonical numerics of
+:mod:`dressmeup.data.synth.jobs`, train garments first, then val, then test (training can
+start on a full edition's train split while its test split is generated), each garment's
+targets in plan order. This process writes each result as it comes, each sample's
+statistics before its manifest row, so an interrupted run resumes where it stopped and
+loses only the targets that were running; the manifest's rows are put in plan order at
+the end, so the dataset does not depend on the workers or on how often it was resumed.
 
 Files besides the dataset layout:
 
@@ -60,7 +62,7 @@ from dressmeup.data.synth.generator4 import (
     dress,
     load_body_kit,
 )
-from dressmeup.data.synth.jobs import run_jobs
+from dressmeup.data.synth.jobs import run_ready_jobs
 from dressmeup.data.synth.motion import MotionSpec
 from dressmeup.data.synth.plan4 import SPLITS, PlanDesign, plan_split
 from dressmeup.data.synth.sampling import SelfIntersectionCheck
@@ -71,6 +73,7 @@ from dressmeup.data.writer import DatasetWriter
 from dressmeup.errors import InputError
 from dressmeup.hyperparameters import resolve_config
 from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.jsonable import json_default
 from dressmeup.io.jsonio import parse_json_file
 from dressmeup.io.mesh import save_mesh
 from dressmeup.progress import progress
@@ -116,26 +119,27 @@ class Gen4Config:
 
 
 @dataclass(frozen=True)
-class GarmentWork:
-    """One garment's job: its plan record, the design body's phenotype ``(s,)``, its
-    targets still to dress as ``(sid, pid, track, shape (s,), pose (j, 3))`` (plan order),
-    its texture's seed words and its source's ``(sid, pid)`` when already written (None:
-    the source is the first target on the design body that this job dresses)."""
+class TargetWork:
+    """One target's job: its garment's id, plan record, design body's phenotype ``(s,)`` and
+    texture seed words, and the target ``(sid, pid)`` with its body's ``shape (s,)`` and
+    ``pose (j, 3)``."""
 
     gid: str
     garment: dict[str, Any]
     design_shape: np.ndarray
-    targets: tuple[tuple[str, str, str, np.ndarray, np.ndarray], ...]
     texture_seed: tuple[int, ...]
-    source: tuple[str, str] | None = None
+    sid: str
+    pid: str
+    shape: np.ndarray
+    pose: np.ndarray
 
 
 @dataclass
 class DressedTarget:
     """One simulated sample: ids, garment ``V (n, 3)`` (1 µm grid; None when the simulation
-    failed: :class:`~dressmeup.data.synth.generator4.SimulationFailed`, the reason in
-    ``stats["failed"]``), the body's ``shape`` and ``pose``, its statistics and the scan
-    ``(V, F)`` or None."""
+    failed: :class:`~dressmeup.data.synth.generator4.SimulationFailed`), the body's
+    ``shape`` and ``pose``, the motion's statistics (failed: ``failed``, the reason, and
+    ``cpu_s``) and the scan ``(V, F)`` or None."""
 
     sid: str
     pid: str
@@ -147,11 +151,10 @@ class DressedTarget:
 
 
 @dataclass
-class GarmentResult:
-    """A garment's job done: the garment as designed (``V0 (n, 3)``, ``F (m, 3)``, ``uv``,
-    ``uv_faces``), its names, its texture (PNG-able array) and every dressed target."""
+class GarmentFiles:
+    """A garment as designed (``V0 (n, 3)``, ``F (m, 3)``, ``uv``, ``uv_faces``), its names
+    and its texture (PNG-able array) and pattern name."""
 
-    gid: str
     V0: np.ndarray
     F: np.ndarray
     uv: np.ndarray | None
@@ -160,7 +163,15 @@ class GarmentResult:
     garment_type: str
     texture: Any
     pattern: str
-    samples: list[DressedTarget]
+
+
+@dataclass
+class TargetResult:
+    """A target's job done: the garment's files and the dressed sample."""
+
+    gid: str
+    garment: GarmentFiles
+    sample: DressedTarget
 
 
 @lru_cache(maxsize=2)
@@ -169,51 +180,55 @@ def _kit(body_model: str):
     return load_body_kit(body_model)
 
 
+#: garments built in this process, newest last (:func:`_built`)
+_BUILT: dict[tuple, tuple[Any, GarmentFiles]] = {}
+
+
+def _built(c: Gen4Config, work: TargetWork) -> tuple[Any, GarmentFiles]:
+    """The garment of ``work`` built on its design body, and its files (once per process
+    and garment, the last 4 kept: a garment's targets mostly run one after the other)."""
+    key = (c.body_model, float(c.sim.edge_length), int(c.texture_size), work.gid,
+           json.dumps(work.garment["params"], sort_keys=True, default=json_default),
+           np.asarray(work.design_shape, np.float64).tobytes(), tuple(work.texture_seed))
+    if key not in _BUILT:
+        g = work.garment
+        built = build(_kit(c.body_model), g["type"], g["params"], work.design_shape,
+                      c.sim.edge_length)
+        tex, pattern = procedural_texture(np.random.default_rng(list(work.texture_seed)),
+                                          c.texture_size)
+        while len(_BUILT) >= 4:
+            _BUILT.pop(next(iter(_BUILT)))
+        _BUILT[key] = built, GarmentFiles(built.vertices, built.faces, built.uv,
+                                          built.uv_faces, built.category, built.garment_type,
+                                          tex, pattern)
+    return _BUILT[key]
+
+
 @dataclass(frozen=True)
 class DressJob:
-    """The job of one garment (``DressJob(config)(work) -> GarmentResult``); picklable."""
+    """The job of one target (``DressJob(config)(work) -> TargetResult``); picklable. The
+    garment is built once per worker process; the motion from its design body to the
+    target is simulated (:func:`~dressmeup.data.synth.generator4.dress`)."""
 
     config: Gen4Config
 
-    __name__ = "synth_gen4_garment"
+    __name__ = "synth_gen4_target"
 
-    def __call__(self, work: GarmentWork) -> GarmentResult:
+    def __call__(self, work: TargetWork) -> TargetResult:
         c = self.config
         kit = _kit(c.body_model)
-        g = work.garment
-        built = build(kit, g["type"], g["params"], work.design_shape, c.sim.edge_length)
-        tex, pattern = procedural_texture(np.random.default_rng(list(work.texture_seed)),
-                                          c.texture_size)
-        samples: list[DressedTarget] = []
-        source, home = work.source, g["design_subject"]
-        home_failed: list[str] = []
-        for sid, pid, planned, shape, pose in work.targets:
-            if source is None and sid != home:
-                samples.append(DressedTarget(sid, pid, None, shape, pose, {
-                    "failed": "the garment has no source: every motion on its design body "
-                              f"failed ({'; '.join(home_failed)})", "track": planned}, None))
-                continue
-            track = planned if source is None else track_of((sid, pid), source)
-            t0 = time.process_time()
-            try:
-                res = dress(kit, built, shape, pose, c.sim)
-            except SimulationFailed as exc:
-                samples.append(DressedTarget(sid, pid, None, shape, pose, {
-                    "failed": str(exc), "track": track,
-                    "cpu_s": round(time.process_time() - t0, 2)}, None))
-                if source is None:
-                    home_failed.append(f"{pid}: {exc}")
-                continue
-            if source is None:
-                source, track = (sid, pid), "source"
-            scan = (clothed_scan(res.body_vertices, kit.faces, res.vertices, built.faces,
-                                 c.scan_body) if c.write_scan else None)
-            stats = {**res.stats, "track": track, "pose": pid, "subject": sid,
-                     "design_subject": g["design_subject"], "garment_type": g["type"],
-                     "fit": g["fit"], "texture": pattern}
-            samples.append(DressedTarget(sid, pid, res.vertices, shape, pose, stats, scan))
-        return GarmentResult(work.gid, built.vertices, built.faces, built.uv, built.uv_faces,
-                             built.category, built.garment_type, tex, pattern, samples)
+        built, files = _built(c, work)
+        t0 = time.process_time()
+        try:
+            res = dress(kit, built, work.shape, work.pose, c.sim)
+        except SimulationFailed as exc:
+            return TargetResult(work.gid, files, DressedTarget(
+                work.sid, work.pid, None, work.shape, work.pose,
+                {"failed": str(exc), "cpu_s": round(time.process_time() - t0, 2)}, None))
+        scan = (clothed_scan(res.body_vertices, kit.faces, res.vertices, built.faces,
+                             c.scan_body) if c.write_scan else None)
+        return TargetResult(work.gid, files, DressedTarget(
+            work.sid, work.pid, res.vertices, work.shape, work.pose, dict(res.stats), scan))
 
 
 def texture_seed(split: str, seed: int, secret: bytes | None, gid: str) -> tuple[int, ...]:
@@ -323,7 +338,7 @@ def generate_gen4(out: str | os.PathLike, c: SynthConfig, workers: int = 1,
     out : output folder.
     c : the configuration (:class:`SynthConfig`, ``version="4.0.0"``); ``c.splits`` the
         splits to build (the test split needs ``c.secret``).
-    workers, executor : where the garments' jobs run (the output does not depend on it).
+    workers, executor : where the targets' jobs run (the output does not depend on it).
 
     Returns
     -------
@@ -342,20 +357,19 @@ def generate_gen4(out: str | os.PathLike, c: SynthConfig, workers: int = 1,
     info = dataset_info(c, g4, plan, sources)
     _sync_sources(out, info["garments"])
     writer = DatasetWriter(out, info)
-    todo = _todo(c, plan, writer)
     total = sum(len(g["targets"]) for g in plan["garments"].values())
     bar = progress(range(total), desc="synth v5", total=total)
-    for _ in range(total - sum(len(w.targets) for w in todo)):
-        next(bar, None)
-    for res in run_jobs(DressJob(g4), todo, workers=workers, executor=executor):
-        _write(writer, out, plan, res, g4.body_model, bar)
+    book = _Book(c, g4, plan, writer, bar)
+    for work, res in run_ready_jobs(DressJob(g4), book.ready, workers=workers,
+                                    executor=executor):
+        book.add(work, res)
         now = declared_sources(plan, failed_dir)
         if now != sources:  # a source failed: dataset.json declares the next one
             sources = now
             writer.update_info(garments=dataset_info(c, g4, plan, sources)["garments"])
     for _ in bar:
         pass
-    return writer.finalize(report=summarize(out), timings={
+    return writer.finalize(report=summarize(out), row_order=book.position, timings={
         "last_run_s": round(time.perf_counter() - t_start, 2),
         "last_run_main_cpu_s": round(time.process_time() - cpu_start, 2), "workers": workers})
 
@@ -380,55 +394,142 @@ def _sync_sources(out: Path, garments: dict[str, Any]) -> None:
         atomic_write_text(path, json.dumps(old, indent=2, sort_keys=True) + "\n")
 
 
-def _todo(c: SynthConfig, plan: dict[str, Any], writer: DatasetWriter) -> list[GarmentWork]:
-    """The jobs of the garments with a sample not yet written (train, then val, then test:
-    networks can start training while the test split is generated); writes each garment's
-    plan file."""
-    rank = {"train": 0, "val": 1, "test": 2}
-    out_dir = writer.root / "generator" / "garments"
-    failed = writer.root / "generator" / "failed"
-    todo = []
-    for gid, g in sorted(plan["garments"].items(), key=lambda kv: (rank[kv[1]["split"]], kv[0])):
-        if not (out_dir / f"{gid}.json").is_file():  # a resumed run has written it already
-            record = {**g, "targets": [[t.sid, t.pid, t.track] for t in g["targets"]]}
-            atomic_write_text(out_dir / f"{gid}.json", json.dumps(record, indent=1) + "\n")
-        missing = tuple(
-            (t.sid, t.pid, t.track, np.asarray(plan["subjects"][t.sid]["shape"], np.float64),
-             np.asarray(plan["poses"][t.pid]["pose"], np.float64))
-            for t in g["targets"] if not writer.has_sample(f"{t.sid}-{gid}-{t.pid}")
-            and not (failed / f"{t.sid}-{gid}-{t.pid}.json").is_file())
-        if missing:
-            design = np.asarray(plan["subjects"][g["design_subject"]]["shape"], np.float64)
-            written = [(t.sid, t.pid) for t in g["targets"] if t.sid == g["design_subject"]
-                       and writer.has_sample(f"{t.sid}-{gid}-{t.pid}")]
-            todo.append(GarmentWork(gid, g, design, missing,
-                                    texture_seed(g["split"], c.seed, c.secret, gid),
-                                    written[0] if written else None))
-    return todo
+class _Book:
+    """What is done, running and ready of a generator-4 dataset, and its writing.
 
+    The targets on a garment's design body (its source candidates, first in plan order) are
+    ready at once; the garment's other targets once its source is known (the first of those
+    that succeeded) -- or recorded as failed without a simulation when all of them failed.
+    Results are written as they come (a killed run loses only the targets still running),
+    each once every earlier target on the design body is resolved, since its track depends
+    on them. Priority: train, then val, then test; garments and targets in plan order.
+    """
 
-def _write(writer: DatasetWriter, out: Path, plan: dict[str, Any], res: GarmentResult,
-           body_model: str, bar) -> None:
-    """Write one garment's files (rest mesh, then per sample its stats and its row)."""
-    g = plan["garments"][res.gid]
-    save_mesh(out / "generator" / "rest" / f"{res.gid}.ply", res.V0, res.F, uv=res.uv,
-              uv_faces=res.uv_faces)
-    for s in res.samples:
-        sample_id = f"{s.sid}-{res.gid}-{s.pid}"
-        next(bar, None)
+    RANK = {"train": 0, "val": 1, "test": 2}
+
+    def __init__(self, c: SynthConfig, g4: Gen4Config, plan: dict[str, Any],
+                 writer: DatasetWriter, bar) -> None:
+        self.c, self.g4, self.plan, self.writer, self.bar = c, g4, plan, writer, bar
+        self.root = writer.root
+        self.handed: set[str] = set()
+        self.results: dict[str, dict[str, TargetResult]] = {}
+        self.rest_written: set[str] = set()
+        self.source: dict[str, tuple[str, str] | None] = {}  # absent: not known yet
+        self.order = sorted(plan["garments"], key=lambda g: (
+            self.RANK[plan["garments"][g]["split"]], g))
+        self.position: dict[str, tuple[int, int]] = {}
+        out_dir = self.root / "generator" / "garments"
+        for n, gid in enumerate(self.order):
+            g = plan["garments"][gid]
+            if not (out_dir / f"{gid}.json").is_file():  # a resumed run has written it
+                record = {**g, "targets": [[t.sid, t.pid, t.track] for t in g["targets"]]}
+                atomic_write_text(out_dir / f"{gid}.json", json.dumps(record, indent=1) + "\n")
+            for k, t in enumerate(g["targets"]):
+                self.position[f"{t.sid}-{gid}-{t.pid}"] = (n, k)
+                if self._on_disk(f"{t.sid}-{gid}-{t.pid}"):
+                    next(self.bar, None)
+        for gid in self.order:
+            self._drain(gid)
+
+    def _on_disk(self, sample_id: str) -> bool:
+        return (self.writer.has_sample(sample_id)
+                or (self.root / "generator" / "failed" / f"{sample_id}.json").is_file())
+
+    def ready(self) -> list[tuple[tuple[int, int], TargetWork]]:
+        """The targets that may run now and were not handed out before (priority, work)."""
+        out = []
+        for gid in self.order:
+            g = self.plan["garments"][gid]
+            for t in g["targets"]:
+                sample_id = f"{t.sid}-{gid}-{t.pid}"
+                if sample_id in self.handed or self._on_disk(sample_id):
+                    continue
+                if t.sid != g["design_subject"] and self.source.get(gid) is None:
+                    continue  # waits for its source (or is recorded without one)
+                self.handed.add(sample_id)
+                out.append((self.position[sample_id], self._work(gid, t)))
+        return out
+
+    def _work(self, gid: str, t: Any) -> TargetWork:
+        g, plan = self.plan["garments"][gid], self.plan
+        return TargetWork(
+            gid, g, np.asarray(plan["subjects"][g["design_subject"]]["shape"], np.float64),
+            texture_seed(g["split"], self.c.seed, self.c.secret, gid), t.sid, t.pid,
+            np.asarray(plan["subjects"][t.sid]["shape"], np.float64),
+            np.asarray(plan["poses"][t.pid]["pose"], np.float64))
+
+    def add(self, work: TargetWork, res: TargetResult) -> None:
+        """Take a job's result and write what it resolves."""
+        self.results.setdefault(work.gid, {})[f"{work.sid}-{work.gid}-{work.pid}"] = res
+        self._drain(work.gid)
+
+    def _drain(self, gid: str) -> None:
+        """Write the garment's results whose track is known, in plan order; decide its
+        source; record its other targets as failed when every design-body motion failed."""
+        g = self.plan["garments"][gid]
+        held = self.results.get(gid, {})
+        failed_dir = self.root / "generator" / "failed"
+        source: tuple[str, str] | None = None
+        home_failed: list[str] = []
+        for t in g["targets"]:
+            sample_id = f"{t.sid}-{gid}-{t.pid}"
+            home = t.sid == g["design_subject"]
+            if not home:
+                self.source[gid] = source
+            if self.writer.has_sample(sample_id):
+                source = source or ((t.sid, t.pid) if home else None)
+            elif (failed_dir / f"{sample_id}.json").is_file():
+                if home and source is None:
+                    reason = parse_json_file(failed_dir / f"{sample_id}.json").get("failed")
+                    home_failed.append(f"{t.pid}: {reason}")
+            elif sample_id in held:
+                res = held.pop(sample_id)
+                ok = res.sample.V is not None
+                track = (t.track if source is None and not ok
+                         else "source" if source is None else track_of((t.sid, t.pid), source))
+                self._write(gid, res, track)
+                if source is None and home:
+                    if ok:
+                        source = (t.sid, t.pid)
+                    else:
+                        home_failed.append(f"{t.pid}: {res.sample.stats['failed']}")
+            elif home:
+                return  # the later targets' tracks wait for this one
+            elif source is None:
+                atomic_write_text(failed_dir / f"{sample_id}.json", json.dumps({
+                    "failed": "the garment has no source: every motion on its design body "
+                              f"failed ({'; '.join(home_failed)})", "track": t.track},
+                    indent=1, sort_keys=True) + "\n")
+                next(self.bar, None)
+        self.source[gid] = source
+
+    def _write(self, gid: str, res: TargetResult, track: str) -> None:
+        """Write one target's files (the garment's rest mesh first, once a run; a sample's
+        statistics before its manifest row: a resumed run skips samples in the manifest)."""
+        g, files, s = self.plan["garments"][gid], res.garment, res.sample
+        out = self.root
+        if gid not in self.rest_written:
+            save_mesh(out / "generator" / "rest" / f"{gid}.ply", files.V0, files.F,
+                      uv=files.uv, uv_faces=files.uv_faces)
+            self.rest_written.add(gid)
+        sample_id = f"{s.sid}-{gid}-{s.pid}"
+        next(self.bar, None)
         if s.V is None:  # recorded, so that a resumed run does not simulate it again
             atomic_write_text(out / "generator" / "failed" / f"{sample_id}.json",
-                              json.dumps(s.stats, indent=1, sort_keys=True) + "\n")
-            continue
-        # the stats before the manifest row (a resumed run skips samples in the manifest)
+                              json.dumps({**s.stats, "track": track}, indent=1,
+                                         sort_keys=True) + "\n")
+            return
+        stats = {**s.stats, "track": track, "pose": s.pid, "subject": s.sid,
+                 "design_subject": g["design_subject"], "garment_type": g["type"],
+                 "fit": g["fit"], "texture": files.pattern}
         atomic_write_text(out / "generator" / "stats" / f"{sample_id}.json",
-                          json.dumps(s.stats, indent=1, sort_keys=True) + "\n")
-        writer.add_sample(subject_id=s.sid, garment_id=res.gid, pose_id=s.pid,
-                          category=res.category, garment_type=res.garment_type,
-                          split=g["split"], garment=(s.V, res.F, res.uv, res.uv_faces),
-                          body=BodyParams(model=body_model, shape=s.shape,
-                                          pose=np.round(s.pose, POSE_DECIMALS)),
-                          scan=s.scan, texture=res.texture)
+                          json.dumps(stats, indent=1, sort_keys=True) + "\n")
+        self.writer.add_sample(subject_id=s.sid, garment_id=gid, pose_id=s.pid,
+                               category=files.category, garment_type=files.garment_type,
+                               split=g["split"], garment=(s.V, files.F, files.uv, files.uv_faces),
+                               body=BodyParams(model=self.g4.body_model, shape=s.shape,
+                                               pose=np.round(s.pose, POSE_DECIMALS)),
+                               scan=s.scan, texture=files.texture)
 
 
 def summarize(root: str | os.PathLike) -> dict[str, Any]:

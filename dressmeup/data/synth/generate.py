@@ -114,9 +114,10 @@ def generate_dataset(out: str | os.PathLike, config: SynthConfig | None = None, 
     out : output folder.
     config : the dataset's settings (:class:`~dressmeup.data.synth.config.SynthConfig`;
         default: its defaults, generator 1.1.0).
-    workers : processes of generators 2.x and 3.x (the output does not depend on it).
+    workers : processes of generators 2.x, 3.x and 4.x (the output does not depend on it).
     executor : a :mod:`dressmeup.executors` executor (e.g. Dask) running one job per garment
-        for generators 2.x and 3.x instead of ``workers`` processes; same output.
+        for generators 2.x and 3.x, per target for 4.x, instead of ``workers`` processes;
+        same output.
     **settings : fields of ``SynthConfig`` replacing those of ``config``, e.g.
         ``generate_dataset(out, version="2.1.0", subjects=4, poses=3)``.
 

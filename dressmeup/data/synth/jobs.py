@@ -2,7 +2,8 @@
 
 A generator hands :func:`run_jobs` a *job* (a picklable callable object, typically a frozen
 dataclass holding the generator's settings) and the items to compute (one per garment);
-the results come back in the order of the items, computed in fresh worker processes whose
+the results come back in the order of the items (:func:`run_ready_jobs`: items handed out as
+they become ready, results in completion order), computed in fresh worker processes whose
 numeric libraries loaded with :data:`CANONICAL_ENV`, so the numbers do not depend on the
 machine's thread count or vector extensions (docs/synthetic-data.md, "Reproducibility").
 The calling process only writes.
@@ -15,10 +16,11 @@ process (body model, rest bodies, pose arrays) lazily on its first call, e.g. th
 from __future__ import annotations
 
 import contextlib
+import heapq
 import multiprocessing
 import os
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any, TypeVar
 
 from dressmeup.executors import LocalExecutor, in_order
@@ -161,3 +163,67 @@ def _run_on(executor: Any, job: Callable[[T], R], items: Sequence[T]) -> Iterato
             if isinstance(res, BaseException):
                 raise res
             yield res
+
+
+def run_ready_jobs(job: Callable[[T], R], ready: Callable[[], Sequence[tuple[Any, T]]],
+                   workers: int = 1, executor: Any = None) -> Iterator[tuple[T, R]]:
+    """``job(item)`` for items that become ready while others run; yields ``(item, result)``
+    in completion order.
+
+    Parameters
+    ----------
+    job : as in :func:`run_jobs`.
+    ready : ``ready() -> [(priority, item), ...]``: the items that may run now and were not
+        handed out before (each item once). Called first, then after each yielded result
+        has been consumed (what the consumer wrote may make more items ready). Of the items
+        waiting, the lowest priority (any orderable key, e.g. a tuple) starts first.
+    workers : the size of the spawned pool (:func:`run_jobs`); at most ``workers + 1``
+        jobs are handed to it at a time, so priorities decide until the last moment.
+    executor : as in :func:`run_jobs`; a Dask (or other) executor runs the items in waves
+        (each wave what is ready when the previous one ends).
+
+    The run ends when nothing is waiting, running or ready.
+
+    Raises
+    ------
+    The first exception raised by ``job`` (in completion order), in this process; the jobs
+    not yet started are then dropped.
+    """
+    if isinstance(executor, LocalExecutor):
+        workers, executor = executor.workers, None
+    waiting: list[tuple[Any, int, T]] = []
+    count = 0
+
+    def take() -> None:
+        nonlocal count
+        for prio, item in ready():
+            heapq.heappush(waiting, (prio, count, item))
+            count += 1
+
+    take()
+    if executor is not None:
+        while waiting:
+            wave = [heapq.heappop(waiting)[2] for _ in range(len(waiting))]
+            for item, res in zip(wave, _run_on(executor, job, wave), strict=True):
+                yield item, res
+            take()
+        return
+    if not waiting:
+        return
+    pool = ProcessPoolExecutor(max(1, int(workers)),
+                               mp_context=multiprocessing.get_context("spawn"),
+                               initializer=init_worker, initargs=(os.getpid(),))
+    running: dict[Any, tuple[int, T]] = {}
+    try:
+        while waiting or running:
+            while waiting and len(running) < max(1, int(workers)) + 1:
+                _prio, seq, item = heapq.heappop(waiting)
+                with canonical_numerics():  # the workers start (spawn) inside: they inherit it
+                    running[pool.submit(job, item)] = (seq, item)
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            for fut in sorted(done, key=lambda f: running[f][0]):
+                item = running.pop(fut)[1]
+                yield item, fut.result()
+                take()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
