@@ -3,15 +3,26 @@ status polls and uploads for a fixed time; then every accepted submission must b
 exactly once.
 
     python benchmarks/perf/server_load.py --clients 50 --seconds 60 [--max-uploads 20]
+        [--servers auto,h11] [--profile PREFIX]
 
 Builds the tiny retargeting edition's parts and the ``rigid`` baseline's submission (in the
-toolkit cache), starts ``dressmeup serve`` in a subprocess with a fresh folder, one team per
-client and two published results, then runs the clients as threads. Prints, with the load
-average: requests and errors per kind, p50/p95/max latency per kind (a leaderboard read is
-a full GET without ``If-None-Match``, the worst case), the server's own CPU share over the
-run (its process and its scoring workers, from ``/proc/<pid>/stat`` or psutil: CPU seconds
-per wall second, and as a share of the machine's cores), uploads accepted, and after the
-queue drained how many were scored, failed, and scored more than once.
+toolkit cache), starts the server (``dressmeup serve``'s application on uvicorn) in a
+subprocess with a fresh folder, one team per client and two published results, then runs
+the clients as threads. Prints, with the load average: requests and errors per kind,
+p50/p95/max latency per kind (a leaderboard read is a full GET without ``If-None-Match``,
+the worst case), the server's own CPU share over the run (its process and its scoring
+workers, from ``/proc/<pid>/stat`` or psutil: CPU seconds per wall second, and as a share
+of the machine's cores), uploads accepted, and after the queue drained how many were
+scored, failed, and scored more than once.
+
+``--servers`` runs the load once per server setting, one after the other, and prints the
+ratios: ``auto`` is what ``dressmeup serve`` runs (httptools and uvloop, dependencies of
+the toolkit; submissions scored in the server's scoring process), ``h11`` uvicorn's
+pure-Python HTTP parser on asyncio's loop, ``h11-inproc`` that with submissions scored in
+the server's own process (``ServerConfig.score_in_process``).
+``--profile PREFIX`` profiles each server with yappi (CPU clock, every thread; ``pip
+install yappi``) and writes its 60 costliest functions (with and without callees) to
+``PREFIX-<setting>.txt``.
 Goals: 0 errors, p95 of a leaderboard page <= 100 ms, every accepted upload scored once.
 """
 
@@ -69,10 +80,62 @@ def _prepare(work: Path, clients: int) -> tuple[Path, dict[str, str], bytes]:
     return root, tokens, _zip(sub)
 
 
-def _start(root: Path, port: int) -> subprocess.Popen:
-    proc = subprocess.Popen([sys.executable, "-m", "dressmeup", "serve", "--root", str(root),
-                             "--port", str(port), "--daily-limit", "100000"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+#: The server process: ``dressmeup serve``'s application on uvicorn with the given HTTP
+#: parser and event loop, optionally profiled by yappi until SIGTERM ends it.
+SERVE = r"""
+import signal
+import sys
+import uvicorn
+from dressmeup.server.app import create_app
+from dressmeup.server.config import ServerConfig
+from dressmeup.server.service import EvaluationServer
+root, port, http, loop, profile, in_process = sys.argv[1:7]
+app = create_app(EvaluationServer(ServerConfig(root, daily_limit=100000, workers=1,
+                                               score_in_process=in_process == "1")))
+def _end(*_args):  # uvicorn re-raises the SIGTERM it caught once it has shut down
+    raise SystemExit(0)
+signal.signal(signal.SIGTERM, _end)
+if profile:
+    import yappi
+    yappi.set_clock_type("cpu")
+    yappi.start()
+try:
+    uvicorn.run(app, host="127.0.0.1", port=int(port), http=http, loop=loop,
+                log_level="warning")
+finally:
+    if profile:
+        yappi.stop()
+        def short(path):  # a module path without the machine's folders
+            for cut in ("site-packages/", "/dressmeup/", "/lib/python3"):
+                if cut in path:
+                    tail = path.split(cut, 1)[1]
+                    return ("dressmeup/" + tail if cut == "/dressmeup/" else
+                            tail.split("/", 1)[-1] if cut == "/lib/python3" else tail)
+            return path
+        stats = yappi.get_func_stats()
+        with open(profile, "w") as f:
+            f.write("yappi, CPU clock, every thread of the server process (not its scoring "
+                    "process); seconds\n")
+            for key in ("ttot", "tsub"):
+                f.write(f"\nthe 60 functions with the most {key} "
+                        "(ttot: with callees, tsub: own)\n")
+                f.write(f"{'ncall':>9} {'tsub':>9} {'ttot':>9}  function\n")
+                for st in list(stats.sort(key))[:60]:
+                    f.write(f"{st.ncall:>9} {st.tsub:9.3f} {st.ttot:9.3f}  "
+                            f"{short(st.module)}:{st.lineno} "
+                            f"{st.name}\n")
+"""
+
+#: ``--servers`` settings: uvicorn's (http, loop) and whether submissions are scored in the
+#: server's own process (``ServerConfig.score_in_process``).
+SETTINGS = {"auto": ("auto", "auto", False), "h11": ("h11", "asyncio", False),
+            "h11-inproc": ("h11", "asyncio", True)}
+
+
+def _start(root: Path, port: int, setting: str, profile: str) -> subprocess.Popen:
+    http, loop, in_process = SETTINGS[setting]
+    proc = subprocess.Popen([sys.executable, "-c", SERVE, str(root), str(port), http, loop,
+                             profile, str(int(in_process))], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
     for _ in range(600):
         try:
@@ -129,14 +192,44 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--max-uploads", type=int, default=20)
     ap.add_argument("--drain-timeout", type=float, default=1800.0)
+    ap.add_argument("--servers", default="auto",
+                    help="comma-separated uvicorn settings, run one after the other: "
+                         f"{', '.join(SETTINGS)}")
+    ap.add_argument("--profile", default="", metavar="PREFIX",
+                    help="profile each server with yappi into PREFIX-<setting>.txt")
     args = ap.parse_args(argv)
+    settings = [x for x in args.servers.split(",") if x]
+    bad = [x for x in settings if x not in SETTINGS]
+    if bad or not settings:
+        ap.error(f"--servers: expected some of {', '.join(SETTINGS)}, got {args.servers!r}")
+    p95, ok = {}, True
+    for setting in settings:
+        profile = f"{args.profile}-{setting}.txt" if args.profile else ""
+        if profile:
+            Path(profile).resolve().parent.mkdir(parents=True, exist_ok=True)
+            profile = str(Path(profile).resolve())
+        http, loop, in_process = SETTINGS[setting]
+        print(f"server: {setting} (uvicorn http={http}, loop={loop}; scoring in "
+              f"{'the server process' if in_process else 'its scoring process'})")
+        p95[setting], good = _run(args, setting, profile)
+        ok = ok and good
+    if len(p95) > 1:
+        base = settings[0]
+        print("leaderboard p95 ratios to " + base + ": " + ", ".join(
+            f"{k} {v / p95[base]:.2f}" for k, v in p95.items() if k != base))
+    print("goals met" if ok else "goals NOT met")
+    return 0 if ok else 1
+
+
+def _run(args: argparse.Namespace, setting: str, profile: str) -> tuple[float, bool]:
+    """One load run against a fresh server: (leaderboard p95 ms, goals met)."""
     work = Path(tempfile.mkdtemp(prefix="dressmeup-load-"))
     root, tokens, body = _prepare(work, args.clients)
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     base = f"http://127.0.0.1:{port}"
-    proc = _start(root, port)
+    proc = _start(root, port, setting, profile)
     names = list(tokens)
     # two published results so that the leaderboard has rows
     for team in names[:2]:
@@ -229,8 +322,9 @@ def main(argv: list[str] | None = None) -> int:
     proc.wait(timeout=60)
     ok = (sum(errors.values()) == 0 and _pct(stats["leaderboard"], 0.95) <= 100
           and len(scored) == len(subs) == len(results))
-    print("goals met" if ok else "goals NOT met")
-    return 0 if ok else 1
+    if profile:
+        print(f"  profile      {profile}")
+    return _pct(stats["leaderboard"], 0.95), ok
 
 
 if __name__ == "__main__":

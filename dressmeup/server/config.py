@@ -29,6 +29,8 @@ class ServerConfig:
     workers : scoring worker processes (local executor).
     executor, scheduler : ``local`` (default) or ``dask`` with an optional scheduler address.
     poll_seconds : how often the scorer looks for queued submissions.
+    score_in_process : score in the server's own process (for debugging) instead of in
+        its scoring process: requests then wait while a submission is scored.
     """
 
     root: Path
@@ -41,6 +43,7 @@ class ServerConfig:
     executor: str = "local"
     scheduler: str | None = None
     poll_seconds: float = 1.0
+    score_in_process: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "root", Path(self.root))

@@ -212,3 +212,31 @@ def test_a_full_disk_answers_507_and_keeps_nothing(tiny_parts, submission, tmp_p
                      ).json() == []
     assert not list((root / "uploads").iterdir())
     assert not (root / "submissions").exists() or not list((root / "submissions").iterdir())
+
+
+def test_the_scoring_process_scores_refuses_and_comes_back_after_dying(tiny_parts, submission,
+                                                                       tmp_path):
+    """Scoring runs in one spawned process: a result is written, a submission's fault comes
+    back as its message (its exception class takes a report, not a message), and a killed
+    process is reported as died, then started again."""
+    _, _, private, _ = tiny_parts
+    proc = scoring.ScoringProcess(ServerConfig(tmp_path / "srv"))
+    try:
+        proc(submission, EDITION, private, tmp_path / "out")
+        assert (tmp_path / "out" / "summary.json").is_file()
+        (tmp_path / "empty").mkdir()
+        with pytest.raises(scoring.DressmeupError) as err:
+            proc(tmp_path / "empty", EDITION, private, tmp_path / "out2")
+        assert not isinstance(err.value, scoring.ScoringError) and str(err.value)
+        pid, = [p.pid for p in proc._pool._processes.values()]
+        os.kill(pid, signal.SIGKILL)
+        time.sleep(1.0)
+        with pytest.raises(scoring.ScoringError) as died:
+            proc(submission, EDITION, private, tmp_path / "out3")
+        assert died.value.name == "BrokenProcessPool"
+        proc(submission, EDITION, private, tmp_path / "out4")
+        first, again = (json.loads((tmp_path / o / "summary.json").read_text())
+                        for o in ("out", "out4"))
+        assert again["metrics"] == first["metrics"] and again["counts"] == first["counts"]
+    finally:
+        proc.close()
