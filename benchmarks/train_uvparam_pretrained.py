@@ -17,7 +17,12 @@ in ``benchmarks/results/studies/<date>-uvparam_pretrained_<model>.json`` and lea
     nice -n 10 python benchmarks/train_uvparam_pretrained.py --data DATA --models topwear dress \\
         --budget-minutes 35
     python benchmarks/train_uvparam_pretrained.py --data V5_ROOT --garments-from \\
-        --budget-minutes 0 --uv-iters 100000 --patch-iters 5000
+        --budget-minutes 0 --uv-iters 100000 --patch-iters 5000 --checkpoints CKPT_DIR
+
+With ``--checkpoints DIR`` each model's whole training state is written to
+``DIR/neural_<model>.ckpt`` every ``--checkpoint-minutes`` (at validation steps): the same
+command run again resumes every model where it stopped, and finished models are written out
+again from their checkpoints without training.
 """
 
 from __future__ import annotations
@@ -148,6 +153,9 @@ def main(argv=None) -> int:
     ap.add_argument("--patch-iters", type=int, default=300, help="PatchNet step limit")
     ap.add_argument("--eval-every", type=int, default=25)
     ap.add_argument("--train-vertices", type=int, default=2500)
+    ap.add_argument("--checkpoints", type=Path, default=None, metavar="DIR",
+                    help="resumable training: each model's state in DIR/neural_<model>.ckpt")
+    ap.add_argument("--checkpoint-minutes", type=float, default=5.0)
     args = ap.parse_args(argv)
 
     import torch
@@ -170,9 +178,13 @@ def main(argv=None) -> int:
         m = train_on_set(train, val, args.config, budget_seconds=budget,
                          eval_every=args.eval_every, on_eval=on_eval,
                          uv_iters=args.uv_iters, patch_iters=args.patch_iters,
-                         train_vertices=args.train_vertices)
+                         train_vertices=args.train_vertices,
+                         checkpoint=(args.checkpoints / f"neural_{model}.ckpt"
+                                     if args.checkpoints else None),
+                         checkpoint_every_s=60 * args.checkpoint_minutes)
         m.history.update(train_ids=train_ids, val_ids=val_ids, model=model,
-                         load_avg_end=list(os.getloadavg()), wall_seconds=time.time() - t0)
+                         load_avg_end=list(os.getloadavg()),
+                         wall_seconds=m.history.get("seconds_total", time.time() - t0))
         WEIGHTS.mkdir(parents=True, exist_ok=True)
         ckpt = WEIGHTS / f"neural_{model}.pt"
         save_model(m, ckpt, half=True)

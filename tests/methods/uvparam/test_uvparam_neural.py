@@ -179,6 +179,50 @@ def test_training_on_a_set_and_half_checkpoint(tmp_path):
     assert np.abs(a.uv - b.uv).max() < 0.05             # float16 weights: close, not equal
 
 
+class _Stop(Exception):
+    """A training killed from outside."""
+
+
+def test_set_training_resumes_from_its_checkpoint_as_if_never_stopped(tmp_path):
+    import torch
+
+    from dressmeup.errors import InputError
+    from dressmeup.methods.uvparam.neural.train_set import train_on_set
+
+    # three meshes: the checkpoints at steps 16 and 20 are inside a pass over them, so the
+    # mesh order of the pass must come back with the random streams
+    train = [make_test_mesh("blob-400"), make_test_mesh("sheet-300"), make_test_mesh("torus-300")]
+    val = [make_test_mesh("sphere-300")]
+    kw = {**TINY, "uv_iters": 40, "patch_iters": 24, "tol": 0.0}
+    whole = train_on_set(train, val, "fast", eval_every=4, **kw)
+
+    def killer(at):
+        def on_eval(stage, step, _v):
+            if (stage, step) == at:
+                raise _Stop
+        return on_eval
+
+    ck = tmp_path / "train.ckpt"
+    for at in (("patchnet", 20), ("uv", 24)):   # killed in each stage, then resumed
+        with pytest.raises(_Stop):
+            train_on_set(train, val, "fast", eval_every=4, checkpoint=ck,
+                         checkpoint_every_s=0.0, on_eval=killer(at), **kw)
+        assert ck.is_file()
+    resumed = train_on_set(train, val, "fast", eval_every=4, checkpoint=ck,
+                           checkpoint_every_s=0.0, **kw)
+    for a, b in ((whole.patchnet, resumed.patchnet), (whole.forward_mlp, resumed.forward_mlp),
+                 (whole.backward_mlp, resumed.backward_mlp)):
+        for (k, x), (_, y) in zip(a.state_dict().items(), b.state_dict().items(), strict=True):
+            assert torch.equal(x, y), k
+    for key in ("uv_total", "patch_total", "val_patch", "val_uv", "stopped"):
+        assert resumed.history[key] == whole.history[key], key
+    # a finished checkpoint gives the model back without training
+    again = train_on_set(train, val, "fast", eval_every=4, checkpoint=ck, **kw)
+    assert again.history["uv_total"] == whole.history["uv_total"]
+    with pytest.raises(InputError, match="other training meshes"):
+        train_on_set(train[:1], val, "fast", eval_every=4, checkpoint=ck, **kw)
+
+
 def test_decimation_for_training_keeps_a_valid_mesh():
     # regression: libigl 2.6's decimate returns (U, G, J, I), not (success, U, G, J, I); the
     # faces were read as vertices and the joint indices as faces

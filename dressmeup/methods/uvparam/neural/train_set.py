@@ -12,21 +12,32 @@ wall-clock budget is spent, or at its step limit -- whichever comes first;
 
 Meshes are decimated to ``NeuralConfig.train_vertices`` first (the networks are
 discretisation-agnostic, so the trained model runs on any resolution afterwards).
+
+With a ``checkpoint`` file the whole state (networks, optimiser, best states, histories,
+the random streams of the mesh order and the UV pairs) is written atomically at
+validation steps every ``checkpoint_every_s`` seconds and at the end of each stage; a run
+given an existing checkpoint goes on from it and ends as the uninterrupted run would have.
 """
 
 from __future__ import annotations
 
+import io
 import logging
+import os
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy.sparse.csgraph import dijkstra
 
 from dressmeup.cache import hash_arrays
+from dressmeup.errors import InputError
 from dressmeup.geometry.mesh import as_arrays, face_areas, face_normals
+from dressmeup.io.atomic import atomic_write_bytes
+from dressmeup.methods.nn.checkpoint import load_checkpoint
 from dressmeup.methods.nn.convergence import converged
 from dressmeup.methods.nn.diffusion_ops import compute_operators
 from dressmeup.methods.uvparam.neural import losses as L
@@ -35,6 +46,7 @@ from dressmeup.methods.uvparam.neural.model import (
     NeuralUVModel,
     build_modules,
     get_config,
+    plain_values,
 )
 from dressmeup.methods.uvparam.neural.patchnet import (
     assign_charts,
@@ -52,6 +64,10 @@ from dressmeup.progress import progress as bar
 __all__ = ["train_on_set", "mesh_sha"]
 
 log = logging.getLogger(__name__)
+#: ``format`` of a set training's checkpoint
+CKPT_FORMAT = "dressmeup-uvparam-set-training-1"
+#: the per-step loss series of a training's history
+_SERIES = ("patch_total", "cos", "geo", "uv_total", "cycle", "iso", "angle", "area")
 
 
 def mesh_sha(V: np.ndarray, F: np.ndarray) -> str:
@@ -151,6 +167,8 @@ def train_on_set(train_meshes: Sequence[tuple[np.ndarray, np.ndarray]],
                  patch_share: float = 0.25, eval_every: int = 25, tol: float = 0.01,
                  threads: int | None = 1, progress: bool = False,
                  on_eval: Callable[[str, int, float], None] | None = None,
+                 checkpoint: str | os.PathLike | None = None,
+                 checkpoint_every_s: float = 300.0,
                  **overrides: Any) -> NeuralUVModel:
     """Train one PatchNet and one pair of UV MLPs on a set of meshes.
 
@@ -159,13 +177,17 @@ def train_on_set(train_meshes: Sequence[tuple[np.ndarray, np.ndarray]],
     train_meshes, val_meshes : sequences of ``(V (n, 3) float, F (m, 3) int)``.
     config : ``"fast"``, ``"reference"`` or a :class:`NeuralConfig`; ``patch_iters`` and
         ``uv_iters`` are the stages' step *limits* here.
-    budget_seconds : wall-clock budget of the whole run (preparation included).
+    budget_seconds : wall-clock budget of this invocation (preparation included; a resumed
+        run gets it again).
     patch_share : share of the budget left after preparation that PatchNet may use.
     eval_every : steps between validation evaluations.
     tol : convergence threshold of :func:`converged` (relative, over the last fifth).
     threads : torch intra-op threads (1 on a shared machine).
     progress : show progress bars.
     on_eval : called as ``on_eval(stage, step, val_loss)`` after every evaluation.
+    checkpoint : file of the training's whole state (module docstring); resumed from when
+        it exists (its meshes and configuration must be this run's).
+    checkpoint_every_s : seconds between checkpoints (written at validation steps).
     **overrides : fields of :class:`NeuralConfig`.
 
     Returns
@@ -180,6 +202,8 @@ def train_on_set(train_meshes: Sequence[tuple[np.ndarray, np.ndarray]],
     ------
     ValueError
         No training or no validation meshes, or an invalid configuration.
+    InputError
+        A checkpoint of other meshes or another configuration, or not a checkpoint.
     """
     # heavy: torch (~1.1 s to import)
     import torch
@@ -191,14 +215,46 @@ def train_on_set(train_meshes: Sequence[tuple[np.ndarray, np.ndarray]],
     if threads:
         torch.set_num_threads(int(threads))
     try:
+        ck = _Checkpoint(Path(checkpoint), checkpoint_every_s) if checkpoint else None
         return _train_on_set(train_meshes, val_meshes, cfg, budget_seconds, patch_share,
-                             eval_every, tol, progress, on_eval)
+                             eval_every, tol, progress, on_eval, ck)
     finally:
         torch.set_num_threads(old)
 
 
+class _Checkpoint:
+    """A set training's checkpoint file: :meth:`due` every ``every_s`` seconds,
+    :meth:`save` (atomic), :meth:`load` (None when there is none)."""
+
+    def __init__(self, path: Path, every_s: float) -> None:
+        self.path, self.every_s = path, float(every_s)
+        self.last = time.perf_counter()
+
+    def due(self) -> bool:
+        return time.perf_counter() - self.last >= self.every_s
+
+    def save(self, state: dict) -> None:
+        # heavy: torch (~1.1 s to import)
+        import torch
+
+        buf = io.BytesIO()
+        torch.save({"format": CKPT_FORMAT, **state}, buf)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(self.path, buf.getvalue())
+        self.last = time.perf_counter()
+
+    def load(self) -> dict | None:
+        if not self.path.is_file():
+            return None
+        return load_checkpoint(self.path, "UV training checkpoint", CKPT_FORMAT,
+                               ("stage", "step", "config", "train_mesh_sha", "modules"))
+
+
 def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every, tol,
-                  progress, on_eval) -> NeuralUVModel:
+                  progress, on_eval, ck: _Checkpoint | None = None) -> NeuralUVModel:
+    # heavy: torch (~1.1 s to import)
+    import torch
+
     t0 = time.perf_counter()
     rng = np.random.default_rng(cfg.seed)
     shas = [mesh_sha(V, F) for V, F in train_meshes]
@@ -208,8 +264,7 @@ def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every
     t_prep = time.perf_counter()
     left = budget - (t_prep - t0)
     patchnet, fwd, bwd = build_modules(cfg)
-    hist: dict = {k: [] for k in ("patch_total", "cos", "geo", "uv_total", "cycle", "iso",
-                                  "angle", "area")}
+    hist: dict = {k: [] for k in _SERIES}
     hist.update(val_patch=[], val_uv=[], stopped={}, train_mesh_sha=shas,
                 n_train=len(train), n_val=len(val), seconds_prepare=t_prep - t0,
                 budget_seconds=float(budget))
@@ -221,38 +276,85 @@ def _train_on_set(train_meshes, val_meshes, cfg, budget, patch_share, eval_every
         return int(order.perm[k])
 
     order.perm = rng.permutation(len(train))
+    resume = ck.load() if ck is not None else None
+    if resume is not None:
+        if resume["train_mesh_sha"] != shas or resume["config"] != plain_values(asdict(cfg)):
+            raise InputError(f"UV training checkpoint {ck.path}: made for other training "
+                             "meshes or another configuration; delete it to start over")
+        for mod, key in ((patchnet, "patchnet"), (fwd, "fwd"), (bwd, "bwd")):
+            mod.load_state_dict(resume["modules"][key])
+        hist = {k: v.tolist() if k in _SERIES else v for k, v in resume["hist"].items()}
+        rng.bit_generator.state = resume["rng"]
+        order.perm = np.asarray(resume["perm"], np.int64)
+        log.info("resumed %s: %s stage, step %d", ck.path, resume["stage"], resume["step"])
 
-    patch_stop = _fit_patchnet_on_set(patchnet, train, val, cfg, order, t_prep + patch_share * left,
-                                      eval_every, tol, hist, progress, on_eval)
-    hist["stopped"]["patchnet"] = patch_stop
-    hist["patch_steps"] = len(hist["patch_total"])
+    def snapshot(stage: str, step: int, stage_state: dict | None = None) -> None:
+        """Write the whole state (``stage_state``: the running stage's optimiser, best
+        state and value, and the UV pairs' generator)."""
+        if ck is None:
+            return
+        ck.save({"stage": stage, "step": int(step), "config": plain_values(asdict(cfg)),
+                 "train_mesh_sha": shas,
+                 # the per-step series as tensors: a long run's lists would be millions of
+                 # pickled objects
+                 "hist": {k: torch.tensor(v, dtype=torch.float64) if k in _SERIES
+                          else plain_values(v) for k, v in hist.items()},
+                 "modules": {"patchnet": patchnet.state_dict(), "fwd": fwd.state_dict(),
+                             "bwd": bwd.state_dict()},
+                 "rng": rng.bit_generator.state, "perm": [int(i) for i in order.perm],
+                 "stage_state": stage_state})
+
+    stage = resume["stage"] if resume is not None else "patchnet"
+    if stage == "patchnet":
+        patch_stop = _fit_patchnet_on_set(
+            patchnet, train, val, cfg, order, t_prep + patch_share * left, eval_every, tol,
+            hist, progress, on_eval, snapshot, ck,
+            resume if resume is not None and resume["stage"] == "patchnet" else None)
+        hist["stopped"]["patchnet"] = patch_stop
+        hist["patch_steps"] = len(hist["patch_total"])
+        hist["seconds_patchnet"] = hist.get("seconds_patchnet", 0.0) + (
+            time.perf_counter() - t_prep)
+        snapshot("uv", 0)
+    patchnet.eval()
     t1 = time.perf_counter()
-    hist["seconds_patchnet"] = t1 - t_prep
-    train_uv = [_uv_data(d, patchnet, cfg) for d in train]
-    val_uv = [_uv_data(d, patchnet, cfg) for d in val]
-    hist["n_charts_train"] = [u["n_charts"] for u in train_uv]
-    hist["stopped"]["uv"] = _fit_uv_on_set(fwd, bwd, train_uv, val_uv, cfg, order, t0 + budget,
-                                           eval_every, tol, hist, progress, on_eval)
-    hist["uv_steps"] = len(hist["uv_total"])
-    hist["seconds_uv"] = time.perf_counter() - t1
-    hist["seconds_total"] = time.perf_counter() - t0
+    if stage != "done":
+        train_uv = [_uv_data(d, patchnet, cfg) for d in train]
+        val_uv = [_uv_data(d, patchnet, cfg) for d in val]
+        hist["n_charts_train"] = [u["n_charts"] for u in train_uv]
+        hist["stopped"]["uv"] = _fit_uv_on_set(
+            fwd, bwd, train_uv, val_uv, cfg, order, t0 + budget, eval_every, tol, hist,
+            progress, on_eval, snapshot, ck,
+            resume if resume is not None and resume["stage"] == "uv" else None)
+        hist["uv_steps"] = len(hist["uv_total"])
+        hist["seconds_uv"] = hist.get("seconds_uv", 0.0) + time.perf_counter() - t1
+        hist["seconds_total"] = hist.get("seconds_total", 0.0) + time.perf_counter() - t0
+        snapshot("done", hist["uv_steps"])
     return NeuralUVModel(cfg, patchnet, fwd.eval(), bwd.eval(), hist)
 
 
 def _fit_patchnet_on_set(patchnet: Any, train: list[dict], val: list[dict], cfg: NeuralConfig,
                          order: Callable[[int], int], deadline: float, eval_every: int,
                          tol: float, hist: dict, progress: bool,
-                         on_eval: Callable[[str, int, float], None] | None) -> str:
+                         on_eval: Callable[[str, int, float], None] | None,
+                         snapshot: Callable[..., None] | None = None,
+                         ck: _Checkpoint | None = None, resume: dict | None = None) -> str:
     """PatchNet over the set, one training mesh per step (in ``order``), evaluated on ``val``
     every ``eval_every`` steps; keeps the best state on ``val`` (left in eval mode). Returns
-    why it stopped: ``converged``, ``budget`` (past ``deadline``) or ``max_iters``."""
+    why it stopped: ``converged``, ``budget`` (past ``deadline``) or ``max_iters``.
+    ``snapshot(stage, step, stage_state)`` writes a checkpoint when ``ck`` is due;
+    ``resume``: a checkpoint of this stage to go on from."""
     # heavy: torch (~1.1 s to import)
     import torch
 
     opt = torch.optim.Adam(patchnet.parameters(), lr=cfg.patch_lr)
     stop = "max_iters"
-    best_state, best_val = None, np.inf
-    for step in bar(range(1, cfg.patch_iters + 1), desc="PatchNet", disable=not progress or None):
+    best_state, best_val, start = None, np.inf, 0
+    if resume is not None:
+        st = resume["stage_state"]
+        opt.load_state_dict(st["opt"])
+        best_state, best_val, start = st["best_state"], float(st["best_val"]), resume["step"]
+    for step in bar(range(start + 1, cfg.patch_iters + 1), desc="PatchNet",
+                    disable=not progress or None):
         loss, lc, lg = _patch_loss(patchnet, train[order(step - 1)], cfg)
         opt.zero_grad()
         loss.backward()
@@ -271,6 +373,9 @@ def _fit_patchnet_on_set(patchnet: Any, train: list[dict], val: list[dict], cfg:
             if converged(hist["val_patch"], tol, min_window=len(train)):
                 stop = "converged"
                 break
+            if ck is not None and ck.due():
+                snapshot("patchnet", step, {"opt": opt.state_dict(), "best_state": best_state,
+                                            "best_val": best_val})
         if time.perf_counter() > deadline:
             stop = "budget"
             break
@@ -283,7 +388,9 @@ def _fit_patchnet_on_set(patchnet: Any, train: list[dict], val: list[dict], cfg:
 def _fit_uv_on_set(fwd: Any, bwd: Any, train_uv: list[dict], val_uv: list[dict],
                    cfg: NeuralConfig, order: Callable[[int], int], deadline: float,
                    eval_every: int, tol: float, hist: dict, progress: bool,
-                   on_eval: Callable[[str, int, float], None] | None) -> str:
+                   on_eval: Callable[[str, int, float], None] | None,
+                   snapshot: Callable[..., None] | None = None,
+                   ck: _Checkpoint | None = None, resume: dict | None = None) -> str:
     """The UV MLPs over the set, as :func:`_fit_patchnet_on_set` (validation pairs drawn
     the same at every evaluation); keeps the best pair of states. Returns why it stopped."""
     # heavy: torch (~1.1 s to import)
@@ -294,8 +401,14 @@ def _fit_uv_on_set(fwd: Any, bwd: Any, train_uv: list[dict], val_uv: list[dict],
     gen = torch.Generator().manual_seed(cfg.seed)
     val_gen_seed = cfg.seed + 12345
     stop = "max_iters"
-    best_state, best_val = None, np.inf
-    for step in bar(range(1, cfg.uv_iters + 1), desc="UV MLPs", disable=not progress or None):
+    best_state, best_val, start = None, np.inf, 0
+    if resume is not None and resume["stage_state"] is not None:
+        st = resume["stage_state"]
+        opt.load_state_dict(st["opt"])
+        gen.set_state(st["gen"])
+        best_state, best_val, start = st["best_state"], float(st["best_val"]), resume["step"]
+    for step in bar(range(start + 1, cfg.uv_iters + 1), desc="UV MLPs",
+                    disable=not progress or None):
         loss, parts = _uv_loss(fwd, bwd, train_uv[order(step - 1)], cfg, gen)
         opt.zero_grad()
         loss.backward()
@@ -317,6 +430,9 @@ def _fit_uv_on_set(fwd: Any, bwd: Any, train_uv: list[dict], val_uv: list[dict],
             if converged(hist["val_uv"], tol, min_window=len(train_uv)):
                 stop = "converged"
                 break
+            if ck is not None and ck.due():
+                snapshot("uv", step, {"opt": opt.state_dict(), "best_state": best_state,
+                                      "best_val": best_val, "gen": gen.get_state()})
         if time.perf_counter() > deadline:
             stop = "budget"
             break
