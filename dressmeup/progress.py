@@ -27,7 +27,7 @@ LINE_INTERVAL_S = 30.0
 
 
 def progress(iterable: Iterable[T], desc: str = "", total: int | None = None,
-             disable: bool | None = None) -> Iterator[T]:
+             disable: bool | None = None, initial: int = 0) -> Iterator[T]:
     """Wrap ``iterable`` in progress reporting on stderr.
 
     Parameters
@@ -36,6 +36,8 @@ def progress(iterable: Iterable[T], desc: str = "", total: int | None = None,
     desc : short label shown before the bar or at the start of each line.
     total : number of items when ``iterable`` has no ``len``.
     disable : force reporting off (default: off when ``DRESSMEUP_NO_PROGRESS`` is set).
+    initial : items done before this run (resumed work; ``iterable`` holds the rest): counted
+        in ``k/total``, not in the rate the time left is estimated from.
 
     Returns
     -------
@@ -47,10 +49,11 @@ def progress(iterable: Iterable[T], desc: str = "", total: int | None = None,
     if disable:
         return iter(iterable)
     if _bar_wanted():
-        return iter(tqdm(iterable, desc=desc, total=total, leave=False, dynamic_ncols=True))
+        return iter(tqdm(iterable, desc=desc, total=total, initial=initial, leave=False,
+                         dynamic_ncols=True))
     if total is None:
-        total = len(iterable) if hasattr(iterable, "__len__") else None
-    return _log_lines(iterable, desc, total)
+        total = len(iterable) + initial if hasattr(iterable, "__len__") else None
+    return _log_lines(iterable, desc, total, initial)
 
 
 @contextlib.contextmanager
@@ -100,32 +103,36 @@ def _bar_wanted() -> bool:
     return bool(isatty and isatty())
 
 
-def _log_lines(iterable: Iterable[T], desc: str, total: int | None) -> Iterator[T]:
+def _log_lines(iterable: Iterable[T], desc: str, total: int | None,
+               initial: int = 0) -> Iterator[T]:
     """Yield the items of ``iterable``; after an item, print ``desc: k/total (p %), mm:ss
     elapsed, ~mm:ss left`` when :data:`LINE_INTERVAL_S` has passed since the start or the
-    last line; at the end print ``desc: done, k items in mm:ss`` if any line was printed."""
+    last line (``k`` counts from ``initial``); at the end print ``desc: done, n items in
+    mm:ss`` (``n`` of this run) if any line was printed."""
     t0 = last = monotonic()
     printed = False
-    k = 0
+    k = initial
     for item in iterable:
         yield item
         k += 1
         now = monotonic()
         if now - last >= LINE_INTERVAL_S:
-            _write(_line(desc, k, total, now - t0))
+            _write(_line(desc, k, total, now - t0, initial))
             printed, last = True, now
     if printed:
-        _write(f"{desc}: done, {k} items in {tqdm.format_interval(monotonic() - t0)}")
+        _write(f"{desc}: done, {k - initial} items in "
+               f"{tqdm.format_interval(monotonic() - t0)}")
 
 
-def _line(desc: str, k: int, total: int | None, elapsed: float) -> str:
+def _line(desc: str, k: int, total: int | None, elapsed: float, initial: int = 0) -> str:
     """One progress line: items done (of ``total`` with a share and an estimate of the time
-    left when it is known) and the elapsed time (s, printed mm:ss)."""
+    left, from this run's rate, when it is known) and the elapsed time (s, printed mm:ss)."""
     spent = tqdm.format_interval(elapsed)
     if not total:
         return f"{desc}: {k} done, {spent} elapsed"
-    left = tqdm.format_interval(elapsed * max(total - k, 0) / k)
-    return f"{desc}: {k}/{total} ({100 * k / total:.0f} %), {spent} elapsed, ~{left} left"
+    rest = (f", ~{tqdm.format_interval(elapsed * max(total - k, 0) / (k - initial))} left"
+            if k > initial else "")
+    return f"{desc}: {k}/{total} ({100 * k / total:.0f} %), {spent} elapsed{rest}"
 
 
 def _write(line: str) -> None:

@@ -45,6 +45,20 @@ def test_log_lines_show_share_elapsed_and_time_left(log, monkeypatch):
     assert "\r" not in stream.getvalue()
 
 
+def test_resumed_work_counts_what_was_done_but_not_in_the_rate(log, monkeypatch):
+    stream = log()
+    monkeypatch.setattr(progress_mod, "LINE_INTERVAL_S", 15.0)
+    # 96 of 100 items done before this run; 4 left at 10 s each: 40 s, not 40 s x 96
+    assert list(progress(range(4), desc="synth", total=100, initial=96)) == [0, 1, 2, 3]
+    assert stream.getvalue().splitlines() == ["synth: 98/100 (98 %), 00:20 elapsed, ~00:20 left",
+                                              "synth: 100/100 (100 %), 00:40 elapsed, ~00:00 left",
+                                              "synth: done, 4 items in 00:50"]
+    stream = log()
+    monkeypatch.setattr(progress_mod, "LINE_INTERVAL_S", 0.0)
+    assert list(progress(range(2), desc="synth", initial=8)) == [0, 1]
+    assert stream.getvalue().splitlines()[0] == "synth: 9/10 (90 %), 00:10 elapsed, ~00:10 left"
+
+
 def test_log_lines_without_a_length_count_items(log, monkeypatch):
     stream = log()
     monkeypatch.setattr(progress_mod, "LINE_INTERVAL_S", 0.0)

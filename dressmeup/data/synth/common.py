@@ -481,16 +481,15 @@ def write_plan(out: str | os.PathLike, info: dict[str, Any], plan: dict[str, Any
     out = Path(out)
     writer = DatasetWriter(out, info)
     total = sum(len(wearers(plan, gid)) for gid in plan["garments"])
-    bar = progress(range(total), desc=desc, total=total)
     todo = []
     rank = {"test": 0, "train": 1, "val": 2}
     for gid, g in sorted(plan["garments"].items(), key=lambda kv: (rank[kv[1]["split"]], kv[0])):
-        worn = wearers(plan, gid)
-        missing = [(s, p) for s, p in worn if not writer.has_sample(f"{s}-{gid}-{p}")]
-        for _ in range(len(worn) - len(missing)):
-            next(bar, None)
+        missing = [(s, p) for s, p in wearers(plan, gid)
+                   if not writer.has_sample(f"{s}-{gid}-{p}")]
         if missing:
             todo.append(GarmentItem(gid, g, tuple(missing)))
+    left = sum(len(item.missing) for item in todo)
+    bar = progress(range(left), desc=desc, total=total, initial=total - left)
     for res in run_jobs(job, todo, workers, executor):
         _write_garment(writer, out, res, bar)
     for _ in bar:

@@ -357,8 +357,10 @@ def generate_gen4(out: str | os.PathLike, c: SynthConfig, workers: int = 1,
     info = dataset_info(c, g4, plan, sources)
     _sync_sources(out, info["garments"])
     writer = DatasetWriter(out, info)
-    total = sum(len(g["targets"]) for g in plan["garments"].values())
-    bar = progress(range(total), desc="synth v5", total=total)
+    ids = [f"{t.sid}-{gid}-{t.pid}" for gid, g in plan["garments"].items()
+           for t in g["targets"]]
+    done = sum(writer.has_sample(i) or (failed_dir / f"{i}.json").is_file() for i in ids)
+    bar = progress(range(len(ids) - done), desc="synth v5", total=len(ids), initial=done)
     book = _Book(c, g4, plan, writer, bar)
     for work, res in run_ready_jobs(DressJob(g4), book.ready, workers=workers,
                                     executor=executor):
@@ -409,7 +411,8 @@ class _Book:
 
     def __init__(self, c: SynthConfig, g4: Gen4Config, plan: dict[str, Any],
                  writer: DatasetWriter, bar) -> None:
-        self.c, self.g4, self.plan, self.writer, self.bar = c, g4, plan, writer, bar
+        self.c, self.g4, self.plan, self.writer = c, g4, plan, writer
+        self.bar = bar  # advanced once per target resolved in this run
         self.root = writer.root
         self.handed: set[str] = set()
         self.results: dict[str, dict[str, TargetResult]] = {}
@@ -426,8 +429,6 @@ class _Book:
                 atomic_write_text(out_dir / f"{gid}.json", json.dumps(record, indent=1) + "\n")
             for k, t in enumerate(g["targets"]):
                 self.position[f"{t.sid}-{gid}-{t.pid}"] = (n, k)
-                if self._on_disk(f"{t.sid}-{gid}-{t.pid}"):
-                    next(self.bar, None)
         for gid in self.order:
             self._drain(gid)
 
