@@ -92,6 +92,10 @@ class LocalExecutor:
     workers : number of worker processes; default ``os.cpu_count()``. With 1 the jobs run
         in the calling process (no pool start-up; easiest to debug).
     max_pending : jobs in flight at once per worker (bounds memory of queued results).
+    keep_pool : keep the worker processes between :meth:`run` calls (many short runs, e.g.
+        scoring one submission after another, start them once) until :meth:`close` or the
+        end of a ``with`` block; a pool a dead worker broke is started again on the next
+        run. False: each run starts its own pool and ends it.
 
     Workers die with the calling process (:func:`die_with_parent`), so a killed command
     leaves no orphans behind.
@@ -99,14 +103,34 @@ class LocalExecutor:
 
     name = "local"
 
-    def __init__(self, workers: int | None = None, max_pending: int = 2) -> None:
+    def __init__(self, workers: int | None = None, max_pending: int = 2,
+                 keep_pool: bool = False) -> None:
         if workers is not None and (not isinstance(workers, int) or workers < 1):
             raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
         self.workers = workers or (os.cpu_count() or 1)
         self.max_pending = max(1, int(max_pending))
+        self.keep_pool = bool(keep_pool)
+        self._pool: ProcessPoolExecutor | None = None
+
+    def __enter__(self) -> LocalExecutor:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """End the kept worker processes (nothing to do without ``keep_pool``)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
 
     def require_shared(self, *paths: Any, writable: Sequence[Any] = ()) -> None:
         """Nothing to check: local workers share this machine's filesystem."""
+
+    def _new_pool(self, n_workers: int) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(max_workers=n_workers,
+                                   mp_context=multiprocessing.get_context("spawn"),
+                                   initializer=_init_worker, initargs=(os.getpid(),))
 
     def run(self, fn: Callable[[Any], Any], jobs: Sequence[Any]
             ) -> Iterator[tuple[int, Any | BaseException]]:
@@ -119,17 +143,30 @@ class LocalExecutor:
                 except Exception as exc:  # noqa: BLE001 - recorded per item by the caller
                     yield i, exc
             return
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=n_workers, mp_context=ctx,
-                                 initializer=_init_worker, initargs=(os.getpid(),)) as pool:
-            pending: dict[Future, int] = {}
-            next_job = 0
-            limit = n_workers * self.max_pending
+        if not self.keep_pool:
+            with self._new_pool(n_workers) as pool:
+                yield from self._run_on(pool, fn, jobs, n_workers)
+            return
+        if self._pool is None:
+            self._pool = self._new_pool(self.workers)
+        broken = yield from self._run_on(self._pool, fn, jobs, n_workers)
+        if broken:
+            self.close()
+
+    def _run_on(self, pool: ProcessPoolExecutor, fn: Callable[[Any], Any],
+                jobs: Sequence[Any], n_workers: int):
+        """``run`` on ``pool``; returns whether the pool broke (a worker died)."""
+        pending: dict[Future, int] = {}
+        next_job = 0
+        limit = n_workers * self.max_pending
+        broken = False
+        try:
             while next_job < len(jobs) or pending:
                 while next_job < len(jobs) and len(pending) < limit:
                     try:
                         pending[pool.submit(fn, jobs[next_job])] = next_job
                     except BrokenProcessPool as exc:  # a worker died: fail what is left
+                        broken = True
                         for i in range(next_job, len(jobs)):
                             yield i, exc
                         next_job = len(jobs)
@@ -141,4 +178,9 @@ class LocalExecutor:
                 for fut in done:
                     i = pending.pop(fut)
                     exc = fut.exception()
+                    broken = broken or isinstance(exc, BrokenProcessPool)
                     yield (i, exc) if exc is not None else (i, fut.result())
+        finally:
+            for fut in pending:  # a consumer that stopped early: the rest is not needed
+                fut.cancel()
+        return broken

@@ -14,6 +14,7 @@ registries (``dressmeup.methods.retarget`` / ``dressmeup.methods.uvparam``).
 
 from __future__ import annotations
 
+import contextlib
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -22,6 +23,7 @@ from typing import Any
 from dressmeup.bench.boards.leaderboard import format_summary
 from dressmeup.bench.edition import Edition, load_edition
 from dressmeup.bench.scoring.score import score_submission
+from dressmeup.executors.local import LocalExecutor
 from dressmeup.runs.common import (
     BASELINE_AUTHORS,
     Log,
@@ -75,12 +77,14 @@ def score_many(subs: dict[str, Path], edition: str | Edition, data_root: str | o
     ``allow_other_data``: score data that differ from the edition's pin, marked not
     comparable (see :func:`~dressmeup.bench.scoring.score.score_submission`)."""
     out = []
-    for sub in subs.values():
-        res = score_submission(sub, edition, data_root, Path(results_dir) / sub.name,
-                               workers=workers, executor=executor,
-                               allow_other_data=allow_other_data)
-        log(format_summary(res.summary))
-        out.append(res.path)
+    # one pool for every submission (its workers start once, not once a submission)
+    with contextlib.nullcontext(executor) if executor is not None else LocalExecutor(
+            workers, keep_pool=True) as ex:
+        for sub in subs.values():
+            res = score_submission(sub, edition, data_root, Path(results_dir) / sub.name,
+                                   executor=ex, allow_other_data=allow_other_data)
+            log(format_summary(res.summary))
+            out.append(res.path)
     return out
 
 

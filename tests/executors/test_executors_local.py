@@ -8,6 +8,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 import pytest
@@ -105,3 +106,27 @@ def test_make_executor_follows_the_switch():
         make_executor("local", 0)
     with pytest.raises(InputError, match="--executor"):
         make_executor("ray")
+
+
+def _die(job):
+    if job == "die":
+        os.kill(os.getpid(), signal.SIGKILL)
+    return os.getpid()
+
+
+def test_a_kept_pool_serves_many_runs_and_starts_again_after_a_dead_worker():
+    with LocalExecutor(2, keep_pool=True) as ex:
+        first = {pid for _, pid in ex.run(_pid, [0, 1, 2, 3])}
+        second = {pid for _, pid in ex.run(_pid, [0, 1, 2, 3])}
+        assert first | second <= set(ex._pool._processes) and os.getpid() not in first
+        out = dict(ex.run(_die, ["die", 1]))
+        assert any(isinstance(r, BrokenProcessPool) for r in out.values())
+        assert ex._pool is None                      # broken: dropped
+        again = {pid for _, pid in ex.run(_pid, [0, 1])}
+        assert not again & first
+    assert ex._pool is None
+    # without keep_pool every run starts its own workers
+    plain = LocalExecutor(2)
+    a = {pid for _, pid in plain.run(_pid, [0, 1])}
+    b = {pid for _, pid in plain.run(_pid, [0, 1])}
+    assert not a & b
