@@ -359,7 +359,7 @@ def generate_gen4(out: str | os.PathLike, c: SynthConfig, workers: int = 1,
     writer = DatasetWriter(out, info)
     ids = [f"{t.sid}-{gid}-{t.pid}" for gid, g in plan["garments"].items()
            for t in g["targets"]]
-    done = sum(writer.has_sample(i) or (failed_dir / f"{i}.json").is_file() for i in ids)
+    done = sum(_resolved(writer, i) for i in ids)
     bar = progress(range(len(ids) - done), desc="synth v5", total=len(ids), initial=done)
     book = _Book(c, g4, plan, writer, bar)
     for work, res in run_ready_jobs(DressJob(g4), book.ready, workers=workers,
@@ -394,6 +394,12 @@ def _sync_sources(out: Path, garments: dict[str, Any]) -> None:
                     for g in garments)):
         old["garments"] = garments
         atomic_write_text(path, json.dumps(old, indent=2, sort_keys=True) + "\n")
+
+
+def _resolved(writer: DatasetWriter, sample_id: str) -> bool:
+    """The target is done: its sample is written or its failure recorded."""
+    return (writer.has_sample(sample_id)
+            or (writer.root / "generator" / "failed" / f"{sample_id}.json").is_file())
 
 
 class _Book:
@@ -433,8 +439,7 @@ class _Book:
             self._drain(gid)
 
     def _on_disk(self, sample_id: str) -> bool:
-        return (self.writer.has_sample(sample_id)
-                or (self.root / "generator" / "failed" / f"{sample_id}.json").is_file())
+        return _resolved(self.writer, sample_id)
 
     def ready(self) -> list[tuple[tuple[int, int], TargetWork]]:
         """The targets that may run now and were not handed out before (priority, work)."""
