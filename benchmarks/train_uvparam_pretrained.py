@@ -16,7 +16,8 @@ in ``benchmarks/results/studies/<date>-uvparam_pretrained_<model>.json`` and lea
 
     nice -n 10 python benchmarks/train_uvparam_pretrained.py --data DATA --models topwear dress \\
         --budget-minutes 35
-    python benchmarks/train_uvparam_pretrained.py --data V5_ROOT --garments-from \\
+    dressmeup synth V5_GARMENTS --edition synth-retarget-v5 --designed-garments --workers 2
+    python benchmarks/train_uvparam_pretrained.py --data V5_GARMENTS --garments-from \\
         --budget-minutes 0 --uv-iters 100000 --patch-iters 5000 --checkpoints CKPT_DIR
 
 With ``--checkpoints DIR`` each model's whole training state is written to
@@ -67,10 +68,16 @@ def warped(mesh_id: str, seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 def garment_meshes(root: Path, split: str, cats) -> tuple[list, list[str]]:
     """The rest garments (as designed, ``generator/rest/<G>.ply``) of a generator-4 dataset's
-    ``split`` in the categories ``cats``: ``([(V, F), ...], [garment id, ...])``."""
+    ``split`` in the categories ``cats`` (a generated dataset, or the garments alone written
+    by ``dressmeup synth --edition E --designed-garments``): ``([(V, F), ...], [garment id,
+    ...])``."""
+    from dressmeup.data.synth.designed4 import DESIGNED_JSON
     from dressmeup.io.mesh import load_mesh
 
-    info = json.loads((root / "dataset.json").read_text())
+    record = root / "dataset.json"
+    if not record.is_file():
+        record = root / DESIGNED_JSON
+    info = json.loads(record.read_text())
     if not str(info.get("generator", {}).get("version", "")).startswith("4."):
         raise SystemExit(f"{root}: --garments-from needs a generator-4 dataset (v5 editions)")
     ids = sorted(g for g, v in info["garments"].items()
@@ -104,6 +111,35 @@ def mesh_sets(data: Path, model: str, garments: bool = False):
                 val.append(warped(sid, 200 + k))
                 val_ids.append(f"warped-{sid}-{200 + k}")
     return train, train_ids, val, val_ids
+
+
+def data_record(root: Path, garments: bool) -> dict:
+    """What the model was trained on: the folder and the sha256 of its record file."""
+    import hashlib
+
+    from dressmeup.data.synth.designed4 import DESIGNED_JSON
+
+    for name in (("dataset.json", DESIGNED_JSON) if garments else ("dataset.json",)):
+        if (root / name).is_file():
+            return {"root": str(root), "record": name,
+                    "sha256": hashlib.sha256((root / name).read_bytes()).hexdigest()}
+    return {"root": str(root)}
+
+
+def machine() -> dict:
+    """The CPU, core count and torch of the training machine."""
+    import platform
+
+    import torch
+
+    cpu = platform.processor()
+    try:
+        cpu = next(line.split(":", 1)[1].strip() for line in
+                   Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "torch": torch.__version__,
+            "threads": torch.get_num_threads()}
 
 
 def plot_curves(hist: dict, title: str, path: Path) -> None:
@@ -194,6 +230,7 @@ def main(argv=None) -> int:
 
         (RESULTS / f"{date.today():%Y-%m-%d}-uvparam_pretrained_{model}.json").write_text(json.dumps(
             {"config": args.config, "budget_minutes": args.budget_minutes,
+             "data": data_record(args.data, args.garments_from), "machine": machine(),
              "checkpoint_bytes": ckpt.stat().st_size, "n_parameters": m.n_parameters,
              **plain_values(log)}, indent=1) + "\n")
         plot_curves(m.history, f"neural UV '{model}' ({args.config} sizes): {len(train)} train / "

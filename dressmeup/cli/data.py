@@ -59,6 +59,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "any work. Without it, an edition whose test split is secret is "
                         "generated without its test split (docs/benchmark.md, 'Secret test "
                         "splits')")
+    p.add_argument("--designed-garments", action="store_true",
+                   help="with a generator-4 --edition (...-v5): write only its garments as "
+                        "designed (generator/rest/<G>.ply, what the neural UV models train "
+                        "on, the same bytes as a full generation's) and generator/"
+                        "designed.json, without simulating any target: minutes, not hours")
     add_executor_args(p, default_workers=1,
                       what="garment of generators 2.x and 3.x (--edition ...-v3, ...-v4), "
                            "per target of generator 4.x (...-v5); the data do not depend on "
@@ -143,6 +148,8 @@ def _synth_edition(args: argparse.Namespace) -> int:
             check_secret_support(config)
         except InputError as exc:
             raise InputError(f"edition {ed.name}: {exc}") from exc
+    if args.designed_garments:
+        return _designed_garments(args, ed, config)
     if not args.allow_other_data:
         _probe_machine(ed)
     if config is None:  # uvparam: a mesh set, not a garment dataset
@@ -175,6 +182,22 @@ def _synth_edition(args: argparse.Namespace) -> int:
     return 0
 
 
+def _designed_garments(args: argparse.Namespace, ed, config) -> int:
+    """``synth --edition E --designed-garments``: the edition's garments as designed."""
+    if config is None or not str(config.version).startswith("4."):
+        raise InputError(f"--designed-garments: edition {ed.name} is not made by generator 4 "
+                         "(a ...-v5 retargeting edition is)")
+    # start-up: the stage loads when the command runs
+    from dressmeup.data.synth.designed4 import DESIGNED_JSON, write_designed
+
+    kw: dict = ({"executor": executor_from_args(args, default_workers=1)}
+                if args.executor or args.scheduler else {"workers": args.workers or 1})
+    root = write_designed(args.out, config, **kw)
+    sys.stdout.write(f"wrote the garments as designed of edition {ed.name} "
+                     f"({', '.join(config.splits)}) to {root} ({DESIGNED_JSON})\n")
+    return 0
+
+
 def _probe_machine(ed) -> None:
     """Refuse (one line) to generate an edition whose pinned data this machine would not
     reproduce (:func:`dressmeup.bench.machine.machine_differs`), before anything is written."""
@@ -195,8 +218,8 @@ def _synth(args: argparse.Namespace) -> int:
 
     if args.edition:
         return _synth_edition(args)
-    if args.allow_other_data:
-        raise InputError("--allow-other-data goes with --edition (data the edition pins)")
+    if args.allow_other_data or args.designed_garments:
+        raise InputError("--allow-other-data and --designed-garments go with --edition")
     if args.secret:
         raise InputError("--secret goes with --edition (the secret of the edition's test split)")
     _generator_1_is_serial(args)

@@ -4,6 +4,7 @@ dataset.json, failures recorded, resumable, train and val without the secret."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -80,3 +81,45 @@ def test_resume_and_public_splits_alone(root, tmp_path):
     assert sorted(rows["sample_id"]) == sorted(full[full["split"] == "train"]["sample_id"])
     assert sorted(rows["garment_sha256"]) == sorted(
         full[full["split"] == "train"]["garment_sha256"])
+
+
+def test_designed_garments_are_the_generated_rest_garments(root, tmp_path):
+    """``write_designed`` writes the rest garments and plan records of a full generation,
+    byte for byte, without a motion; the test split only with the secret; and the neural
+    UV training script reads them per split."""
+    import importlib.util
+
+    from dressmeup.data.synth import synth_config
+    from dressmeup.data.synth.designed4 import DESIGNED_JSON, write_designed
+    from dressmeup.errors import InputError
+
+    settings = {k: v for k, v in SETTINGS.items() if k != "workers"}
+    out = write_designed(tmp_path / "designed", synth_config(**settings, secret=SECRET),
+                         workers=2)
+    for sub in ("rest", "garments"):
+        made = sorted(p.name for p in (out / "generator" / sub).iterdir())
+        assert made == sorted(p.name for p in (root / "generator" / sub).iterdir()) and made
+        for name in made:
+            assert (out / "generator" / sub / name).read_bytes() == \
+                (root / "generator" / sub / name).read_bytes(), f"{sub}/{name}"
+    assert not (out / "generator" / "stats").exists()
+    info = json.loads((out / DESIGNED_JSON).read_text())
+    assert info["generator"]["version"] == "4.0.0"
+    assert {g["split"] for g in info["garments"].values()} == {"train", "test"}
+    assert SECRET.hex() not in (out / DESIGNED_JSON).read_text()
+
+    with pytest.raises(InputError, match="secret"):
+        write_designed(tmp_path / "no-secret", synth_config(**settings))
+    public = write_designed(tmp_path / "public", synth_config(**settings,
+                                                              splits=("train", "val")))
+    assert sorted(p.name for p in (public / "generator" / "rest").iterdir()) == \
+        sorted(f"{g}.ply" for g, v in info["garments"].items() if v["split"] == "train")
+
+    script = Path(__file__).resolve().parents[2] / "benchmarks" / "train_uvparam_pretrained.py"
+    spec = importlib.util.spec_from_file_location("train_uvparam_pretrained", script)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    meshes, ids = mod.garment_meshes(public, "train", ("bottomwear",))
+    assert ids == [g for g, v in sorted(info["garments"].items()) if v["split"] == "train"]
+    assert meshes[0][0].shape[1] == 3 and meshes[0][1].shape[1] == 3
+    assert mod.garment_meshes(public, "val", ("bottomwear",)) == ([], [])

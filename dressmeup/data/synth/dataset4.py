@@ -180,11 +180,11 @@ def _kit(body_model: str):
     return load_body_kit(body_model)
 
 
-#: garments built in this process, newest last (:func:`_built`)
+#: garments built in this process, newest last (:func:`built_garment`)
 _BUILT: dict[tuple, tuple[Any, GarmentFiles]] = {}
 
 
-def _built(c: Gen4Config, work: TargetWork) -> tuple[Any, GarmentFiles]:
+def built_garment(c: Gen4Config, work: TargetWork) -> tuple[Any, GarmentFiles]:
     """The garment of ``work`` built on its design body, and its files (once per process
     and garment, the last 4 kept: a garment's targets mostly run one after the other)."""
     key = (c.body_model, float(c.sim.edge_length), int(c.texture_size), work.gid,
@@ -217,7 +217,7 @@ class DressJob:
     def __call__(self, work: TargetWork) -> TargetResult:
         c = self.config
         kit = _kit(c.body_model)
-        built, files = _built(c, work)
+        built, files = built_garment(c, work)
         t0 = time.process_time()
         try:
             res = dress(kit, built, work.shape, work.pose, c.sim)
@@ -402,6 +402,29 @@ def _resolved(writer: DatasetWriter, sample_id: str) -> bool:
             or (writer.root / "generator" / "failed" / f"{sample_id}.json").is_file())
 
 
+def garment_order(plan: dict[str, Any]) -> list[str]:
+    """The plan's garment ids in the generator's priority: train, then val, then test."""
+    rank = {split: k for k, split in enumerate(SPLITS)}
+    return sorted(plan["garments"], key=lambda g: (rank[plan["garments"][g]["split"]], g))
+
+
+def target_work(c: SynthConfig, plan: dict[str, Any], gid: str, t: Any) -> TargetWork:
+    """The job of garment ``gid``'s planned target ``t``."""
+    g = plan["garments"][gid]
+    return TargetWork(
+        gid, g, np.asarray(plan["subjects"][g["design_subject"]]["shape"], np.float64),
+        texture_seed(g["split"], c.seed, c.secret, gid), t.sid, t.pid,
+        np.asarray(plan["subjects"][t.sid]["shape"], np.float64),
+        np.asarray(plan["poses"][t.pid]["pose"], np.float64))
+
+
+def write_garment_record(folder: Path, gid: str, g: dict[str, Any]) -> None:
+    """Write ``folder/<gid>.json``: the garment's plan record (its targets as
+    ``[subject, pose, track]``)."""
+    record = {**g, "targets": [[t.sid, t.pid, t.track] for t in g["targets"]]}
+    atomic_write_text(folder / f"{gid}.json", json.dumps(record, indent=1) + "\n")
+
+
 class _Book:
     """What is done, running and ready of a generator-4 dataset, and its writing.
 
@@ -413,8 +436,6 @@ class _Book:
     on them. Priority: train, then val, then test; garments and targets in plan order.
     """
 
-    RANK = {"train": 0, "val": 1, "test": 2}
-
     def __init__(self, c: SynthConfig, g4: Gen4Config, plan: dict[str, Any],
                  writer: DatasetWriter, bar) -> None:
         self.c, self.g4, self.plan, self.writer = c, g4, plan, writer
@@ -424,15 +445,13 @@ class _Book:
         self.results: dict[str, dict[str, TargetResult]] = {}
         self.rest_written: set[str] = set()
         self.source: dict[str, tuple[str, str] | None] = {}  # absent: not known yet
-        self.order = sorted(plan["garments"], key=lambda g: (
-            self.RANK[plan["garments"][g]["split"]], g))
+        self.order = garment_order(plan)
         self.position: dict[str, tuple[int, int]] = {}
         out_dir = self.root / "generator" / "garments"
         for n, gid in enumerate(self.order):
             g = plan["garments"][gid]
             if not (out_dir / f"{gid}.json").is_file():  # a resumed run has written it
-                record = {**g, "targets": [[t.sid, t.pid, t.track] for t in g["targets"]]}
-                atomic_write_text(out_dir / f"{gid}.json", json.dumps(record, indent=1) + "\n")
+                write_garment_record(out_dir, gid, g)
             for k, t in enumerate(g["targets"]):
                 self.position[f"{t.sid}-{gid}-{t.pid}"] = (n, k)
         for gid in self.order:
@@ -453,16 +472,8 @@ class _Book:
                 if t.sid != g["design_subject"] and self.source.get(gid) is None:
                     continue  # waits for its source (or is recorded without one)
                 self.handed.add(sample_id)
-                out.append((self.position[sample_id], self._work(gid, t)))
+                out.append((self.position[sample_id], target_work(self.c, self.plan, gid, t)))
         return out
-
-    def _work(self, gid: str, t: Any) -> TargetWork:
-        g, plan = self.plan["garments"][gid], self.plan
-        return TargetWork(
-            gid, g, np.asarray(plan["subjects"][g["design_subject"]]["shape"], np.float64),
-            texture_seed(g["split"], self.c.seed, self.c.secret, gid), t.sid, t.pid,
-            np.asarray(plan["subjects"][t.sid]["shape"], np.float64),
-            np.asarray(plan["poses"][t.pid]["pose"], np.float64))
 
     def add(self, work: TargetWork, res: TargetResult) -> None:
         """Take a job's result and write what it resolves."""
