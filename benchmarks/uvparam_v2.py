@@ -4,6 +4,9 @@ the unseen test garments (and the shape group), scored with seams, per track.
     python benchmarks/uvparam_v2.py --data DATA --runs lscm lscm-70 xatlas neural-pretrained
     python benchmarks/uvparam_v2.py --data DATA --tables-only      # re-score / re-tabulate
 
+``--allow-other-data`` scores data this machine generated differently from the edition's pin
+(rows marked not comparable).
+
 Submissions and results go to ``<work>/subs/<run>`` and ``<work>/results/<run>``
 (``--work``, default ``$DRESSMEUP_CACHE/bench/uvparam-v2``); each result's summary, per-item
 table and edition are copied to ``benchmarks/results/synth-uvparam-v2/<run>/`` (so that
@@ -42,7 +45,7 @@ RUNS = {
 }
 
 
-def run(name: str, data: Path, work: Path) -> Path:
+def run(name: str, data: Path, work: Path, allow_other_data: bool = False) -> Path:
     from dressmeup import runs
     from dressmeup.bench.scoring.score import score_submission
 
@@ -58,7 +61,8 @@ def run(name: str, data: Path, work: Path) -> Path:
     (sub / "submission.json").write_text(json.dumps(meta, indent=2) + "\n")
     print(f"{name}: {time.time() - t0:.0f} s wall (load {load0:.1f} -> {os.getloadavg()[0]:.1f}), "
           f"track {meta.get('track')}", flush=True)
-    score_submission(sub, EDITION, data, res, workers=1, show_progress=False)
+    score_submission(sub, EDITION, data, res, workers=1, show_progress=False,
+                     allow_other_data=allow_other_data)
     return res
 
 
@@ -107,6 +111,9 @@ def main(argv=None) -> int:
     ap.add_argument("--tables-only", action="store_true")
     ap.add_argument("--rescore", action="store_true",
                     help="score the existing submissions of --runs again (e.g. after an edition change)")
+    ap.add_argument("--allow-other-data", action="store_true",
+                    help="score data this machine generated differently from the edition's "
+                         "pin (every row is then marked not comparable)")
     args = ap.parse_args(argv)
     from dressmeup.cache import cache_dir
 
@@ -119,10 +126,11 @@ def main(argv=None) -> int:
             if sub.is_dir():
                 if res.exists():
                     shutil.rmtree(res)
-                score_submission(sub, EDITION, args.data, res, workers=1, show_progress=False)
+                score_submission(sub, EDITION, args.data, res, workers=1, show_progress=False,
+                                 allow_other_data=args.allow_other_data)
     elif not args.tables_only:
         for name in args.runs:
-            run(name, args.data, work)
+            run(name, args.data, work, args.allow_other_data)
     results = sorted(p for p in (work / "results").iterdir() if (p / "summary.json").is_file())
     from dressmeup.bench.boards.leaderboard import write_leaderboard
 

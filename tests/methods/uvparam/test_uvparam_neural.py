@@ -179,6 +179,25 @@ def test_training_on_a_set_and_half_checkpoint(tmp_path):
     assert np.abs(a.uv - b.uv).max() < 0.05             # float16 weights: close, not equal
 
 
+def test_set_training_rule_waits_for_its_least_window(monkeypatch):
+    """With any improvement counted as too small (tol 1), the rule stops a stage as soon as
+    its window allows: never before MIN_WINDOW_STEPS (then at the step limit), at once
+    without the least window."""
+    from dressmeup.methods.uvparam.neural import train_set
+
+    train = [make_test_mesh("blob-400"), make_test_mesh("sheet-300")]
+    val = [make_test_mesh("sphere-300")]
+    kw = {**TINY, "uv_iters": 100, "patch_iters": 100, "tol": 1.0}
+    assert train_set.MIN_WINDOW_STEPS > 100
+    held = train_set.train_on_set(train, val, "fast", eval_every=4, **kw).history
+    assert held["stopped"] == {"patchnet": "max_iters", "uv": "max_iters"}
+    assert held["uv_steps"] == 100
+    monkeypatch.setattr(train_set, "MIN_WINDOW_STEPS", 0)
+    free = train_set.train_on_set(train, val, "fast", eval_every=4, **kw).history
+    assert free["stopped"] == {"patchnet": "converged", "uv": "converged"}
+    assert free["uv_steps"] < 100  # the 4 evaluations of the last fifth: step 80
+
+
 class _Stop(Exception):
     """A training killed from outside."""
 

@@ -64,6 +64,12 @@ from dressmeup.progress import progress as bar
 __all__ = ["train_on_set", "mesh_sha"]
 
 log = logging.getLogger(__name__)
+#: least window (steps) over which the convergence rule compares the validation loss, besides
+#: one pass over the training set: the UV stage's validation loss has a slow phase of up to
+#: ~250 steps before it falls 10-50x (steps ~100-350 of each category model on the v5
+#: garments' val split), and a rule over the last fifth alone stopped the 53-mesh ``general``
+#: model inside that phase at step 400
+MIN_WINDOW_STEPS = 500
 #: ``format`` of a set training's checkpoint
 CKPT_FORMAT = "dressmeup-uvparam-set-training-1"
 #: the per-step loss series of a training's history
@@ -181,7 +187,8 @@ def train_on_set(train_meshes: Sequence[tuple[np.ndarray, np.ndarray]],
         run gets it again).
     patch_share : share of the budget left after preparation that PatchNet may use.
     eval_every : steps between validation evaluations.
-    tol : convergence threshold of :func:`converged` (relative, over the last fifth).
+    tol : convergence threshold of :func:`converged` (relative, over the last fifth of the
+        steps, a window of at least one pass over the set and :data:`MIN_WINDOW_STEPS`).
     threads : torch intra-op threads (1 on a shared machine).
     progress : show progress bars.
     on_eval : called as ``on_eval(stage, step, val_loss)`` after every evaluation.
@@ -370,7 +377,7 @@ def _fit_patchnet_on_set(patchnet: Any, train: list[dict], val: list[dict], cfg:
                 on_eval("patchnet", step, v)
             if v < best_val:
                 best_val, best_state = v, {k: t.clone() for k, t in patchnet.state_dict().items()}
-            if converged(hist["val_patch"], tol, min_window=len(train)):
+            if converged(hist["val_patch"], tol, min_window=max(len(train), MIN_WINDOW_STEPS)):
                 stop = "converged"
                 break
             if ck is not None and ck.due():
@@ -427,7 +434,7 @@ def _fit_uv_on_set(fwd: Any, bwd: Any, train_uv: list[dict], val_uv: list[dict],
                 best_val = v
                 best_state = ({k: t.clone() for k, t in fwd.state_dict().items()},
                               {k: t.clone() for k, t in bwd.state_dict().items()})
-            if converged(hist["val_uv"], tol, min_window=len(train_uv)):
+            if converged(hist["val_uv"], tol, min_window=max(len(train_uv), MIN_WINDOW_STEPS)):
                 stop = "converged"
                 break
             if ck is not None and ck.due():
