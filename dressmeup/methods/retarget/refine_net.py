@@ -34,24 +34,46 @@ def build_network(in_dim: int, code_dim: int, width: int, depth: int, pointnet_h
     return RefineNet(in_dim, code_dim, width, depth, pointnet_hidden, out_scale)
 
 
+#: rows of the garment decoded at a time by :func:`decode_with_partial`: a 2048 x 512 float32
+#: activation (4 MB) stays in cache between the layers' GEMM, normalisation and activation,
+#: where a whole 29k-vertex garment's (60 MB) streams through memory several times a layer;
+#: the thesis-size decoder on a 29k-vertex garment took 0.50 s instead of 1.09 s (2 cores)
+DECODE_ROWS = 2048
+
+
 def decode_with_partial(decoder, x, neighbors, phi_term, code):
     """:class:`~dressmeup.methods.nn.mlp.ConditionedMLP` forward with the first layer split by input.
 
     The first layer's input is ``[x (3), phi (d), neighbours (3k), code]``; ``phi_term`` is
     ``phi @ W_phi^T`` (per garment, precomputed) and the code's share is one vector per target,
-    so only ``x`` and the neighbours are multiplied per vertex. Same result as
+    so only ``x`` and the neighbours are multiplied per vertex. Rows are decoded in blocks of
+    :data:`DECODE_ROWS` (each row's result does not depend on the others), and each layer's
+    FiLM modulation is the affine part of its layer normalisation. Same result as
     ``decoder(cat([x, phi, neighbours]), code)`` up to float round-off (tested).
+
+    Parameters
+    ----------
+    x : (n, 3), neighbors : (n, 3k), phi_term : (n, width) float32 tensors; code : (c,).
+
+    Returns
+    -------
+    (n, 3) float32 tensor: the offsets.
     """
     first = decoder.layers[0]
     W, b = first.weight, first.bias
     nk = neighbors.shape[1]
     d = W.shape[1] - 3 - nk - decoder.code_dim
-    h = x @ W[:, :3].T + neighbors @ W[:, 3 + d:3 + d + nk].T + phi_term + (W[:, 3 + d + nk:] @ code + b)
+    W_x, W_nb = W[:, :3].T, W[:, 3 + d:3 + d + nk].T
+    shared = W[:, 3 + d + nk:] @ code + b
     mod = decoder.film(code).view(len(decoder.layers), 2, decoder.width)
-    for i in range(len(decoder.layers)):
-        if i > 0:
-            h = decoder.layers[i](h)
-        h = nn.functional.layer_norm(h, (decoder.width,))
-        h = (1.0 + mod[i, 0]) * h + mod[i, 1]
-        h = decoder.act(h)
-    return decoder.out_scale * torch.tanh(decoder.out(h))
+    scale, shift = 1.0 + mod[:, 0], mod[:, 1]
+    out = []
+    for s in range(0, len(x), DECODE_ROWS):
+        rows = slice(s, s + DECODE_ROWS)
+        h = x[rows] @ W_x + neighbors[rows] @ W_nb + phi_term[rows] + shared
+        for i in range(len(decoder.layers)):
+            if i > 0:
+                h = decoder.layers[i](h)
+            h = decoder.act(nn.functional.layer_norm(h, (decoder.width,), scale[i], shift[i]))
+        out.append(decoder.out_scale * torch.tanh(decoder.out(h)))
+    return torch.cat(out) if len(out) != 1 else out[0]

@@ -67,9 +67,15 @@ def test_detail_transfer_prefactored_equals_least_squares(tiny):
     assert np.allclose(dt.apply(V), V, atol=1e-9)  # identity case, reusing the factorisation
 
 
-def test_refine_prepared_path_matches_network_forward(tiny, body_model):
+@pytest.mark.parametrize("rows", [None, 5])  # the decoder's row blocks: one, and many
+def test_refine_prepared_path_matches_network_forward(tiny, body_model, rows, monkeypatch):
     import torch
 
+    from dressmeup.methods.retarget import refine_net
+
+    if rows is not None:
+        monkeypatch.setattr(refine_net, "DECODE_ROWS", rows)
+    assert len(tiny["V"]) > 2 * refine_net.DECODE_ROWS or rows is None
     torch.set_num_threads(1)
     V, F, s, t = tiny["V"], tiny["F"], tiny["source"], tiny["target"]
     m = get_method("isomap-refine", **TINY_NET)
