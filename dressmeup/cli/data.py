@@ -218,8 +218,10 @@ def _synth(args: argparse.Namespace) -> int:
 
     if args.edition:
         return _synth_edition(args)
-    if args.allow_other_data or args.designed_garments:
-        raise InputError("--allow-other-data and --designed-garments go with --edition")
+    for flag, given in (("--allow-other-data", args.allow_other_data),
+                        ("--designed-garments", args.designed_garments)):
+        if given:
+            raise InputError(f"{flag} goes with --edition (data the edition pins)")
     if args.secret:
         raise InputError("--secret goes with --edition (the secret of the edition's test split)")
     _generator_1_is_serial(args)

@@ -121,3 +121,12 @@ def test_the_probe_sees_other_float_kernels(monkeypatch):
     res = probe_v3(ed.dataset.params, ed.dataset.seed)
     assert res.sample == load_probe_pin(ed)["sample"]
     assert res.sha256 != load_probe_pin(ed)["sha256"]
+
+
+def test_designed_garments_needs_a_generator_4_edition(tmp_path, capsys):
+    assert main(["synth", str(tmp_path / "d"), "--designed-garments"]) == 2
+    assert "--designed-garments goes with --edition" in capsys.readouterr().err
+    assert main(["synth", str(tmp_path / "e"), "--edition", "synth-retarget-tiny-v4",
+                 "--designed-garments"]) == 2
+    assert "not made by generator 4" in capsys.readouterr().err
+    assert not (tmp_path / "e").exists()
