@@ -36,8 +36,8 @@ def build_network(in_dim: int, code_dim: int, width: int, depth: int, pointnet_h
 
 #: rows of the garment decoded at a time by :func:`decode_with_partial`: a 2048 x 512 float32
 #: activation (4 MB) stays in cache between the layers' GEMM, normalisation and activation,
-#: where a whole 29k-vertex garment's (60 MB) streams through memory several times a layer;
-#: the thesis-size decoder on a 29k-vertex garment took 0.50 s instead of 1.09 s (2 cores)
+#: where a whole 29k-vertex garment's (60 MB) would stream through memory several times a
+#: layer (timings: docs/baselines.md)
 DECODE_ROWS = 2048
 
 

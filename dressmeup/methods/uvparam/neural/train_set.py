@@ -66,9 +66,9 @@ __all__ = ["train_on_set", "mesh_sha"]
 log = logging.getLogger(__name__)
 #: least window (steps) over which the convergence rule compares the validation loss, besides
 #: one pass over the training set: the UV stage's validation loss has a slow phase of up to
-#: ~250 steps before it falls 10-50x (steps ~100-350 of each category model on the v5
-#: garments' val split), and a rule over the last fifth alone stopped the 53-mesh ``general``
-#: model inside that phase at step 400
+#: ~250 steps before it falls 10-50x (steps ~100-350 on the garment models' validation
+#: curves), which a window of the last fifth alone can mistake for convergence
+#: (docs/uvparam.md, "Pretrained models")
 MIN_WINDOW_STEPS = 500
 #: ``format`` of a set training's checkpoint
 CKPT_FORMAT = "dressmeup-uvparam-set-training-1"
