@@ -231,6 +231,8 @@ def main(argv=None) -> int:
         (RESULTS / f"{date.today():%Y-%m-%d}-uvparam_pretrained_{model}.json").write_text(json.dumps(
             {"config": args.config, "budget_minutes": args.budget_minutes,
              "data": data_record(args.data, args.garments_from), "machine": machine(),
+             "passes": {"patchnet": round(m.history["patch_steps"] / len(train), 1),
+                        "uv": round(m.history["uv_steps"] / len(train), 1)},
              "checkpoint_bytes": ckpt.stat().st_size, "n_parameters": m.n_parameters,
              **plain_values(log)}, indent=1) + "\n")
         plot_curves(m.history, f"neural UV '{model}' ({args.config} sizes): {len(train)} train / "
