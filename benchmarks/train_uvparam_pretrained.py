@@ -71,22 +71,19 @@ def garment_meshes(root: Path, split: str, cats) -> tuple[list, list[str]]:
     ``split`` in the categories ``cats`` (a generated dataset, or the garments alone written
     by ``dressmeup synth --edition E --designed-garments``): ``([(V, F), ...], [garment id,
     ...])``."""
-    from dressmeup.data.synth.designed4 import DESIGNED_JSON
+    from dressmeup.data.synth.designed4 import designed_garments
+    from dressmeup.errors import InputError
     from dressmeup.io.mesh import load_mesh
 
-    record = root / "dataset.json"
-    if not record.is_file():
-        record = root / DESIGNED_JSON
-    info = json.loads(record.read_text())
-    if not str(info.get("generator", {}).get("version", "")).startswith("4."):
-        raise SystemExit(f"{root}: --garments-from needs a generator-4 dataset (v5 editions)")
-    ids = sorted(g for g, v in info["garments"].items()
-                 if v["split"] == split and v["category"] in cats)
+    try:
+        garments = designed_garments(root, split, cats)
+    except InputError as exc:
+        raise SystemExit(f"--garments-from: {exc}") from exc
     out = []
-    for g in ids:
-        m = load_mesh(root / "generator" / "rest" / f"{g}.ply")
+    for _, _, path in garments:
+        m = load_mesh(path)
         out.append((np.asarray(m.vertices, np.float64), np.asarray(m.faces, np.int64)))
-    return out, ids
+    return out, [g for g, _, _ in garments]
 
 
 def mesh_sets(data: Path, model: str, garments: bool = False):
@@ -117,13 +114,13 @@ def data_record(root: Path, garments: bool) -> dict:
     """What the model was trained on: the folder and the sha256 of its record file."""
     import hashlib
 
-    from dressmeup.data.synth.designed4 import DESIGNED_JSON
+    from dressmeup.data.synth.designed4 import garment_record
 
-    for name in (("dataset.json", DESIGNED_JSON) if garments else ("dataset.json",)):
-        if (root / name).is_file():
-            return {"root": str(root), "record": name,
-                    "sha256": hashlib.sha256((root / name).read_bytes()).hexdigest()}
-    return {"root": str(root)}
+    record = garment_record(root) if garments else root / "dataset.json"
+    if not record.is_file():
+        return {"root": str(root)}
+    return {"root": str(root), "record": str(record.relative_to(root)),
+            "sha256": hashlib.sha256(record.read_bytes()).hexdigest()}
 
 
 def machine() -> dict:

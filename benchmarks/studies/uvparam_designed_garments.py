@@ -17,7 +17,6 @@ aggregate figures and per-garment ids, types and scores, never a mesh.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -34,27 +33,16 @@ RUNS = {
 }
 
 
-def garments(root: Path, split: str) -> list[tuple[str, dict, Path]]:
-    """``[(garment id, record, rest mesh path), ...]`` of the designed garments of ``split``."""
-    from dressmeup.data.synth.designed4 import DESIGNED_JSON
-
-    record = root / DESIGNED_JSON
-    if not record.is_file():
-        record = root / "dataset.json"
-    info = json.loads(record.read_text())
-    return [(g, v, root / "generator" / "rest" / f"{g}.ply")
-            for g, v in sorted(info["garments"].items()) if v["split"] == split]
-
-
 def score(root: Path, split: str) -> list[dict]:
     """One row per garment and run: ids, type, category, vertices and the metrics."""
     from dressmeup.bench.tasks.uvparam.evaluate import evaluate_uv
+    from dressmeup.data.synth.designed4 import designed_garments
     from dressmeup.io.mesh import load_mesh
     from dressmeup.methods.uvparam import get_method
 
     methods = {name: get_method(m, **kw) for name, (m, kw) in RUNS.items()}
     rows = []
-    for gid, rec, path in garments(root, split):
+    for gid, rec, path in designed_garments(root, split):
         mesh = load_mesh(path)
         for name, method in methods.items():
             t0 = time.perf_counter()

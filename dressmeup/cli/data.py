@@ -161,10 +161,8 @@ def _synth_edition(args: argparse.Namespace) -> int:
         kw: dict = {}
         if not str(pin.params.get("version", "")).startswith(("2.", "3.", "4.")):
             _generator_1_is_serial(args)
-        elif args.executor or args.scheduler:
-            kw["executor"] = executor_from_args(args, default_workers=1)
         else:
-            kw["workers"] = args.workers or 1
+            kw = _where_jobs_run(args)
         root = generate_dataset(args.out, config, **kw)
     if splits != ALL_SPLITS:  # the edition pins the whole data: no manifest to compare
         sys.stdout.write(secret_test_split_note(ed) + "\n")
@@ -182,6 +180,13 @@ def _synth_edition(args: argparse.Namespace) -> int:
     return 0
 
 
+def _where_jobs_run(args: argparse.Namespace) -> dict:
+    """``executor=`` (``--executor``/``--scheduler``) or ``workers=`` of a generator's jobs."""
+    if args.executor or args.scheduler:
+        return {"executor": executor_from_args(args, default_workers=1)}
+    return {"workers": args.workers or 1}
+
+
 def _designed_garments(args: argparse.Namespace, ed, config) -> int:
     """``synth --edition E --designed-garments``: the edition's garments as designed."""
     if config is None or not str(config.version).startswith("4."):
@@ -190,9 +195,7 @@ def _designed_garments(args: argparse.Namespace, ed, config) -> int:
     # start-up: the stage loads when the command runs
     from dressmeup.data.synth.designed4 import DESIGNED_JSON, write_designed
 
-    kw: dict = ({"executor": executor_from_args(args, default_workers=1)}
-                if args.executor or args.scheduler else {"workers": args.workers or 1})
-    root = write_designed(args.out, config, **kw)
+    root = write_designed(args.out, config, **_where_jobs_run(args))
     sys.stdout.write(f"wrote the garments as designed of edition {ed.name} "
                      f"({', '.join(config.splits)}) to {root} ({DESIGNED_JSON})\n")
     return 0

@@ -90,7 +90,12 @@ def test_designed_garments_are_the_generated_rest_garments(root, tmp_path):
     import importlib.util
 
     from dressmeup.data.synth import synth_config
-    from dressmeup.data.synth.designed4 import DESIGNED_JSON, write_designed
+    from dressmeup.data.synth.designed4 import (
+        DESIGNED_JSON,
+        designed_garments,
+        garment_record,
+        write_designed,
+    )
     from dressmeup.errors import InputError
 
     settings = {k: v for k, v in SETTINGS.items() if k != "workers"}
@@ -123,3 +128,9 @@ def test_designed_garments_are_the_generated_rest_garments(root, tmp_path):
     assert ids == [g for g, v in sorted(info["garments"].items()) if v["split"] == "train"]
     assert meshes[0][0].shape[1] == 3 and meshes[0][1].shape[1] == 3
     assert mod.garment_meshes(public, "val", ("bottomwear",)) == ([], [])
+    assert designed_garments(root, "test") == [
+        (g, v, root / "generator" / "rest" / f"{g}.ply")
+        for g, v in sorted(json.loads((root / "dataset.json").read_text())["garments"].items())
+        if v["split"] == "test"]
+    with pytest.raises(InputError, match="neither"):
+        garment_record(tmp_path / "no-secret")

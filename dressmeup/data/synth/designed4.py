@@ -13,12 +13,15 @@ instead of the hours of simulation of their targets:
 - ``generator/rest/<G>.ply``: the garment as designed, with its UV layout.
 
 Like the generator, it builds the test split only with the secret.
+:func:`designed_garments` lists the garments of a split of either kind of folder (designed
+garments, or a generated dataset).
 """
 
 from __future__ import annotations
 
 import json
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,6 +42,7 @@ from dressmeup.data.synth.jobs import run_jobs
 from dressmeup.data.synth.plan4 import SPLITS
 from dressmeup.errors import InputError
 from dressmeup.io.atomic import atomic_write_text
+from dressmeup.io.jsonio import parse_json_file
 from dressmeup.io.mesh import save_mesh
 from dressmeup.progress import progress
 
@@ -104,3 +108,36 @@ def write_designed(out: str | os.PathLike, c: SynthConfig, workers: int = 1,
         "garments": {g: {k: plan["garments"][g][k] for k in ("split", "type", "category")}
                      for g in gids}}, indent=1, sort_keys=True) + "\n")
     return out
+
+
+def garment_record(root: str | os.PathLike) -> Path:
+    """The file that lists a generator-4 folder's garments: ``dataset.json`` of a generated
+    dataset, else the :data:`DESIGNED_JSON` of designed garments.
+
+    Raises
+    ------
+    InputError
+        Neither exists, or the folder is not generator 4's.
+    """
+    root = Path(root)
+    for path in (root / "dataset.json", root / DESIGNED_JSON):
+        if path.is_file():
+            version = str((parse_json_file(path).get("generator") or {}).get("version", ""))
+            if not version.startswith("4."):
+                raise InputError(f"{path}: generator {version or '?'}, not generator 4 (a "
+                                 "...-v5 edition's data or designed garments)")
+            return path
+    raise InputError(f"{root}: neither dataset.json nor {DESIGNED_JSON}: not a generator-4 "
+                     "dataset or designed garments ('dressmeup synth --edition E "
+                     "--designed-garments')")
+
+
+def designed_garments(root: str | os.PathLike, split: str,
+                      categories: Sequence[str] | None = None
+                      ) -> list[tuple[str, dict[str, Any], Path]]:
+    """``[(garment id, {split, type, category, ...}, rest mesh path), ...]`` of ``split`` (in
+    ``categories`` when given), sorted by id, from :func:`garment_record`'s file."""
+    root = Path(root)
+    garments = parse_json_file(garment_record(root))["garments"]
+    return [(g, v, root / "generator" / "rest" / f"{g}.ply") for g, v in sorted(garments.items())
+            if v["split"] == split and (categories is None or v["category"] in categories)]

@@ -76,4 +76,4 @@ def decode_with_partial(decoder, x, neighbors, phi_term, code):
                 h = decoder.layers[i](h)
             h = decoder.act(nn.functional.layer_norm(h, (decoder.width,), scale[i], shift[i]))
         out.append(decoder.out_scale * torch.tanh(decoder.out(h)))
-    return torch.cat(out) if len(out) != 1 else out[0]
+    return torch.cat(out)
