@@ -52,16 +52,18 @@ def retarget_prepared(method: Any, garment_V, garment_F, source, target, body_mo
     x = x.astype(np.float32)
     k = int(min(method.config.k_neighbors, len(TV)))
     _, nb = cKDTree(TV).query(x, k=k, workers=torch.get_num_threads())  # exact at any count
-    nb = np.asarray(nb).reshape(len(x), k)
-    neighbors = (TV[nb].astype(np.float32) - x[:, None, :]).reshape(len(x), 3 * k)
+    # the gather on torch (threaded): the same float32 values as numpy's single-threaded ``TV[nb]``
+    x_t = torch.from_numpy(x)
+    nb_t = torch.from_numpy(np.ascontiguousarray(nb, dtype=np.int64).reshape(-1))
+    neighbors = (torch.from_numpy(TV.astype(np.float32)).index_select(0, nb_t).view(len(x), k, 3)
+                 - x_t[:, None, :]).reshape(len(x), 3 * k)
     t4 = time.perf_counter()
     dev = torch.device(method.device)
     net = method.network_
     with torch.no_grad():
         body_pts = torch.as_tensor(subsample(TV, method.config.n_points, method.config.seed + 1).astype(np.float32), device=dev)
         code = torch.cat([part["garment_code"], net.encoder_body(body_pts)])
-        dx = decode_with_partial(net.decoder, torch.as_tensor(x, device=dev),
-                                  torch.as_tensor(neighbors, device=dev), part["phi_term"], code)
+        dx = decode_with_partial(net.decoder, x_t.to(dev), neighbors.to(dev), part["phi_term"], code)
     t5 = time.perf_counter()
     method.last_timing_ = {"source_posing": t1 - t0, "preparation": t2 - t1,
                            "target_posing": t3 - t2, "correspondence": t4 - t3, "network": t5 - t4}

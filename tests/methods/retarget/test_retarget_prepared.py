@@ -53,6 +53,23 @@ def test_offset_variant_keeps_the_distance_from_the_body(tiny, body_model):
     assert ed(moved, gt) < ed(faithful, gt)
 
 
+def test_offset_placement_is_the_gather_plus_the_offset_along_the_normal():
+    # with_offset's one product over [skin | normals] against coarse() and normals() apart
+    from dressmeup.methods.retarget.prepared import PreparedGarment
+
+    rng = np.random.default_rng(3)
+    n, s, k = 40, 25, 4
+    w = rng.uniform(0.1, 1.0, (n, k))
+    prep = PreparedGarment(key="k", phi=np.zeros((n, 2), np.float32), idx=rng.integers(0, s, (n, k)),
+                           weights=w / w.sum(axis=1, keepdims=True), source_offset=rng.normal(0, 0.01, n))
+    T, N = rng.normal(size=(s, 3)), rng.normal(size=(s, 3))
+    placed = np.einsum("nk,nkc->nc", prep.weights, T[prep.idx])
+    normal = np.einsum("nk,nkc->nc", prep.weights, N[prep.idx])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    assert np.allclose(prep.with_offset(T, N), placed + prep.source_offset[:, None] * normal, atol=1e-12)
+    assert np.array_equal(prep.with_offset(T, N), prep.coarse(T) + prep.source_offset[:, None] * prep.normals(N))
+
+
 def test_detail_transfer_prefactored_equals_least_squares(tiny):
     from dressmeup.geometry.laplacian import uniform_laplacian
     from dressmeup.methods.retarget.detail import DetailTransfer, choose_anchors, laplacian_solve
