@@ -112,15 +112,14 @@ def mesh_sets(data: Path, model: str, garments: bool = False):
 
 def data_record(root: Path, garments: bool) -> dict:
     """What the model was trained on: the folder and the sha256 of its record file."""
-    import hashlib
-
     from dressmeup.data.synth.designed4 import garment_record
+    from dressmeup.io.hashing import sha256_file
 
     record = garment_record(root) if garments else root / "dataset.json"
     if not record.is_file():
         return {"root": str(root)}
     return {"root": str(root), "record": str(record.relative_to(root)),
-            "sha256": hashlib.sha256(record.read_bytes()).hexdigest()}
+            "sha256": sha256_file(record)}
 
 
 def machine() -> dict:
