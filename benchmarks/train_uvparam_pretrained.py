@@ -122,22 +122,6 @@ def data_record(root: Path, garments: bool) -> dict:
             "sha256": sha256_file(record)}
 
 
-def machine() -> dict:
-    """The CPU, core count and torch of the training machine."""
-    import platform
-
-    import torch
-
-    cpu = platform.processor()
-    try:
-        cpu = next(line.split(":", 1)[1].strip() for line in
-                   Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
-    return {"cpu": cpu, "cores": os.cpu_count(), "torch": torch.__version__,
-            "threads": torch.get_num_threads()}
-
-
 def plot_curves(hist: dict, title: str, path: Path) -> None:
     import matplotlib
 
@@ -192,6 +176,7 @@ def main(argv=None) -> int:
 
     import torch
 
+    from dressmeup.methods.nn.record import training_machine
     from dressmeup.methods.uvparam.neural.model import save_model
     from dressmeup.methods.uvparam.neural.train_set import train_on_set
 
@@ -226,7 +211,7 @@ def main(argv=None) -> int:
 
         (RESULTS / f"{date.today():%Y-%m-%d}-uvparam_pretrained_{model}.json").write_text(json.dumps(
             {"config": args.config, "budget_minutes": args.budget_minutes,
-             "data": data_record(args.data, args.garments_from), "machine": machine(),
+             "data": data_record(args.data, args.garments_from), "machine": training_machine(),
              "passes": {"patchnet": round(m.history["patch_steps"] / len(train), 1),
                         "uv": round(m.history["uv_steps"] / len(train), 1)},
              "checkpoint_bytes": ckpt.stat().st_size, "n_parameters": m.n_parameters,

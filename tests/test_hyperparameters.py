@@ -46,8 +46,36 @@ def test_parse_params_keys_values_and_errors():
 def test_hardware_string():
     import os
 
-    from dressmeup.bench.scoring.provenance import environment, hardware
+    from dressmeup.bench.scoring.provenance import cpu_model, environment, hardware
 
     h = hardware()
-    assert h.endswith(f" CPU, {os.cpu_count()} cores") and len(h) > len(" CPU, 1 cores")
+    assert h == f"{cpu_model()}, {os.cpu_count()} cores" and cpu_model().strip()
     assert set(environment()) == {"host", "platform", "python"}
+
+
+def test_cpu_model_reads_the_model_name_and_falls_back_to_platform(monkeypatch):
+    import builtins
+    import io
+    import platform
+
+    from dressmeup.bench.scoring import provenance
+
+    real_open = builtins.open
+
+    def fake(text):
+        def opener(path, *a, **k):
+            if str(path) == "/proc/cpuinfo":
+                if text is None:
+                    raise OSError("no cpuinfo")
+                return io.StringIO(text)
+            return real_open(path, *a, **k)
+        return opener
+
+    monkeypatch.setattr(builtins, "open", fake("processor\t: 0\nmodel name\t: Intel(R) Xeon(R) Gold 6438Y+\n"
+                                               "processor\t: 1\nmodel name\t: Intel(R) Xeon(R) Gold 6438Y+\n"))
+    assert provenance.cpu_model() == "Intel(R) Xeon(R) Gold 6438Y+"
+    assert provenance.hardware().startswith("Intel(R) Xeon(R) Gold 6438Y+, ")
+    monkeypatch.setattr(builtins, "open", fake(None))
+    assert provenance.cpu_model() == (platform.processor() or platform.machine())
+    monkeypatch.setattr(builtins, "open", fake("processor\t: 0\n"))
+    assert provenance.cpu_model() == (platform.processor() or platform.machine())

@@ -10,18 +10,34 @@ import os
 import platform
 import socket
 
-__all__ = ["hardware", "environment"]
+__all__ = ["cpu_model", "hardware", "environment"]
+
+
+def cpu_model() -> str:
+    """The processor's model name, e.g. ``"AMD EPYC 7B13"`` or ``"Intel(R) Xeon(R) ..."``: the
+    first ``model name`` of ``/proc/cpuinfo`` (Linux), else ``platform.processor()``, else the
+    machine type (``"x86_64"``). It tells an Intel from an AMD machine in a record, which
+    matters where numerics differ by CPU maker."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                if line.startswith("model name") and ":" in line:
+                    name = line.split(":", 1)[1].strip()
+                    if name:
+                        return name
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
 
 
 def hardware() -> str:
-    """The processor and core count, e.g. ``"x86_64 CPU, 2 cores"``.
+    """The processor and core count, e.g. ``"AMD EPYC 7B13, 2 cores"``.
 
     Returns
     -------
-    str : ``platform.processor()`` (or the machine type when that is empty), ``" CPU, "``, the
-    number of logical cores and ``" cores"``.
+    str : :func:`cpu_model`, ``", "``, the number of logical cores and ``" cores"``.
     """
-    return f"{platform.processor() or platform.machine()} CPU, {os.cpu_count()} cores"
+    return f"{cpu_model()}, {os.cpu_count()} cores"
 
 
 def environment() -> dict[str, str]:

@@ -14,6 +14,7 @@ import numpy as np
 from dressmeup.data import Dataset
 from dressmeup.io.atomic import atomic_write_bytes
 from dressmeup.io.hashing import sha256_file
+from dressmeup.methods.nn.record import training_machine
 from dressmeup.methods.retarget import get_method
 from dressmeup.methods.retarget.run import check_split_leakage, training_triplets
 from dressmeup.methods.retarget.train import plot_history
@@ -50,8 +51,10 @@ def train_from_dataset(data, out, method: str = "isomap-refine", params: dict | 
 
     Returns
     -------
-    dict: the ``training`` record stored in the checkpoint (steps, wall and CPU seconds, where
-    it stopped, kept step, data and garments, leakage check, file size).
+    dict: the ``training`` record stored in the checkpoint (steps and passes over the training
+    pairs (one pair a step), wall and CPU seconds, where it stopped, kept step, data and
+    garments, leakage check, the machine (:func:`~dressmeup.methods.nn.record.training_machine`),
+    file size).
     """
     ds = Dataset(data)
     present = set(ds.manifest["split"].unique()) if "split" in ds.manifest else set()
@@ -78,13 +81,15 @@ def train_from_dataset(data, out, method: str = "isomap-refine", params: dict | 
                   until_converged=until_converged)
     h = m.history_
     train_ids = sorted({p for p in leakage["train_garments"]} - set(exclude_garments))
+    steps_done = len(h.train) and h.train[-1][0] + 1
     info = {
         "method": method, "data_manifest_sha256": sha256_file(Path(ds.root) / "manifest.parquet"),
         "split": split, "val_split": val_split if val else None, "train_pairs": len(triplets),
-        "val_pairs": len(val), "train_garments": train_ids, "steps_done": len(h.train) and h.train[-1][0] + 1,
+        "val_pairs": len(val), "train_garments": train_ids, "steps_done": steps_done,
+        "passes": round(steps_done / len(triplets), 2),
         "steps_requested": int(steps), "stopped_by": h.stopped_by, "kept_step": h.best_step,
         "wall_seconds": round(h.wall_seconds, 1), "cpu_seconds": round(h.cpu_seconds, 1),
-        "preparation_seconds": round(prep_seconds, 1),
+        "preparation_seconds": round(prep_seconds, 1), "machine": training_machine(),
         "leakage_check": {"compared_garments": leakage["compared_garments"],
                           "closest_same_topology_edge_difference": leakage["closest"]},
         "val_curve": [[s, lo, ed] for s, lo, ed in h.val],
