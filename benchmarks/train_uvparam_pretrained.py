@@ -20,6 +20,16 @@ in ``benchmarks/results/studies/<date>-uvparam_pretrained_<model>.json`` and lea
     python benchmarks/train_uvparam_pretrained.py --data V5_GARMENTS --garments-from \\
         --budget-minutes 0 --uv-iters 100000 --patch-iters 5000 --checkpoints CKPT_DIR
 
+A variant is tried apart and compared on the validation meshes before it replaces a shipped
+model (every log records ``val_quality``: mean QCE and flipped share of the model's maps of
+its validation garments and warped shapes):
+
+    python benchmarks/train_uvparam_pretrained.py --data V5_GARMENTS --garments-from \
+        --models general --warp-copies 4 --out TRIAL --budget-minutes 0 --uv-iters 100000 \
+        --patch-iters 5000 --checkpoints TRIAL_CKPT
+    python benchmarks/train_uvparam_pretrained.py --data V5_GARMENTS --garments-from \
+        --models general --evaluate-only            # the shipped model, same meshes
+
 With ``--checkpoints DIR`` each model's whole training state is written to
 ``DIR/neural_<model>.ckpt`` every ``--checkpoint-minutes`` (at validation steps): the same
 command run again resumes every model where it stopped, and finished models are written out
@@ -86,7 +96,12 @@ def garment_meshes(root: Path, split: str, cats) -> tuple[list, list[str]]:
     return out, [g for g, _, _ in garments]
 
 
-def mesh_sets(data: Path, model: str, garments: bool = False):
+def mesh_sets(data: Path, model: str, garments: bool = False, warp_copies: int = 1):
+    """Training and validation meshes of ``model``: ``(train, train_ids, val, val_ids)``, each
+    mesh ``(V (n, 3) float64, F (m, 3) int64)``. The ``general`` model's training set also holds
+    ``warp_copies`` warped copies of each of :data:`WARP_SHAPES` (seeds ``100 + k + 10 j``,
+    copy ``j`` of shape ``k``); its validation set holds the same warped shapes at other
+    seeds (``200 + k``, every other shape) whatever ``warp_copies`` is."""
     from dressmeup.bench.tasks.uvparam.data import meshes
     from dressmeup.io.mesh import load_mesh
 
@@ -102,12 +117,31 @@ def mesh_sets(data: Path, model: str, garments: bool = False):
     val, val_ids = load("val", cats)
     if model == "general":
         for k, sid in enumerate(WARP_SHAPES):
-            train.append(warped(sid, 100 + k))
-            train_ids.append(f"warped-{sid}-{100 + k}")
+            for j in range(warp_copies):
+                train.append(warped(sid, 100 + k + 10 * j))
+                train_ids.append(f"warped-{sid}-{100 + k + 10 * j}")
             if k % 2 == 0:
                 val.append(warped(sid, 200 + k))
                 val_ids.append(f"warped-{sid}-{200 + k}")
     return train, train_ids, val, val_ids
+
+
+def val_quality(model_path: Path, val: list, val_ids: list[str]) -> dict:
+    """The model's maps of its validation meshes scored by the uvparam task: mean QCE and
+    flipped share over the garments and over the warped shapes apart (``{"garments": {"n",
+    "qce", "flip"}, "shapes": {...}}``; a group without meshes is left out). What a choice
+    between trained variants reads: never a test mesh."""
+    from dressmeup.bench.tasks.uvparam.evaluate import evaluate_uv
+    from dressmeup.methods.uvparam import get_method
+
+    method = get_method("neural", checkpoint=model_path)
+    groups: dict[str, list] = {}
+    for (V, F), mid in zip(val, val_ids, strict=True):
+        res = method.parameterize(V, F)
+        vals = evaluate_uv(V, F, res.uv, res.uv_faces, ("qce", "flip"), {})
+        groups.setdefault("shapes" if mid.startswith("warped-") else "garments", []).append(vals)
+    return {g: {"n": len(rows), "qce": float(np.mean([r["qce"] for r in rows])),
+                "flip": float(np.mean([r["flip"] for r in rows]))} for g, rows in groups.items()}
 
 
 def data_record(root: Path, garments: bool) -> dict:
@@ -172,7 +206,16 @@ def main(argv=None) -> int:
     ap.add_argument("--checkpoints", type=Path, default=None, metavar="DIR",
                     help="resumable training: each model's state in DIR/neural_<model>.ckpt")
     ap.add_argument("--checkpoint-minutes", type=float, default=5.0)
+    ap.add_argument("--warp-copies", type=int, default=1,
+                    help="warped copies of each test shape in the general model's training set")
+    ap.add_argument("--out", type=Path, default=None, metavar="DIR",
+                    help="write the weights, logs and curves to DIR instead of the shipped "
+                         "places (a trial to compare on val before shipping)")
+    ap.add_argument("--evaluate-only", action="store_true",
+                    help="train nothing: print the validation quality of the models in the "
+                         "weights folder (the shipped ones, or --out's)")
     args = ap.parse_args(argv)
+    weights_dir, results_dir, images_dir = ((args.out,) * 3 if args.out else (WEIGHTS, RESULTS, IMAGES))
 
     import torch
 
@@ -182,7 +225,11 @@ def main(argv=None) -> int:
 
     torch.set_num_threads(1)
     for model in args.models:
-        train, train_ids, val, val_ids = mesh_sets(args.data, model, args.garments_from)
+        train, train_ids, val, val_ids = mesh_sets(args.data, model, args.garments_from, args.warp_copies)
+        if args.evaluate_only:
+            print(f"{model} ({weights_dir / f'neural_{model}.pt'}): validation quality "
+                  f"{json.dumps(val_quality(weights_dir / f'neural_{model}.pt', val, val_ids))}", flush=True)
+            continue
         print(f"[{time.strftime('%H:%M:%S')}] {model}: {len(train)} train, {len(val)} val meshes, "
               f"budget {args.budget_minutes} min, load {os.getloadavg()}", flush=True)
 
@@ -202,16 +249,17 @@ def main(argv=None) -> int:
         m.history.update(train_ids=train_ids, val_ids=val_ids, model=model,
                          load_avg_end=list(os.getloadavg()),
                          wall_seconds=m.history.get("seconds_total", time.time() - t0))
-        WEIGHTS.mkdir(parents=True, exist_ok=True)
-        ckpt = WEIGHTS / f"neural_{model}.pt"
+        weights_dir.mkdir(parents=True, exist_ok=True)
+        ckpt = weights_dir / f"neural_{model}.pt"
         save_model(m, ckpt, half=True)
         log = {k: v for k, v in m.history.items()}
-        RESULTS.mkdir(parents=True, exist_ok=True)
+        results_dir.mkdir(parents=True, exist_ok=True)
         from dressmeup.methods.uvparam.neural.model import plain_values
 
-        (RESULTS / f"{date.today():%Y-%m-%d}-uvparam_pretrained_{model}.json").write_text(json.dumps(
-            {"config": args.config, "budget_minutes": args.budget_minutes,
+        (results_dir / f"{date.today():%Y-%m-%d}-uvparam_pretrained_{model}.json").write_text(json.dumps(
+            {"config": args.config, "budget_minutes": args.budget_minutes, "warp_copies": args.warp_copies,
              "data": data_record(args.data, args.garments_from), "machine": training_machine(),
+             "val_quality": val_quality(ckpt, val, val_ids),
              "passes": {"patchnet": round(m.history["patch_steps"] / len(train), 1),
                         "uv": round(m.history["uv_steps"] / len(train), 1)},
              "checkpoint_bytes": ckpt.stat().st_size, "n_parameters": m.n_parameters,
@@ -219,7 +267,7 @@ def main(argv=None) -> int:
         plot_curves(m.history, f"neural UV '{model}' ({args.config} sizes): {len(train)} train / "
                     f"{len(val)} val meshes, {m.history['patch_steps']} + {m.history['uv_steps']} "
                     f"steps in {m.history['seconds_total'] / 60:.1f} min (load ~{os.getloadavg()[0]:.0f})",
-                    IMAGES / f"uvparam_learning_{model}.png")
+                    images_dir / f"uvparam_learning_{model}.png")
         print(f"[{time.strftime('%H:%M:%S')}] {model}: stopped {m.history['stopped']}, "
               f"{ckpt.stat().st_size / 1e6:.2f} MB -> {ckpt}", flush=True)
     return 0
