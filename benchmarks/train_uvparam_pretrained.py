@@ -24,10 +24,10 @@ A variant is tried apart and compared on the validation meshes before it replace
 model (every log records ``val_quality``: mean QCE and flipped share of the model's maps of
 its validation garments and warped shapes):
 
-    python benchmarks/train_uvparam_pretrained.py --data V5_GARMENTS --garments-from \
-        --models general --warp-copies 4 --out TRIAL --budget-minutes 0 --uv-iters 100000 \
+    python benchmarks/train_uvparam_pretrained.py --data V5_GARMENTS --garments-from \\
+        --models general --warp-copies 4 --out TRIAL --budget-minutes 0 --uv-iters 100000 \\
         --patch-iters 5000 --checkpoints TRIAL_CKPT
-    python benchmarks/train_uvparam_pretrained.py --data V5_GARMENTS --garments-from \
+    python benchmarks/train_uvparam_pretrained.py --data V5_GARMENTS --garments-from \\
         --models general --evaluate-only            # the shipped model, same meshes
 
 With ``--checkpoints DIR`` each model's whole training state is written to

@@ -16,7 +16,7 @@ Two scales:
   finished variant's row is kept in ``DIR/rows.json``: a re-run resumes where it stopped.
 
     python benchmarks/studies/loss_ablation.py --data ROOT --exclude-garments G01
-    python benchmarks/studies/loss_ablation.py --data V5 --max-triplets 0 --preset fast \
+    python benchmarks/studies/loss_ablation.py --data V5 --max-triplets 0 --preset fast \\
         --until-converged --steps 100000 --val-pairs 48 --threads 2 --work W
 """
 
