@@ -13,7 +13,9 @@ Two scales:
   toolkit's convergence rule stops it, watching the ground-truth ED of ``--val-pairs``
   seeded pairs of the val split (the shipped networks' rule; ``--steps`` is then the most
   steps). With ``--work DIR`` each variant checkpoints to ``DIR/<variant>.ckpt`` and a
-  finished variant's row is kept in ``DIR/rows.json``: a re-run resumes where it stopped.
+  finished variant's row is kept in ``DIR/rows.json``: a re-run resumes where it stopped
+  (a variant stopped after its training but before its row was written resumes from its
+  last checkpoint and may train one more validation interval before the rule stops it).
 
     python benchmarks/studies/loss_ablation.py --data ROOT --exclude-garments G01
     python benchmarks/studies/loss_ablation.py --data V5 --max-triplets 0 --preset fast \\
