@@ -1,4 +1,5 @@
-"""``dressmeup edition``: editions and their data (create, secret, export, pack, fetch, verify)."""
+"""``dressmeup edition``: editions and their data (create, pin, secret, export, pack, fetch,
+verify)."""
 
 from __future__ import annotations
 
@@ -17,9 +18,11 @@ from dressmeup.io.outlock import output_lock
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Register the ``edition`` subcommands."""
     p = subparsers.add_parser(
-        "edition", help="an edition's data: create, secret, export, pack, fetch, verify",
+        "edition", help="an edition's data: create, pin, secret, export, pack, fetch, verify",
         description="Editions and their data. 'create' writes an edition for a dataset you "
-                    "built (pinned by its manifest sha256); 'secret' makes the secret that "
+                    "built (pinned by its manifest sha256); 'pin' writes into a generated "
+                    "edition the manifest sha256 of its generated data; 'secret' makes the "
+                    "secret that "
                     "seeds a generated edition's test split; 'export' splits an edition's data "
                     "into the public part (what a method receives) and the private part "
                     "(the withheld answers scoring needs); 'pack' writes the parts as "
@@ -27,6 +30,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "part; 'verify' re-checks a data folder (docs/benchmark.md, 'Data').")
     esub = p.add_subparsers(dest="edition_command", metavar="ACTION", required=True)
     _add_create(esub)
+    _add_pin(esub)
     _add_secret(esub)
     _add_export(esub)
     _add_pack(esub)
@@ -57,6 +61,28 @@ def _add_create(esub: argparse._SubParsersAction) -> None:
                    help="edition file (default: NAME.json)")
     c.add_argument("--overwrite", action="store_true", help="replace an existing file")
     c.set_defaults(func=_edition_create)
+
+
+def _add_pin(esub: argparse._SubParsersAction) -> None:
+    """``edition pin``: a generated edition pinned to the manifest of its data."""
+    c = esub.add_parser(
+        "pin", help="write into a generated edition the manifest sha256 of its data",
+        description="Check that DATA is a finished, intact generation of the edition (its "
+                    "generator version, parameters and seed, every split, the test split "
+                    "seeded by the edition's secret), then write the sha256 of "
+                    "DATA/manifest.parquet into the edition file as "
+                    "dataset.expected_manifest_sha256 (every other byte kept). Scoring then "
+                    "refuses other data unless --allow-other-data. Generator-4 editions "
+                    "(...-v5).")
+    c.add_argument("edition", metavar="EDITION_FILE", help="the edition JSON file to pin "
+                   "(a shipped one: dressmeup/bench/editions/NAME.json in a checkout)")
+    c.add_argument("--data", "-d", required=True,
+                   help="the data 'dressmeup synth OUT --edition EDITION_FILE [--secret FILE]' "
+                        "wrote")
+    c.add_argument("--replace", action="store_true",
+                   help="replace a different pin the file holds (its results are then of "
+                        "another edition)")
+    c.set_defaults(func=_pin)
 
 
 def _add_secret(esub: argparse._SubParsersAction) -> None:
@@ -158,6 +184,21 @@ def _edition_create(args: argparse.Namespace) -> int:
                      f"{ed.dataset.manifest_sha256}\n  edition hash {ed.hash}\n"
                      f"score with: dressmeup score SUBMISSION --edition {out} --data "
                      f"{args.data} --out RESULTS\n")
+    return 0
+
+
+def _pin(args: argparse.Namespace) -> int:
+    # start-up: the stage loads when the command runs
+    from dressmeup.bench.edition_create import pin_expected_manifest
+
+    res = pin_expected_manifest(args.edition, args.data, replace=args.replace)
+    if not res.changed:
+        sys.stdout.write(f"{res.path} already expects manifest sha256 {res.sha256}; "
+                         f"unchanged (edition hash {res.new_hash})\n")
+        return 0
+    was = f" (was {res.previous})" if res.previous else ""
+    sys.stdout.write(f"{res.path}: dataset.expected_manifest_sha256 {res.sha256}{was}\n"
+                     f"  edition hash {res.old_hash} -> {res.new_hash}\n")
     return 0
 
 
