@@ -40,6 +40,31 @@ def evaluate(method, pairs, models, n_samples: int) -> dict[str, float]:
     return {m: float(np.nanmean([r[m] for r in rows])) for m in METRICS}
 
 
+def data_label(root: str) -> str:
+    """The data named by what they are, not where they lie: manifest sha256 and generator."""
+    from dressmeup.bench.tasks.common import manifest_sha256
+    from dressmeup.io.jsonio import parse_json_file
+
+    info = parse_json_file(Path(root) / "dataset.json")
+    gen = info.get("generator") or {}
+    return (f"the data with manifest {manifest_sha256(root)[:12]} ({info.get('name')}, generator "
+            f"{gen.get('version', info.get('version'))})")
+
+
+def weights_label(weights: str | None) -> str:
+    """The refinement weights used: file name and what their training record says."""
+    import torch
+
+    from dressmeup.methods.retarget.refine import WEIGHTS_DIR, IsomapRefine
+
+    path = Path(weights) if weights else WEIGHTS_DIR / f"{IsomapRefine.weights_stem}_anny.pt"
+    rec = torch.load(path, map_location="cpu", weights_only=False).get("training") or {}
+    return (f"`{path.name}`" + ("" if weights else " (shipped)")
+            + (f", trained on manifest {str(rec['data_manifest_sha256'])[:12]} split "
+               f"{rec.get('split')} to step {rec.get('kept_step')} ({rec.get('stopped_by')})"
+               if rec.get("data_manifest_sha256") else ""))
+
+
 def main() -> None:
     import torch
 
@@ -74,11 +99,13 @@ def main() -> None:
             rows.append({"method": name, "sigma": sigma, **res})
             print(f"{name:14s} sigma={sigma:<6} " + " ".join(f"{k}={v:.5f}" for k, v in res.items()),  # noqa: T201
                   flush=True)
-    lines = [f"# Correspondence-noise ablation ({len(pairs)} pairs of split `{args.split}` of {args.data}: "
+    lines = [f"# Correspondence-noise ablation ({len(pairs)} pairs of split `{args.split}` of "
+             f"{data_label(args.data)}: "
              f"{', '.join(sorted({p.source.garment_id + ' ' + p.source.garment_type for p in pairs}))})",
              "", "Noise N(0, sigma) added to every coarse correspondence before the refinement "
-             "(thesis Table 4.2). P2S and ED in mm, IR in %. Produced by "
-             "`python benchmarks/studies/correspondence_noise.py`.", "",
+             f"(thesis Table 4.2), weights {weights_label(args.weights)}. P2S and ED in mm, IR in %. "
+             "Produced by `python benchmarks/studies/correspondence_noise.py --data DATA "
+             f"--split {args.split} --pairs-per-garment {args.pairs_per_garment}`.", "",
              "| method | sigma (m) | P2S ↓ [mm] | ED ↓ [mm] | NC ↑ | IR ↓ [%] |", "|---|---:|---:|---:|---:|---:|"]
     lines += [f"| {r['method']} | {r['sigma']} | {1000 * r['p2s']:.2f} | {1000 * r['ed']:.2f} | {r['nc']:.4f} | "
               f"{100 * r['ir']:.2f} |" for r in rows]
