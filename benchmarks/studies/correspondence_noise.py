@@ -17,6 +17,7 @@ from datetime import date
 from pathlib import Path
 
 import numpy as np
+from study_labels import data_label, weights_label
 
 METRICS = ("p2s", "ed", "nc", "ir")
 
@@ -38,31 +39,6 @@ def evaluate(method, pairs, models, n_samples: int) -> dict[str, float]:
                                 {"n_samples": n_samples, "seed": 0, "chamfer_squared": True})
         rows.append(vals)
     return {m: float(np.nanmean([r[m] for r in rows])) for m in METRICS}
-
-
-def data_label(root: str) -> str:
-    """The data named by what they are, not where they lie: manifest sha256 and generator."""
-    from dressmeup.bench.tasks.common import manifest_sha256
-    from dressmeup.io.jsonio import parse_json_file
-
-    info = parse_json_file(Path(root) / "dataset.json")
-    gen = info.get("generator") or {}
-    return (f"the data with manifest {manifest_sha256(root)[:12]} ({info.get('name')}, generator "
-            f"{gen.get('version', info.get('version'))})")
-
-
-def weights_label(weights: str | None) -> str:
-    """The refinement weights used: file name and what their training record says."""
-    import torch
-
-    from dressmeup.methods.retarget.refine import WEIGHTS_DIR, IsomapRefine
-
-    path = Path(weights) if weights else WEIGHTS_DIR / f"{IsomapRefine.weights_stem}_anny.pt"
-    rec = torch.load(path, map_location="cpu", weights_only=False).get("training") or {}
-    return (f"`{path.name}`" + ("" if weights else " (shipped)")
-            + (f", trained on manifest {str(rec['data_manifest_sha256'])[:12]} split "
-               f"{rec.get('split')} to step {rec.get('kept_step')} ({rec.get('stopped_by')})"
-               if rec.get("data_manifest_sha256") else ""))
 
 
 def main() -> None:

@@ -33,6 +33,7 @@ from datetime import date
 from pathlib import Path
 
 import numpy as np
+from study_labels import command_line, data_label
 
 METRICS = ("p2s", "ed", "nc", "ir")
 ALL = dict(w_length=1.0, w_corres=1.0, w_bend=0.01, w_penetration=1.0, use_joint_mask=True)
@@ -163,11 +164,11 @@ def main() -> None:
                  "fits the shared machine; the figures compare loss configurations, not the shipped model")
         head = f"{len(train)} training triplets, {args.steps} steps, width {args.width or 128}"
     lines = [f"# Loss ablation of isomap-refine ({head}; scored on {len(test)} `{args.test_split}` pairs of "
-             f"{args.data}: "
+             f"{data_label(args.data)}: "
              f"{', '.join(sorted({p.source.garment_id + ' ' + p.source.garment_type for p in pairs}))})", "",
              scale + ".", "",
              "P2S and ED in mm, IR in %. Produced by `python benchmarks/studies/loss_ablation.py "
-             f"{' '.join(sys.argv[1:])}`.", "",
+             f"{command_line(sys.argv[1:], {str(args.data): 'DATA', str(args.work): 'W'})}`.", "",
              "| variant | P2S ↓ [mm] | ED ↓ [mm] | NC ↑ | IR ↓ [%] | steps (stopped by) |",
              "|---|---:|---:|---:|---:|---|"]
     lines += [f"| {r['variant']} | {1000 * r['p2s']:.2f} | {1000 * r['ed']:.2f} | {r['nc']:.4f} | {100 * r['ir']:.2f} | "
