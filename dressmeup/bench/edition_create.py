@@ -204,7 +204,8 @@ def pin_expected_manifest(edition_file: str | os.PathLike, data_root: str | os.P
     Checks that ``data_root`` is a finished, intact build of the edition (every file's
     sha256 against the manifest; :func:`generated_params_problems`), then writes the sha256
     of its ``manifest.parquet`` into the file as ``dataset.expected_manifest_sha256``
-    (atomically, every other byte kept). Scoring then refuses other data unless asked to
+    (atomically, as 2-space-indented JSON like the shipped editions, for which only that
+    line changes). Scoring then refuses other data unless asked to
     score them as not comparable.
 
     Parameters

@@ -71,7 +71,8 @@ def _add_pin(esub: argparse._SubParsersAction) -> None:
                     "generator version, parameters and seed, every split, the test split "
                     "seeded by the edition's secret), then write the sha256 of "
                     "DATA/manifest.parquet into the edition file as "
-                    "dataset.expected_manifest_sha256 (every other byte kept). Scoring then "
+                    "dataset.expected_manifest_sha256 (written as 2-space-indented JSON, as the "
+                    "shipped editions are: for them only that line changes). Scoring then "
                     "refuses other data unless --allow-other-data. Generator-4 editions "
                     "(...-v5).")
     c.add_argument("edition", metavar="EDITION_FILE", help="the edition JSON file to pin "
