@@ -169,10 +169,11 @@ def main() -> None:
              scale + ".", "",
              "P2S and ED in mm, IR in %. Produced by `python benchmarks/studies/loss_ablation.py "
              f"{command_line(sys.argv[1:], {str(args.data): 'DATA', str(args.work): 'W'})}`.", "",
-             "| variant | P2S ↓ [mm] | ED ↓ [mm] | NC ↑ | IR ↓ [%] | steps (stopped by) |",
+             "| variant | P2S ↓ [mm] | ED ↓ [mm] | NC ↑ | IR ↓ [%] | steps (stopped by; step kept) |",
              "|---|---:|---:|---:|---:|---|"]
     lines += [f"| {r['variant']} | {1000 * r['p2s']:.2f} | {1000 * r['ed']:.2f} | {r['nc']:.4f} | {100 * r['ir']:.2f} | "
-              + (f"{r['steps']} ({r['stopped_by']})" if r.get("steps") else "-") + " |"
+              + (f"{r['steps']} ({r['stopped_by']}; {r.get('kept_step', '-')})" if r.get("steps") else "-")
+              + " |"
               for r in rows]
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
