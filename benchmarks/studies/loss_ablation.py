@@ -172,7 +172,8 @@ def main() -> None:
              "| variant | P2S ↓ [mm] | ED ↓ [mm] | NC ↑ | IR ↓ [%] | steps (stopped by; step kept) |",
              "|---|---:|---:|---:|---:|---|"]
     lines += [f"| {r['variant']} | {1000 * r['p2s']:.2f} | {1000 * r['ed']:.2f} | {r['nc']:.4f} | {100 * r['ir']:.2f} | "
-              + (f"{r['steps']} ({r['stopped_by']}; {r.get('kept_step', '-')})" if r.get("steps") else "-")
+              + (f"{r['steps']} ({r['stopped_by']}; "
+                 f"{'-' if r.get('kept_step') is None else r['kept_step']})" if r.get("steps") else "-")
               + " |"
               for r in rows]
     out = Path(args.out)
