@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from datetime import date
 from pathlib import Path
 
 import numpy as np
-from study_labels import data_label, weights_label
+from study_labels import command_line, data_label, weights_label
 
 METRICS = ("p2s", "ed", "nc", "ir")
 
@@ -80,8 +81,8 @@ def main() -> None:
              f"{', '.join(sorted({p.source.garment_id + ' ' + p.source.garment_type for p in pairs}))})",
              "", "Noise N(0, sigma) added to every coarse correspondence before the refinement "
              f"(thesis Table 4.2), weights {weights_label(args.weights)}. P2S and ED in mm, IR in %. "
-             "Produced by `python benchmarks/studies/correspondence_noise.py --data DATA "
-             f"--split {args.split} --pairs-per-garment {args.pairs_per_garment}`.", "",
+             "Produced by `python benchmarks/studies/correspondence_noise.py "
+             f"{command_line(sys.argv[1:], {str(args.data): 'DATA'})}`.", "",
              "| method | sigma (m) | P2S ↓ [mm] | ED ↓ [mm] | NC ↑ | IR ↓ [%] |", "|---|---:|---:|---:|---:|---:|"]
     lines += [f"| {r['method']} | {r['sigma']} | {1000 * r['p2s']:.2f} | {1000 * r['ed']:.2f} | {r['nc']:.4f} | "
               f"{100 * r['ir']:.2f} |" for r in rows]

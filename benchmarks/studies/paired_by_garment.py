@@ -30,9 +30,13 @@ METRICS = {"p2s": (1000.0, "mm"), "ed": (1000.0, "mm"), "ir": (100.0, "%")}
 def per_garment(a: Path, b: Path, metric: str, track: str | None) -> tuple[pd.DataFrame, pd.Series]:
     """Per-garment mean of ``b - a`` (columns garment_id, category, mean, size) and
     the per-pair differences, in the metric's printed unit; pairs present in both only."""
+    from dressmeup.bench.scoring.results import load_result
+
     scale = METRICS[metric][0]
-    ra = pd.read_parquet(a / "per_sample.parquet").set_index("sample_id")
-    rb = pd.read_parquet(b / "per_sample.parquet").set_index("sample_id")
+    res_a, res_b = load_result(a), load_result(b)
+    if res_a.summary["edition"]["hash"] != res_b.summary["edition"]["hash"]:
+        raise SystemExit(f"{a} and {b} were scored on different editions")
+    ra, rb = res_a.table.set_index("sample_id"), res_b.table.set_index("sample_id")
     if track:
         ra = ra[ra["track"] == track]
     ids = ra.index.intersection(rb.index)

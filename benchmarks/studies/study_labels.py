@@ -21,9 +21,10 @@ def weights_label(weights: str | None) -> str:
     """The refinement weights used: file name and what their training record says."""
     import torch
 
-    from dressmeup.methods.retarget.refine import WEIGHTS_DIR, IsomapRefine
+    from dressmeup.methods.retarget import get_method
+    from dressmeup.runs.common import shipped_weights
 
-    path = Path(weights) if weights else WEIGHTS_DIR / f"{IsomapRefine.weights_stem}_anny.pt"
+    path = Path(weights) if weights else shipped_weights(get_method("isomap-refine"), "anny")
     rec = torch.load(path, map_location="cpu", weights_only=False).get("training") or {}
     return (f"`{path.name}`" + ("" if weights else " (shipped)")
             + (f", trained on manifest {str(rec['data_manifest_sha256'])[:12]} split "
